@@ -1,0 +1,33 @@
+/* ch_math: small inline helpers shared by every module (2D/3D vectors as
+ * double arrays, clamping), and pi, which strict C11 does not define. */
+#ifndef CH_MATH_H
+#define CH_MATH_H
+
+#include <math.h>
+
+#define CH_PI 3.14159265358979323846
+
+static inline double ch_clamp(double x, double lo, double hi) {
+  return x < lo ? lo : x > hi ? hi : x;
+}
+static inline double ch_dot2(const double a[2], const double b[2]) {
+  return a[0] * b[0] + a[1] * b[1];
+}
+/* z of the 3D cross product: > 0 when b turns left of a (u right, v up). */
+static inline double ch_cross2(const double a[2], const double b[2]) {
+  return a[0] * b[1] - a[1] * b[0];
+}
+static inline double ch_dot3(const double a[3], const double b[3]) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static inline void ch_cross3(const double a[3], const double b[3], double out[3]) {
+  double x = a[1] * b[2] - a[2] * b[1];
+  double y = a[2] * b[0] - a[0] * b[2];
+  double z = a[0] * b[1] - a[1] * b[0];
+  out[0] = x;
+  out[1] = y;
+  out[2] = z;
+}
+static inline int ch_finite2(const double a[2]) { return isfinite(a[0]) && isfinite(a[1]); }
+
+#endif
