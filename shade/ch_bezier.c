@@ -1,0 +1,242 @@
+/* Exact segment geometry. The closest point on a quadratic Bezier is the
+ * classic cubic-root problem (see e.g. the GPU distance-field literature the
+ * diffusion-curve papers build on); we solve it without the closed form,
+ * which loses digits for nearly straight curves: the cubic's derivative
+ * splits [0,1] into monotone intervals, and each sign change is refined by
+ * Newton's method kept inside its bracket. */
+#include "ch_bezier.h"
+
+#include <math.h>
+
+#include "ch_math.h"
+
+void ch_bezier_eval(const double p[3][2], double t, double out[2]) {
+  double s = 1.0 - t;
+  double a = s * s, b = 2.0 * s * t, c = t * t;
+  out[0] = a * p[0][0] + b * p[1][0] + c * p[2][0];
+  out[1] = a * p[0][1] + b * p[1][1] + c * p[2][1];
+}
+
+void ch_bezier_tangent(const double p[3][2], double t, double out[2]) {
+  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
+  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
+  double d[2] = {a[0] + t * b[0], a[1] + t * b[1]};
+  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
+  double scale = ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
+  double len2 = ch_dot2(d, d);
+  if (len2 <= 1e-24 * scale) {
+    /* The derivative vanishes: at an end whose control point coincides with
+     * it the curve leaves (or arrives) along the chord; at the turning point
+     * of a folded, collinear quadratic the chord is one of the two equally
+     * valid directions. */
+    if (ch_dot2(chord, chord) > 0.0) {
+      d[0] = chord[0];
+      d[1] = chord[1];
+    } else if (ch_dot2(b, b) > 0.0) {
+      d[0] = b[0];
+      d[1] = b[1];
+    } else {
+      out[0] = out[1] = 0.0;
+      return;
+    }
+    len2 = ch_dot2(d, d);
+  }
+  double inv = 1.0 / sqrt(len2);
+  out[0] = d[0] * inv;
+  out[1] = d[1] * inv;
+}
+
+static double dist2_at(const double p[3][2], double t, const double q[2]) {
+  double x[2];
+  ch_bezier_eval(p, t, x);
+  double dx = x[0] - q[0], dy = x[1] - q[1];
+  return dx * dx + dy * dy;
+}
+
+/* Real roots of a x^2 + b x + c in (0, 1), numerically stable form. */
+static int quadratic_roots_01(double a, double b, double c, double r[2]) {
+  int n = 0;
+  double scale = fabs(a) + fabs(b) + fabs(c);
+  if (scale == 0.0) return 0;
+  if (fabs(a) <= 1e-300 * scale || fabs(a) < 1e-15 * scale) {
+    if (b != 0.0) {
+      double x = -c / b;
+      if (x > 0.0 && x < 1.0) r[n++] = x;
+    }
+    return n;
+  }
+  double disc = b * b - 4.0 * a * c;
+  if (disc < 0.0) return 0;
+  double sq = sqrt(disc);
+  double qq = -0.5 * (b + (b >= 0.0 ? sq : -sq));
+  double x0 = qq / a;
+  double x1 = qq != 0.0 ? c / qq : x0;
+  if (x0 > x1) {
+    double tmp = x0;
+    x0 = x1;
+    x1 = tmp;
+  }
+  if (x0 > 0.0 && x0 < 1.0) r[n++] = x0;
+  if (x1 > 0.0 && x1 < 1.0 && (n == 0 || x1 != r[0])) r[n++] = x1;
+  return n;
+}
+
+/* Root of the cubic f in [lo, hi] where f(lo) and f(hi) differ in sign:
+ * Newton steps, falling back to bisection when a step leaves the bracket. */
+static double bracketed_root(const double k[4], double lo, double hi, double flo) {
+  double t = 0.5 * (lo + hi);
+  for (int it = 0; it < 100; it++) {
+    double f = ((k[0] * t + k[1]) * t + k[2]) * t + k[3];
+    if (f == 0.0) return t;
+    if ((f < 0.0) == (flo < 0.0)) {
+      lo = t;
+      flo = f;
+    } else {
+      hi = t;
+    }
+    double df = (3.0 * k[0] * t + 2.0 * k[1]) * t + k[2];
+    double next = df != 0.0 ? t - f / df : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (fabs(next - t) <= 1e-16 * (1.0 + fabs(t)) || hi - lo <= 1e-16) return next;
+    t = next;
+  }
+  return t;
+}
+
+double ch_bezier_closest(const double p[3][2], int is_line, const double q[2], double *t_out) {
+  if (is_line) {
+    double d[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
+    double w[2] = {q[0] - p[0][0], q[1] - p[0][1]};
+    double len2 = ch_dot2(d, d);
+    double t = len2 > 0.0 ? ch_dot2(w, d) / len2 : 0.0;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    /* Evaluate on the line itself, exact for the straight segment. */
+    double x = p[0][0] + t * d[0] - q[0], y = p[0][1] + t * d[1] - q[1];
+    if (t_out) *t_out = t;
+    return x * x + y * y;
+  }
+  /* B(t) - q = t^2 B + 2t A + m; the derivative of |B(t) - q|^2 / 2 is
+   * f(t) = |B|^2 t^3 + 3 A.B t^2 + (2|A|^2 + m.B) t + m.A. */
+  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
+  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
+  double m[2] = {p[0][0] - q[0], p[0][1] - q[1]};
+  double k[4] = {ch_dot2(b, b), 3.0 * ch_dot2(a, b), 2.0 * ch_dot2(a, a) + ch_dot2(m, b), ch_dot2(m, a)};
+
+  double cuts[4];
+  int ncuts = 0;
+  cuts[ncuts++] = 0.0;
+  double crit[2];
+  int ncrit = quadratic_roots_01(3.0 * k[0], 2.0 * k[1], k[2], crit);
+  for (int i = 0; i < ncrit; i++) cuts[ncuts++] = crit[i];
+  cuts[ncuts++] = 1.0;
+
+  double best_t = 0.0, best = dist2_at(p, 0.0, q);
+  double d1 = dist2_at(p, 1.0, q);
+  if (d1 < best) {
+    best = d1;
+    best_t = 1.0;
+  }
+  for (int i = 0; i + 1 < ncuts; i++) {
+    double lo = cuts[i], hi = cuts[i + 1];
+    double flo = ((k[0] * lo + k[1]) * lo + k[2]) * lo + k[3];
+    double fhi = ((k[0] * hi + k[1]) * hi + k[2]) * hi + k[3];
+    double t;
+    /* A minimum of the distance is where f goes from negative to positive. */
+    if (flo <= 0.0 && fhi >= 0.0 && !(flo == 0.0 && fhi == 0.0))
+      t = flo == 0.0 ? lo : fhi == 0.0 ? hi : bracketed_root(k, lo, hi, flo);
+    else
+      continue;
+    double d = dist2_at(p, t, q);
+    if (d < best) {
+      best = d;
+      best_t = t;
+    }
+  }
+  if (t_out) *t_out = best_t;
+  return best;
+}
+
+int ch_cubic_to_quads(const double c[4][2], double tol, ch_quad_sink sink, void *user) {
+  double third[2] = {c[3][0] - 3.0 * c[2][0] + 3.0 * c[1][0] - c[0][0],
+                     c[3][1] - 3.0 * c[2][1] + 3.0 * c[1][1] - c[0][1]};
+  double err = sqrt(3.0) / 36.0 * sqrt(ch_dot2(third, third));
+  int n = 1;
+  if (err > tol) {
+    double pieces = ceil(cbrt(err / tol));
+    n = pieces > 4096.0 ? 4096 : (int)pieces;
+  }
+  for (int i = 0; i < n; i++) {
+    double t0 = (double)i / n, t1 = (double)(i + 1) / n;
+    /* The sub-cubic on [t0, t1] by blossoming: control points are the
+     * blossom values b(t0,t0,t0), b(t0,t0,t1), b(t0,t1,t1), b(t1,t1,t1). */
+    double sub[4][2];
+    for (int j = 0; j < 4; j++) {
+      double u[3] = {j < 3 ? t0 : t1, j < 2 ? t0 : t1, j < 1 ? t0 : t1};
+      for (int dim = 0; dim < 2; dim++) {
+        double l0 = c[0][dim], l1 = c[1][dim], l2 = c[2][dim], l3 = c[3][dim];
+        /* de Casteljau with different parameters per level = blossom. */
+        double a0 = l0 + u[0] * (l1 - l0), a1 = l1 + u[0] * (l2 - l1), a2 = l2 + u[0] * (l3 - l2);
+        double b0 = a0 + u[1] * (a1 - a0), b1 = a1 + u[1] * (a2 - a1);
+        sub[j][dim] = b0 + u[2] * (b1 - b0);
+      }
+    }
+    /* Keep the end points bit-exact so consecutive pieces join exactly. */
+    if (i == 0) { sub[0][0] = c[0][0]; sub[0][1] = c[0][1]; }
+    if (i == n - 1) { sub[3][0] = c[3][0]; sub[3][1] = c[3][1]; }
+    double q[3][2] = {
+        {sub[0][0], sub[0][1]},
+        {(3.0 * (sub[1][0] + sub[2][0]) - sub[0][0] - sub[3][0]) * 0.25,
+         (3.0 * (sub[1][1] + sub[2][1]) - sub[0][1] - sub[3][1]) * 0.25},
+        {sub[3][0], sub[3][1]}};
+    int r = sink(user, q);
+    if (r) return r;
+  }
+  return 0;
+}
+
+static void apply_affine(const double m[6], double x, double y, double out[2]) {
+  out[0] = m[0] * x + m[2] * y + m[4];
+  out[1] = m[1] * x + m[3] * y + m[5];
+}
+
+int ch_arc_to_quads(double a0, double sweep, const double m[6], double tol,
+                    ch_quad_sink sink, void *user) {
+  /* A quadratic through the arc's ends with its control point where the end
+   * tangents meet lies outside the unit circle by at most
+   * (1 - cos(h))^2 / (2 cos h), h = half the piece's angle (at its middle).
+   * The affine map stretches distances by at most its largest singular
+   * value. */
+  double sa = m[0] * m[0] + m[1] * m[1], sb = m[2] * m[2] + m[3] * m[3];
+  double sc = m[0] * m[2] + m[1] * m[3];
+  double smax = sqrt(0.5 * (sa + sb) + sqrt(0.25 * (sa - sb) * (sa - sb) + sc * sc));
+  /* (1 - cos h)^2 / (2 cos h) ~ h^4 / 8: start there, then make sure. */
+  double h0 = pow(8.0 * tol / (smax > 0.0 ? smax : 1.0), 0.25);
+  if (h0 > CH_PI / 8.0) h0 = CH_PI / 8.0;
+  double pieces = ceil(fabs(sweep) / (2.0 * h0));
+  int n = pieces < 1.0 ? 1 : pieces > 65536.0 ? 65536 : (int)pieces;
+  for (; n < 65536; n++) {
+    double h = 0.5 * fabs(sweep) / n;
+    double ch = cos(h);
+    if ((1.0 - ch) * (1.0 - ch) / (2.0 * ch) * smax <= tol) break;
+  }
+  double step = sweep / n;
+  double prev_end[2] = {0.0, 0.0};
+  for (int i = 0; i < n; i++) {
+    double t0 = a0 + step * i, t1 = a0 + step * (i + 1), tm = 0.5 * (t0 + t1);
+    double k = 1.0 / cos(0.5 * step);
+    double q[3][2];
+    if (i == 0)
+      apply_affine(m, cos(t0), sin(t0), q[0]);
+    else {
+      q[0][0] = prev_end[0];
+      q[0][1] = prev_end[1];
+    }
+    apply_affine(m, k * cos(tm), k * sin(tm), q[1]);
+    apply_affine(m, cos(t1), sin(t1), q[2]);
+    prev_end[0] = q[2][0];
+    prev_end[1] = q[2][1];
+    int r = sink(user, q);
+    if (r) return r;
+  }
+  return 0;
+}

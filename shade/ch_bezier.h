@@ -1,0 +1,45 @@
+/* ch_bezier: exact geometry of the curve segments: evaluation, tangents,
+ * closest points on lines and quadratic Beziers, and the conversion of
+ * cubics and elliptical arcs into quadratics within a tolerance. */
+#ifndef CH_BEZIER_H
+#define CH_BEZIER_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Point of the quadratic p at parameter t. */
+void ch_bezier_eval(const double p[3][2], double t, double out[2]);
+
+/* Unit tangent of the quadratic at t. Where the derivative vanishes (a
+ * control point on an end point, or the turning point of a folded
+ * quadratic) the limit direction is used; a segment that is a single point
+ * gives (0, 0). */
+void ch_bezier_tangent(const double p[3][2], double t, double out[2]);
+
+/* Closest point of the segment to q: returns the squared distance and the
+ * parameter in [0, 1] (the smallest one on ties). For quadratics the
+ * stationary points are the real roots of a cubic, found per monotone
+ * interval by safeguarded Newton, so nearly straight, folded and degenerate
+ * segments are handled without special cases. is_line selects the exact
+ * projection onto p[0]..p[2]. */
+double ch_bezier_closest(const double p[3][2], int is_line, const double q[2], double *t);
+
+/* Callback receiving quadratic pieces (control points in output space). */
+typedef int (*ch_quad_sink)(void *user, const double q[3][2]);
+
+/* Splits the cubic c into the fewest equal-parameter pieces whose midpoint
+ * quadratics are within tol of it (bound sqrt(3)/36 |c3 - 3c2 + 3c1 - c0| /
+ * n^3) and emits them. Returns the sink's first nonzero result, else 0. */
+int ch_cubic_to_quads(const double c[4][2], double tol, ch_quad_sink sink, void *user);
+
+/* Emits quadratics for the arc of the unit circle from angle a0 by sweep
+ * (radians, signed), mapped through the affine map m (x' = m0 x + m2 y + m4,
+ * y' = m1 x + m3 y + m5), within tol in output space. */
+int ch_arc_to_quads(double a0, double sweep, const double m[6], double tol,
+                    ch_quad_sink sink, void *user);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,210 @@
+/* Exact groove heights (SPEC §3). Profiles are evaluated on the signed
+ * distance to the exact quadratic segments; crossings combine by the CSG
+ * rule of the path-based groove paper (§4: material added before it is
+ * removed), as SPEC §3 states it. */
+#include "ch_groove.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_bezier.h"
+#include "ch_math.h"
+
+static void segment_point(const ch_segment *s, double t, double out[2]) {
+  if (s->is_line) {
+    out[0] = s->p[0][0] + t * (s->p[2][0] - s->p[0][0]);
+    out[1] = s->p[0][1] + t * (s->p[2][1] - s->p[0][1]);
+  } else {
+    ch_bezier_eval(s->p, t, out);
+  }
+}
+
+int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q[2]) {
+  const ch_segment *s = &set->segments[segment];
+  double c[2], d[2], here[2];
+  segment_point(s, t, c);
+  d[0] = q[0] - c[0];
+  d[1] = q[1] - c[1];
+  if (t > 0.0 && t < 1.0) {
+    ch_bezier_tangent(s->p, t, here);
+    return ch_cross2(here, d) >= 0.0 ? 1 : -1;
+  }
+  int at_start = t <= 0.0;
+  int other = at_start ? s->prev : s->next;
+  ch_bezier_tangent(s->p, at_start ? 0.0 : 1.0, here);
+  if (other < 0) return ch_cross2(here, d) >= 0.0 ? 1 : -1; /* open end */
+  double there[2], tin[2], tout[2];
+  ch_bezier_tangent(set->segments[other].p, at_start ? 1.0 : 0.0, there);
+  memcpy(tin, at_start ? there : here, sizeof tin);
+  memcpy(tout, at_start ? here : there, sizeof tout);
+  /* Near the joint the curve is two rays from it: back along the incoming
+   * tangent (a) and along the outgoing one (b). Walking in along a and out
+   * along b, the left side is the sector swept counter-clockwise from b to
+   * a. (A test against each tangent alone fails for turns sharper than a
+   * right angle.) */
+  double a[2] = {-tin[0], -tin[1]};
+  const double *b = tout;
+  double sab = ch_cross2(b, a);
+  if (sab > 0.0) return ch_cross2(b, d) >= 0.0 && ch_cross2(d, a) >= 0.0 ? 1 : -1;
+  if (sab < 0.0) return ch_cross2(a, d) > 0.0 && ch_cross2(d, b) > 0.0 ? -1 : 1;
+  if (ch_dot2(a, b) < 0.0) return ch_cross2(b, d) >= 0.0 ? 1 : -1; /* straight on */
+  return 1; /* the path folds back on itself: both rays coincide */
+}
+
+void ch_curve_closest(const ch_curve_set *set, int curve, const double q[2], ch_curve_point *out) {
+  const ch_curve *c = &set->curves[curve];
+  double best = INFINITY, best_t = 0.0;
+  int best_seg = c->first_segment;
+  for (int i = c->first_segment; i < c->first_segment + c->num_segments; i++) {
+    double t;
+    double d2 = ch_bezier_closest(set->segments[i].p, set->segments[i].is_line, q, &t);
+    if (d2 < best) {
+      best = d2;
+      best_t = t;
+      best_seg = i;
+    }
+  }
+  out->segment = best_seg;
+  out->t = best_t;
+  segment_point(&set->segments[best_seg], best_t, out->point);
+  out->distance = sqrt(best);
+  out->signed_distance = out->distance * ch_curve_side(set, best_seg, best_t, q);
+}
+
+ch_status ch_groove_field_init(ch_groove_field *f, const ch_curve_set *set, ch_error *err) {
+  memset(f, 0, sizeof *f);
+  f->set = set;
+  f->boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *f->boxes);
+  if (!f->boxes) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the groove field");
+  for (int i = 0; i < set->num_segments; i++) {
+    const ch_segment *s = &set->segments[i];
+    const ch_curve *c = &set->curves[s->curve];
+    double *b = f->boxes[i];
+    if (c->kind != CH_CURVE_GROOVE) {
+      b[0] = b[1] = 1.0; /* empty: umin > umax */
+      b[2] = b[3] = 0.0;
+      continue;
+    }
+    /* The control polygon's box holds the quadratic; grow it by the half
+     * width, beyond which the profile is zero. */
+    double r = 0.5 * c->width;
+    b[0] = fmin(fmin(s->p[0][0], s->p[1][0]), s->p[2][0]) - r;
+    b[1] = fmin(fmin(s->p[0][1], s->p[1][1]), s->p[2][1]) - r;
+    b[2] = fmax(fmax(s->p[0][0], s->p[1][0]), s->p[2][0]) + r;
+    b[3] = fmax(fmax(s->p[0][1], s->p[1][1]), s->p[2][1]) + r;
+  }
+  for (int i = 0; i < set->num_curves; i++) f->num_grooves += set->curves[i].kind == CH_CURVE_GROOVE;
+  ch_status st = ch_grid_build(&f->grid, set->num_segments, (const double(*)[4])f->boxes, err);
+  if (st) {
+    free(f->boxes);
+    f->boxes = NULL;
+  }
+  return st;
+}
+
+void ch_groove_field_free(ch_groove_field *f) {
+  ch_grid_free(&f->grid);
+  free(f->boxes);
+  memset(f, 0, sizeof *f);
+}
+
+typedef struct csg_state {
+  double min_carve, max_raise; /* most negative g < 0, most positive g > 0 */
+  int carve_curve, raise_curve;
+  int owner, owner_priority;
+  double owner_s, owner_t, owner_g;
+  int owner_seg;
+} csg_state;
+
+/* Whether carve value g wins over g_old for the height: carving beats
+ * raising, then the deeper carve or the higher raise. */
+static int decides_height(double g, double g_old) {
+  if (g < 0.0) return g_old > 0.0 || g < g_old;
+  return g_old > 0.0 && g > g_old;
+}
+
+static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d2, int seg, double t,
+                    const double q[2]) {
+  const ch_curve *c = &f->set->curves[curve];
+  double half = 0.5 * c->width;
+  if (!(d2 < half * half)) return; /* outside the profile's support */
+  double s = sqrt(d2) * ch_curve_side(f->set, seg, t, q);
+  double g = c->depth * ch_profile_eval(&c->profile, s / c->width);
+  if (g == 0.0) return;
+  if (g < cs->min_carve) {
+    cs->min_carve = g;
+    cs->carve_curve = curve;
+  }
+  if (g > cs->max_raise) {
+    cs->max_raise = g;
+    cs->raise_curve = curve;
+  }
+  if (cs->owner < 0 || c->priority > cs->owner_priority ||
+      (c->priority == cs->owner_priority && decides_height(g, cs->owner_g))) {
+    cs->owner = curve;
+    cs->owner_priority = c->priority;
+    cs->owner_s = s;
+    cs->owner_t = t;
+    cs->owner_g = g;
+    cs->owner_seg = seg;
+  }
+}
+
+double ch_groove_field_eval(const ch_groove_field *f, double u, double v, ch_groove_sample *detail) {
+  const int *items;
+  int n = ch_grid_query(&f->grid, u, v, &items);
+  const double q[2] = {u, v};
+  csg_state cs = {.min_carve = 0.0, .max_raise = 0.0, .carve_curve = -1, .raise_curve = -1, .owner = -1};
+  int cur = -1, best_seg = -1;
+  double best = INFINITY, best_t = 0.0;
+  /* Items are in segment order, so each curve's segments come as one run:
+   * keep the closest point per run, then apply its profile. */
+  for (int k = 0; k < n; k++) {
+    int i = items[k];
+    const double *b = f->boxes[i];
+    if (u < b[0] || u > b[2] || v < b[1] || v > b[3]) continue;
+    const ch_segment *s = &f->set->segments[i];
+    if (s->curve != cur) {
+      if (cur >= 0) combine(f, &cs, cur, best, best_seg, best_t, q);
+      cur = s->curve;
+      best = INFINITY;
+    }
+    double t;
+    double d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
+    if (d2 < best) {
+      best = d2;
+      best_t = t;
+      best_seg = i;
+    }
+  }
+  if (cur >= 0) combine(f, &cs, cur, best, best_seg, best_t, q);
+  double h = cs.min_carve < 0.0 ? cs.min_carve : cs.max_raise;
+  if (detail) {
+    detail->h = h;
+    detail->owner = cs.owner;
+    detail->signed_distance = cs.owner >= 0 ? cs.owner_s : 0.0;
+    detail->segment = cs.owner >= 0 ? cs.owner_seg : -1;
+    detail->t = cs.owner >= 0 ? cs.owner_t : 0.0;
+  }
+  return h;
+}
+
+void ch_groove_field_render(const ch_groove_field *f, int R, int S, float *plane) {
+  double inv = 1.0 / R, sub = 1.0 / S, norm = 1.0 / ((double)S * S);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int y = 0; y < R; y++) {
+    for (int x = 0; x < R; x++) {
+      double sum = 0.0;
+      for (int j = 0; j < S; j++) {
+        /* Row 0 is the top: v runs down from 1. */
+        double v = 1.0 - (y + (j + 0.5) * sub) * inv;
+        for (int i = 0; i < S; i++) {
+          double u = (x + (i + 0.5) * sub) * inv;
+          sum += ch_groove_field_eval(f, u, v, NULL);
+        }
+      }
+      plane[(size_t)y * R + x] = (float)(sum * norm);
+    }
+  }
+}

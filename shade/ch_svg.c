@@ -1,0 +1,977 @@
+/* The SVG reader of SPEC §2: libxml2 builds the tree; we walk it carrying
+ * the current transform (user space -> UV) and the inherited data-
+ * attributes, and turn every path and basic shape into quadratic segments
+ * in UV. Path data follows the SVG 1.1 grammar (implicit repeated commands,
+ * numbers without separators, arc flags without separators); arcs use the
+ * end-point to centre conversion of SVG 1.1 appendix F.6. */
+#include <libxml/parser.h>
+#include <libxml/tree.h>
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_bezier.h"
+#include "ch_curves.h"
+#include "ch_file.h"
+#include "ch_math.h"
+
+/* Inherited state: the data- attributes as strings (pointers into the
+ * document, resolved on each curve) and the current transform. */
+typedef struct svg_style {
+  const char *kind, *profile, *width, *depth, *left, *right;
+  const char *left_color, *right_color, *blur, *priority;
+  double ctm[6]; /* user space -> UV: x' = a x + c y + e, y' = b x + d y + f */
+} svg_style;
+
+enum { IGNORED_KINDS = 16 };
+
+typedef struct svg_parser {
+  const char *name; /* file name for messages */
+  ch_error *err;
+  ch_curve_set *set;
+  int cap_curves, cap_segments, cap_subpaths;
+  double width_scale; /* viewBox units -> UV for widths and blur radii */
+  int num_elements;
+  /* The curve under construction. */
+  ch_curve *curve;
+  int subpath_open;     /* a subpath record is open */
+  int subpath_closed;   /* it was closed with Z */
+  /* Ignored elements, reported as one warning per element name. */
+  char ignored_name[IGNORED_KINDS][32];
+  int ignored_count[IGNORED_KINDS];
+  int ignored_line[IGNORED_KINDS];
+  int num_ignored_kinds;
+} svg_parser;
+
+/* ---- errors ---- */
+
+static ch_status fail_curve(svg_parser *ps, const char *fmt, const char *detail) {
+  char what[160];
+  ch_curve_describe(ps->curve, what, sizeof what);
+  char msg[600];
+  snprintf(msg, sizeof msg, fmt, detail ? detail : "");
+  return ch_error_set(ps->err, CH_ERR_INPUT, "%s: %s: %s", ps->name, what, msg);
+}
+
+static ch_status fail_node(svg_parser *ps, const xmlNode *node, const char *msg) {
+  return ch_error_set(ps->err, CH_ERR_INPUT, "%s: <%s> (line %d): %s", ps->name,
+                      (const char *)node->name, (int)xmlGetLineNo(node), msg);
+}
+
+/* ---- numbers ---- */
+
+static int is_wsp(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f'; }
+static int is_digit(char c) { return c >= '0' && c <= '9'; }
+
+/* Scans one SVG number at *pp (sign, digits, fraction, exponent); strtod
+ * alone would also take "inf", "nan" and hex. Returns 0 and advances on
+ * success. */
+static int scan_number(const char **pp, double *out) {
+  const char *p = *pp, *start = p;
+  if (*p == '+' || *p == '-') p++;
+  int digits = 0;
+  while (is_digit(*p)) p++, digits++;
+  if (*p == '.') {
+    p++;
+    while (is_digit(*p)) p++, digits++;
+  }
+  if (!digits) return -1;
+  if (*p == 'e' || *p == 'E') {
+    const char *e = p + 1;
+    if (*e == '+' || *e == '-') e++;
+    if (is_digit(*e)) {
+      while (is_digit(*e)) e++;
+      p = e;
+    }
+  }
+  char buf[128];
+  size_t n = (size_t)(p - start);
+  if (n >= sizeof buf) return -1;
+  memcpy(buf, start, n);
+  buf[n] = '\0';
+  double v = strtod(buf, NULL);
+  if (!isfinite(v)) return -1;
+  *out = v;
+  *pp = p;
+  return 0;
+}
+
+static void skip_wsp(const char **pp) {
+  while (is_wsp(**pp)) (*pp)++;
+}
+/* Whitespace with at most one comma: the separator between arguments. */
+static void skip_sep(const char **pp) {
+  skip_wsp(pp);
+  if (**pp == ',') {
+    (*pp)++;
+    skip_wsp(pp);
+  }
+}
+
+/* A whole attribute that must be exactly one number. */
+static int parse_single_number(const char *s, double *out) {
+  skip_wsp(&s);
+  if (scan_number(&s, out)) return -1;
+  skip_wsp(&s);
+  return *s ? -1 : 0;
+}
+
+/* A length with an optional absolute unit, in user units (px). */
+static int parse_length(const char *s, double *out) {
+  skip_wsp(&s);
+  double v;
+  if (scan_number(&s, &v)) return -1;
+  static const struct { const char *unit; double px; } units[] = {
+      {"px", 1.0}, {"mm", 96.0 / 25.4}, {"cm", 96.0 / 2.54}, {"in", 96.0}, {"pt", 96.0 / 72.0},
+      {"pc", 16.0}};
+  double scale = 1.0;
+  for (size_t i = 0; i < sizeof units / sizeof units[0]; i++) {
+    size_t n = strlen(units[i].unit);
+    if (strncmp(s, units[i].unit, n) == 0) {
+      scale = units[i].px;
+      s += n;
+      break;
+    }
+  }
+  skip_wsp(&s);
+  if (*s) return -1;
+  *out = v * scale;
+  return 0;
+}
+
+/* ---- transforms ---- */
+
+static void mat_mul(const double a[6], const double b[6], double out[6]) {
+  /* out = a * b (apply b first). */
+  double r[6] = {a[0] * b[0] + a[2] * b[1], a[1] * b[0] + a[3] * b[1],
+                 a[0] * b[2] + a[2] * b[3], a[1] * b[2] + a[3] * b[3],
+                 a[0] * b[4] + a[2] * b[5] + a[4], a[1] * b[4] + a[3] * b[5] + a[5]};
+  memcpy(out, r, sizeof r);
+}
+
+static void mat_apply(const double m[6], double x, double y, double out[2]) {
+  out[0] = m[0] * x + m[2] * y + m[4];
+  out[1] = m[1] * x + m[3] * y + m[5];
+}
+
+/* Parses a transform list; on error writes a reason. */
+static int parse_transform(const char *s, double m[6], char *why, size_t why_size) {
+  double acc[6] = {1, 0, 0, 1, 0, 0};
+  skip_wsp(&s);
+  while (*s) {
+    static const char *names[] = {"matrix", "translate", "scale", "rotate", "skewX", "skewY"};
+    int which = -1;
+    for (int i = 0; i < 6; i++) {
+      size_t n = strlen(names[i]);
+      if (strncmp(s, names[i], n) == 0) {
+        which = i;
+        s += n;
+        break;
+      }
+    }
+    if (which < 0) {
+      snprintf(why, why_size, "bad transform near '%.20s'", s);
+      return -1;
+    }
+    skip_wsp(&s);
+    if (*s != '(') {
+      snprintf(why, why_size, "bad transform: expected '(' after %s", names[which]);
+      return -1;
+    }
+    s++;
+    double a[6];
+    int n = 0;
+    skip_wsp(&s);
+    while (*s && *s != ')') {
+      if (n >= 6 || scan_number(&s, &a[n])) {
+        snprintf(why, why_size, "bad transform: bad number in %s(...)", names[which]);
+        return -1;
+      }
+      n++;
+      skip_sep(&s);
+    }
+    if (*s != ')') {
+      snprintf(why, why_size, "bad transform: missing ')' after %s", names[which]);
+      return -1;
+    }
+    s++;
+    static const int min_args[] = {6, 1, 1, 1, 1, 1}, max_args[] = {6, 2, 2, 3, 1, 1};
+    if (n < min_args[which] || n > max_args[which] || (which == 3 && n == 2)) {
+      snprintf(why, why_size, "bad transform: %s takes %d..%d numbers, got %d", names[which],
+               min_args[which], max_args[which], n);
+      return -1;
+    }
+    double t[6] = {1, 0, 0, 1, 0, 0};
+    switch (which) {
+    case 0: memcpy(t, a, sizeof t); break;
+    case 1: t[4] = a[0]; t[5] = n > 1 ? a[1] : 0.0; break;
+    case 2: t[0] = a[0]; t[3] = n > 1 ? a[1] : a[0]; break;
+    case 3: {
+      double r = a[0] * CH_PI / 180.0, c = cos(r), sn = sin(r);
+      double cx = n == 3 ? a[1] : 0.0, cy = n == 3 ? a[2] : 0.0;
+      /* translate(cx,cy) rotate(a) translate(-cx,-cy) */
+      t[0] = c; t[1] = sn; t[2] = -sn; t[3] = c;
+      t[4] = cx - c * cx + sn * cy;
+      t[5] = cy - sn * cx - c * cy;
+      break;
+    }
+    case 4: t[2] = tan(a[0] * CH_PI / 180.0); break;
+    case 5: t[1] = tan(a[0] * CH_PI / 180.0); break;
+    }
+    for (int i = 0; i < 6; i++) {
+      if (!isfinite(t[i])) {
+        snprintf(why, why_size, "bad transform: %s gives a non-finite matrix", names[which]);
+        return -1;
+      }
+    }
+    mat_mul(acc, t, acc);
+    skip_sep(&s);
+  }
+  memcpy(m, acc, sizeof acc);
+  return 0;
+}
+
+/* ---- building curves ---- */
+
+static ch_status grow(svg_parser *ps, void **array, int *cap, int need, size_t elem) {
+  if (need <= *cap) return CH_OK;
+  int cap2 = *cap ? *cap : 16;
+  while (cap2 < need) cap2 = cap2 > INT_MAX / 2 ? need : cap2 * 2;
+  void *p = realloc(*array, (size_t)cap2 * elem);
+  if (!p) return ch_error_set(ps->err, CH_ERR_NOMEM, "%s: out of memory", ps->name);
+  *array = p;
+  *cap = cap2;
+  return CH_OK;
+}
+
+static void subpath_begin(svg_parser *ps) {
+  ps->subpath_open = 1;
+  ps->subpath_closed = 0;
+}
+
+/* Ends the open subpath: drops it if empty, links neighbours, detects
+ * closure (Z, or the end on the start). */
+static ch_status subpath_end(svg_parser *ps) {
+  if (!ps->subpath_open) return CH_OK;
+  ps->subpath_open = 0;
+  ch_curve_set *set = ps->set;
+  ch_curve *c = ps->curve;
+  int first = c->first_segment;
+  /* Segments of this subpath are those after the previous subpath's. */
+  if (c->num_subpaths > 0) {
+    const ch_subpath *last = &set->subpaths[set->num_subpaths - 1];
+    first = last->first_segment + last->num_segments;
+  }
+  int n = set->num_segments - first;
+  if (n <= 0) return CH_OK;
+  ch_status st = grow(ps, (void **)&set->subpaths, &ps->cap_subpaths, set->num_subpaths + 1,
+                      sizeof *set->subpaths);
+  if (st) return st;
+  ch_segment *s0 = &set->segments[first], *s1 = &set->segments[first + n - 1];
+  double du = s1->p[2][0] - s0->p[0][0], dv = s1->p[2][1] - s0->p[0][1];
+  int closed = ps->subpath_closed || du * du + dv * dv <= 1e-24;
+  if (closed) {
+    /* Make the joint exact so the two ends are one point. */
+    s1->p[2][0] = s0->p[0][0];
+    s1->p[2][1] = s0->p[0][1];
+  }
+  for (int i = 0; i < n; i++) {
+    ch_segment *s = &set->segments[first + i];
+    s->prev = i > 0 ? first + i - 1 : closed ? first + n - 1 : -1;
+    s->next = i + 1 < n ? first + i + 1 : closed ? first : -1;
+  }
+  ch_subpath *sp = &set->subpaths[set->num_subpaths++];
+  sp->first_segment = first;
+  sp->num_segments = n;
+  sp->closed = closed;
+  c->num_subpaths++;
+  return CH_OK;
+}
+
+static int near_equal(const double a[2], const double b[2]) {
+  double du = a[0] - b[0], dv = a[1] - b[1];
+  return du * du + dv * dv <= 1e-28;
+}
+
+/* Appends a segment already in UV; drops segments of zero length. */
+static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line) {
+  for (int i = 0; i < 3; i++)
+    if (!ch_finite2(q[i])) return fail_curve(ps, "coordinates out of range%s", "");
+  if (near_equal(q[0], q[2]) && (is_line || near_equal(q[0], q[1]))) return CH_OK;
+  ch_curve_set *set = ps->set;
+  if (set->num_segments >= CH_CURVES_MAX_SEGMENTS)
+    return fail_curve(ps, "too many segments (a cubic or arc this large is not a feature curve)%s", "");
+  ch_status st = grow(ps, (void **)&set->segments, &ps->cap_segments, set->num_segments + 1,
+                      sizeof *set->segments);
+  if (st) return st;
+  ch_segment *s = &set->segments[set->num_segments++];
+  memcpy(s->p, q, sizeof s->p);
+  if (is_line) {
+    s->p[1][0] = 0.5 * (q[0][0] + q[2][0]);
+    s->p[1][1] = 0.5 * (q[0][1] + q[2][1]);
+  }
+  s->is_line = is_line;
+  s->curve = set->num_curves - 1;
+  s->prev = s->next = -1;
+  ps->curve->num_segments++;
+  return CH_OK;
+}
+
+typedef struct geom_ctx {
+  svg_parser *ps;
+  const double *ctm;
+  double cur[2], start[2];   /* current point and subpath start, user space */
+  double last_ctrl[2];       /* for S/T reflection */
+  char last_cmd;             /* previous command, upper case */
+} geom_ctx;
+
+static ch_status line_to(geom_ctx *g, double x, double y) {
+  double q[3][2];
+  mat_apply(g->ctm, g->cur[0], g->cur[1], q[0]);
+  mat_apply(g->ctm, x, y, q[2]);
+  g->cur[0] = x;
+  g->cur[1] = y;
+  return add_quad_uv(g->ps, q, 1);
+}
+
+static ch_status quad_to(geom_ctx *g, double x1, double y1, double x, double y) {
+  double q[3][2];
+  mat_apply(g->ctm, g->cur[0], g->cur[1], q[0]);
+  mat_apply(g->ctm, x1, y1, q[1]);
+  mat_apply(g->ctm, x, y, q[2]);
+  g->cur[0] = x;
+  g->cur[1] = y;
+  return add_quad_uv(g->ps, q, 0);
+}
+
+static int sink_quad(void *user, const double q[3][2]) {
+  svg_parser *ps = user;
+  return add_quad_uv(ps, q, 0) != CH_OK;
+}
+
+static ch_status cubic_to(geom_ctx *g, double x1, double y1, double x2, double y2, double x, double y) {
+  double c[4][2];
+  mat_apply(g->ctm, g->cur[0], g->cur[1], c[0]);
+  mat_apply(g->ctm, x1, y1, c[1]);
+  mat_apply(g->ctm, x2, y2, c[2]);
+  mat_apply(g->ctm, x, y, c[3]);
+  g->cur[0] = x;
+  g->cur[1] = y;
+  for (int i = 0; i < 4; i++)
+    if (!ch_finite2(c[i])) return fail_curve(g->ps, "coordinates out of range%s", "");
+  if (ch_cubic_to_quads(c, CH_CURVES_SPLIT_TOLERANCE, sink_quad, g->ps))
+    return g->ps->err->status ? g->ps->err->status : CH_ERR_INTERNAL;
+  return CH_OK;
+}
+
+/* SVG 1.1 F.6.5: end-point parameterisation to centre parameterisation. */
+static ch_status arc_to(geom_ctx *g, double rx, double ry, double phi_deg, int large, int sweep,
+                        double x, double y) {
+  double x0 = g->cur[0], y0 = g->cur[1];
+  if (x0 == x && y0 == y) return CH_OK; /* F.6.2: omitted */
+  rx = fabs(rx);
+  ry = fabs(ry);
+  if (rx == 0.0 || ry == 0.0) return line_to(g, x, y);
+  double phi = fmod(phi_deg, 360.0) * CH_PI / 180.0, cp = cos(phi), sp = sin(phi);
+  double dx = 0.5 * (x0 - x), dy = 0.5 * (y0 - y);
+  double x1p = cp * dx + sp * dy, y1p = -sp * dx + cp * dy;
+  double lambda = (x1p * x1p) / (rx * rx) + (y1p * y1p) / (ry * ry);
+  if (lambda > 1.0) { /* F.6.6: radii too small, scale up */
+    double s = sqrt(lambda);
+    rx *= s;
+    ry *= s;
+  }
+  double num = rx * rx * ry * ry - rx * rx * y1p * y1p - ry * ry * x1p * x1p;
+  double den = rx * rx * y1p * y1p + ry * ry * x1p * x1p;
+  double coef = den > 0.0 && num > 0.0 ? sqrt(num / den) : 0.0;
+  if (large == sweep) coef = -coef;
+  double cxp = coef * rx * y1p / ry, cyp = -coef * ry * x1p / rx;
+  double cx = cp * cxp - sp * cyp + 0.5 * (x0 + x), cy = sp * cxp + cp * cyp + 0.5 * (y0 + y);
+  double ux = (x1p - cxp) / rx, uy = (y1p - cyp) / ry;
+  double vx = (-x1p - cxp) / rx, vy = (-y1p - cyp) / ry;
+  double theta1 = atan2(uy, ux);
+  double dtheta = atan2(ux * vy - uy * vx, ux * vx + uy * vy);
+  if (!sweep && dtheta > 0.0) dtheta -= 2.0 * CH_PI;
+  if (sweep && dtheta < 0.0) dtheta += 2.0 * CH_PI;
+  /* Unit circle -> ellipse in user space -> UV. */
+  double ell[6] = {rx * cp, rx * sp, -ry * sp, ry * cp, cx, cy}, m[6];
+  mat_mul(g->ctm, ell, m);
+  for (int i = 0; i < 6; i++)
+    if (!isfinite(m[i])) return fail_curve(g->ps, "arc out of range%s", "");
+  int first = g->ps->set->num_segments;
+  if (ch_arc_to_quads(theta1, dtheta, m, CH_CURVES_SPLIT_TOLERANCE, sink_quad, g->ps))
+    return g->ps->err->status ? g->ps->err->status : CH_ERR_INTERNAL;
+  /* Pin the arc's ends to the exact path points so the joints are exact. */
+  int last = g->ps->set->num_segments - 1;
+  if (last >= first) {
+    mat_apply(g->ctm, x0, y0, g->ps->set->segments[first].p[0]);
+    mat_apply(g->ctm, x, y, g->ps->set->segments[last].p[2]);
+  }
+  g->cur[0] = x;
+  g->cur[1] = y;
+  return CH_OK;
+}
+
+static ch_status close_path(geom_ctx *g) {
+  ch_status st = CH_OK;
+  if (g->cur[0] != g->start[0] || g->cur[1] != g->start[1]) st = line_to(g, g->start[0], g->start[1]);
+  if (st) return st;
+  g->ps->subpath_closed = 1;
+  st = subpath_end(g->ps);
+  g->cur[0] = g->start[0];
+  g->cur[1] = g->start[1];
+  return st;
+}
+
+static ch_status move_to(geom_ctx *g, double x, double y) {
+  ch_status st = subpath_end(g->ps);
+  if (st) return st;
+  subpath_begin(g->ps);
+  g->cur[0] = g->start[0] = x;
+  g->cur[1] = g->start[1] = y;
+  return CH_OK;
+}
+
+static int path_args(char cmd) {
+  switch (cmd) {
+  case 'M': case 'L': case 'T': return 2;
+  case 'H': case 'V': return 1;
+  case 'Q': case 'S': return 4;
+  case 'C': return 6;
+  case 'A': return 7;
+  default: return 0;
+  }
+}
+
+/* Parses SVG path data into the current curve. */
+static ch_status parse_path_data(svg_parser *ps, const char *d, const double ctm[6]) {
+  geom_ctx g = {.ps = ps, .ctm = ctm};
+  const char *p = d;
+  char cmd = 0;
+  int first = 1;
+  char why[200];
+  skip_wsp(&p);
+  while (*p) {
+    char c = *p;
+    int explicit_cmd = strchr("MmLlHhVvQqTtCcSsAaZz", c) != NULL && c != '\0';
+    if (explicit_cmd) {
+      cmd = c;
+      p++;
+    } else if (!cmd || cmd == 'Z' || cmd == 'z') {
+      snprintf(why, sizeof why, "bad path data at offset %d ('%.12s'): expected a command",
+               (int)(p - d), p);
+      return fail_curve(ps, "%s", why);
+    }
+    if (first && cmd != 'M' && cmd != 'm') {
+      snprintf(why, sizeof why, "path data must start with a moveto, not '%c'", cmd);
+      return fail_curve(ps, "%s", why);
+    }
+    first = 0;
+    char up = (char)(cmd >= 'a' ? cmd - 32 : cmd);
+    int rel = cmd >= 'a';
+    double a[7];
+    int n = path_args(up);
+    skip_wsp(&p);
+    for (int i = 0; i < n; i++) {
+      if (i > 0) skip_sep(&p);
+      if (up == 'A' && (i == 3 || i == 4)) {
+        if (*p != '0' && *p != '1') {
+          snprintf(why, sizeof why, "bad path data at offset %d ('%.12s'): expected an arc flag 0 or 1",
+                   (int)(p - d), p);
+          return fail_curve(ps, "%s", why);
+        }
+        a[i] = *p++ - '0';
+      } else if (scan_number(&p, &a[i])) {
+        snprintf(why, sizeof why, "bad path data at offset %d ('%.12s'): expected a number for '%c'",
+                 (int)(p - d), p, cmd);
+        return fail_curve(ps, "%s", why);
+      }
+    }
+    double ox = rel ? g.cur[0] : 0.0, oy = rel ? g.cur[1] : 0.0;
+    ch_status st = CH_OK;
+    /* After Z without a moveto, the next subpath starts at the old start. */
+    if (up != 'M' && up != 'Z' && !ps->subpath_open) {
+      subpath_begin(ps);
+      g.start[0] = g.cur[0];
+      g.start[1] = g.cur[1];
+    }
+    double ctrl[2] = {g.cur[0], g.cur[1]};
+    switch (up) {
+    case 'M':
+      st = move_to(&g, ox + a[0], oy + a[1]);
+      cmd = rel ? 'l' : 'L'; /* further pairs are linetos */
+      break;
+    case 'L': st = line_to(&g, ox + a[0], oy + a[1]); break;
+    case 'H': st = line_to(&g, ox + a[0], g.cur[1]); break;
+    case 'V': st = line_to(&g, g.cur[0], oy + a[0]); break;
+    case 'Q':
+      g.last_ctrl[0] = ox + a[0];
+      g.last_ctrl[1] = oy + a[1];
+      st = quad_to(&g, ox + a[0], oy + a[1], ox + a[2], oy + a[3]);
+      break;
+    case 'T':
+      if (g.last_cmd == 'Q' || g.last_cmd == 'T') {
+        ctrl[0] = 2.0 * g.cur[0] - g.last_ctrl[0];
+        ctrl[1] = 2.0 * g.cur[1] - g.last_ctrl[1];
+      }
+      g.last_ctrl[0] = ctrl[0];
+      g.last_ctrl[1] = ctrl[1];
+      st = quad_to(&g, ctrl[0], ctrl[1], ox + a[0], oy + a[1]);
+      break;
+    case 'C':
+      g.last_ctrl[0] = ox + a[2];
+      g.last_ctrl[1] = oy + a[3];
+      st = cubic_to(&g, ox + a[0], oy + a[1], ox + a[2], oy + a[3], ox + a[4], oy + a[5]);
+      break;
+    case 'S':
+      if (g.last_cmd == 'C' || g.last_cmd == 'S') {
+        ctrl[0] = 2.0 * g.cur[0] - g.last_ctrl[0];
+        ctrl[1] = 2.0 * g.cur[1] - g.last_ctrl[1];
+      }
+      g.last_ctrl[0] = ox + a[0];
+      g.last_ctrl[1] = oy + a[1];
+      st = cubic_to(&g, ctrl[0], ctrl[1], ox + a[0], oy + a[1], ox + a[2], oy + a[3]);
+      break;
+    case 'A':
+      st = arc_to(&g, a[0], a[1], a[2], (int)a[3], (int)a[4], ox + a[5], oy + a[6]);
+      break;
+    case 'Z': st = close_path(&g); break;
+    }
+    if (st) return st;
+    g.last_cmd = up;
+    skip_sep(&p);
+  }
+  return subpath_end(ps);
+}
+
+/* ---- attributes ---- */
+
+static const char *attr(const xmlNode *node, const char *name) {
+  for (const xmlAttr *a = node->properties; a; a = a->next) {
+    if (a->ns) continue; /* inkscape:, sodipodi:, xlink: ... */
+    if (strcmp((const char *)a->name, name) == 0)
+      return a->children && a->children->content ? (const char *)a->children->content : "";
+  }
+  return NULL;
+}
+
+/* s equals kw up to surrounding whitespace. */
+static int keyword_is(const char *s, const char *kw) {
+  skip_wsp(&s);
+  size_t n = strlen(kw);
+  if (strncmp(s, kw, n) != 0) return 0;
+  s += n;
+  skip_wsp(&s);
+  return *s == '\0';
+}
+
+static int parse_color(const char *s, double rgb[3]) {
+  skip_wsp(&s);
+  if (*s != '#') return -1;
+  s++;
+  unsigned v[6];
+  int n = 0;
+  while (n < 6 && s[n]) {
+    char c = s[n];
+    if (c >= '0' && c <= '9') v[n] = (unsigned)(c - '0');
+    else if (c >= 'a' && c <= 'f') v[n] = (unsigned)(c - 'a' + 10);
+    else if (c >= 'A' && c <= 'F') v[n] = (unsigned)(c - 'A' + 10);
+    else break;
+    n++;
+  }
+  const char *rest = s + n;
+  skip_wsp(&rest);
+  if (*rest || (n != 3 && n != 6)) return -1;
+  for (int i = 0; i < 3; i++)
+    rgb[i] = n == 6 ? (double)(v[2 * i] * 16 + v[2 * i + 1]) / 255.0 : (double)(v[i] * 17) / 255.0;
+  return 0;
+}
+
+static int is_hidden(const xmlNode *node) {
+  const char *d = attr(node, "display");
+  if (d && strstr(d, "none")) return 1;
+  const char *style = attr(node, "style");
+  if (style) {
+    const char *p = strstr(style, "display");
+    if (p) {
+      p += 7;
+      skip_wsp(&p);
+      if (*p == ':') {
+        p++;
+        skip_wsp(&p);
+        if (strncmp(p, "none", 4) == 0) return 1;
+      }
+    }
+  }
+  return 0;
+}
+
+/* Updates style with the node's own data- attributes and transform. */
+static ch_status inherit(svg_parser *ps, const xmlNode *node, svg_style *st) {
+  static const char *known[] = {"data-kind", "data-profile", "data-width", "data-depth",
+                                "data-left", "data-right", "data-left-color", "data-right-color",
+                                "data-blur", "data-priority"};
+  const char **slots[] = {&st->kind, &st->profile, &st->width, &st->depth, &st->left, &st->right,
+                          &st->left_color, &st->right_color, &st->blur, &st->priority};
+  for (const xmlAttr *a = node->properties; a; a = a->next) {
+    if (a->ns) continue;
+    const char *name = (const char *)a->name;
+    if (strncmp(name, "data-", 5) != 0) continue;
+    const char *value = a->children && a->children->content ? (const char *)a->children->content : "";
+    int found = 0;
+    for (int i = 0; i < 10; i++) {
+      if (strcmp(name, known[i]) == 0) {
+        *slots[i] = value;
+        found = 1;
+      }
+    }
+    if (!found)
+      ch_warn(ps->err, "%s: <%s> (line %d): unknown attribute %s ignored", ps->name,
+              (const char *)node->name, (int)xmlGetLineNo(node), name);
+  }
+  const char *tf = attr(node, "transform");
+  if (tf) {
+    double m[6];
+    char why[160];
+    if (parse_transform(tf, m, why, sizeof why)) return fail_node(ps, node, why);
+    mat_mul(st->ctm, m, st->ctm);
+  }
+  return CH_OK;
+}
+
+static ch_status attr_number(svg_parser *ps, const char *text, const char *what, double *out) {
+  char why[200];
+  if (parse_single_number(text, out)) {
+    snprintf(why, sizeof why, "%s '%.40s' is not a number", what, text);
+    return fail_curve(ps, "%s", why);
+  }
+  return CH_OK;
+}
+
+/* Starts a curve for an element, resolving its attributes. */
+static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_style *st) {
+  ch_curve_set *set = ps->set;
+  ch_status s = grow(ps, (void **)&set->curves, &ps->cap_curves, set->num_curves + 1, sizeof *set->curves);
+  if (s) return s;
+  ch_curve *c = &set->curves[set->num_curves++];
+  memset(c, 0, sizeof *c);
+  ps->curve = c;
+  c->element_index = ps->num_elements++;
+  c->source_line = (int)xmlGetLineNo(node);
+  snprintf(c->element, sizeof c->element, "%s", (const char *)node->name);
+  const char *id = attr(node, "id");
+  if (id) snprintf(c->id, sizeof c->id, "%s", id);
+  c->first_segment = set->num_segments;
+  c->first_subpath = set->num_subpaths;
+  ps->subpath_open = 0;
+
+  c->kind = CH_CURVE_GROOVE;
+  if (st->kind) {
+    if (keyword_is(st->kind, "step"))
+      c->kind = CH_CURVE_STEP;
+    else if (!keyword_is(st->kind, "groove"))
+      return fail_curve(ps, "unknown data-kind '%.40s' (expected groove or step)", st->kind);
+  }
+  char why[200];
+  if (ch_profile_parse(st->profile ? st->profile : "v", &c->profile, why, sizeof why))
+    return fail_curve(ps, "%s", why);
+  double w = 8.0, depth = 0.01, left = 0.0, right = 0.0, blur = 0.0, prio = 0.0;
+  if (st->width && (s = attr_number(ps, st->width, "data-width", &w))) return s;
+  if (st->depth && (s = attr_number(ps, st->depth, "data-depth", &depth))) return s;
+  if (st->left && (s = attr_number(ps, st->left, "data-left", &left))) return s;
+  if (st->right && (s = attr_number(ps, st->right, "data-right", &right))) return s;
+  if (st->blur && (s = attr_number(ps, st->blur, "data-blur", &blur))) return s;
+  if (st->priority && (s = attr_number(ps, st->priority, "data-priority", &prio))) return s;
+  if (w < 0.0) return fail_curve(ps, "negative data-width '%.40s'", st->width);
+  if (w == 0.0 && c->kind == CH_CURVE_GROOVE) return fail_curve(ps, "zero data-width%s", "");
+  if (blur < 0.0) return fail_curve(ps, "negative data-blur '%.40s'", st->blur);
+  if (prio != floor(prio) || fabs(prio) > 1e9)
+    return fail_curve(ps, "data-priority '%.40s' is not an integer", st->priority);
+  c->width = w * ps->width_scale;
+  c->depth = depth;
+  c->left = left;
+  c->right = right;
+  c->blur = blur * ps->width_scale;
+  c->priority = (int)prio;
+  if (st->left_color || st->right_color) {
+    c->has_colors = 1;
+    if (st->left_color && parse_color(st->left_color, c->left_color))
+      return fail_curve(ps, "bad data-left-color '%.40s' (expected #rrggbb)", st->left_color);
+    if (st->right_color && parse_color(st->right_color, c->right_color))
+      return fail_curve(ps, "bad data-right-color '%.40s' (expected #rrggbb)", st->right_color);
+  }
+  return CH_OK;
+}
+
+static ch_status end_curve(svg_parser *ps) {
+  ch_status st = subpath_end(ps);
+  if (st) return st;
+  ch_curve_set *set = ps->set;
+  ch_curve *c = ps->curve;
+  if (c->num_segments == 0) return fail_curve(ps, "curve has zero length%s", "");
+  double *b = c->bbox;
+  b[0] = b[1] = INFINITY;
+  b[2] = b[3] = -INFINITY;
+  for (int i = c->first_segment; i < c->first_segment + c->num_segments; i++)
+    for (int k = 0; k < 3; k++) {
+      const double *q = set->segments[i].p[k];
+      b[0] = fmin(b[0], q[0]);
+      b[1] = fmin(b[1], q[1]);
+      b[2] = fmax(b[2], q[0]);
+      b[3] = fmax(b[3], q[1]);
+    }
+  double r = c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : 0.0;
+  if (b[2] + r <= 0.0 || b[0] - r >= 1.0 || b[3] + r <= 0.0 || b[1] - r >= 1.0) {
+    char what[160];
+    ch_curve_describe(c, what, sizeof what);
+    ch_warn(ps->err, "%s: %s: lies entirely outside the UV square", ps->name, what);
+  }
+  ps->curve = NULL;
+  return CH_OK;
+}
+
+/* Reads the "points" list of polyline/polygon. */
+static ch_status shape_points(svg_parser *ps, const xmlNode *node, const svg_style *st, int close) {
+  const char *p = attr(node, "points");
+  if (!p) return fail_curve(ps, "missing points attribute%s", "");
+  geom_ctx g = {.ps = ps, .ctm = st->ctm};
+  int n = 0;
+  skip_wsp(&p);
+  while (*p) {
+    double x, y;
+    if (scan_number(&p, &x)) return fail_curve(ps, "bad points list near '%.12s'", p);
+    skip_sep(&p);
+    if (scan_number(&p, &y)) return fail_curve(ps, "points list has an odd number of coordinates%s", "");
+    skip_sep(&p);
+    ch_status s = n == 0 ? move_to(&g, x, y) : line_to(&g, x, y);
+    if (s) return s;
+    n++;
+  }
+  if (n < 2) return fail_curve(ps, "needs at least two points%s", "");
+  return close ? close_path(&g) : CH_OK;
+}
+
+static ch_status shape_geometry(svg_parser *ps, const xmlNode *node, const svg_style *st) {
+  const char *name = (const char *)node->name;
+  const char *names[6];
+  double v[6] = {0};
+  int n = 0;
+  if (strcmp(name, "path") == 0) {
+    const char *d = attr(node, "d");
+    if (!d) return fail_curve(ps, "missing d attribute%s", "");
+    return parse_path_data(ps, d, st->ctm);
+  }
+  if (strcmp(name, "polyline") == 0) return shape_points(ps, node, st, 0);
+  if (strcmp(name, "polygon") == 0) return shape_points(ps, node, st, 1);
+  if (strcmp(name, "line") == 0) {
+    names[0] = "x1", names[1] = "y1", names[2] = "x2", names[3] = "y2", n = 4;
+  } else if (strcmp(name, "rect") == 0) {
+    names[0] = "x", names[1] = "y", names[2] = "width", names[3] = "height", names[4] = "rx",
+    names[5] = "ry", n = 6;
+  } else if (strcmp(name, "circle") == 0) {
+    names[0] = "cx", names[1] = "cy", names[2] = "r", n = 3;
+  } else { /* ellipse */
+    names[0] = "cx", names[1] = "cy", names[2] = "rx", names[3] = "ry", n = 4;
+  }
+  int present[6] = {0};
+  for (int i = 0; i < n; i++) {
+    const char *text = attr(node, names[i]);
+    if (!text) continue;
+    present[i] = 1;
+    if (parse_length(text, &v[i])) {
+      char why[120];
+      snprintf(why, sizeof why, "attribute %s='%.30s' is not a length", names[i], text);
+      return fail_curve(ps, "%s", why);
+    }
+  }
+  geom_ctx g = {.ps = ps, .ctm = st->ctm};
+  ch_status s;
+  if (strcmp(name, "line") == 0) {
+    if ((s = move_to(&g, v[0], v[1])) || (s = line_to(&g, v[2], v[3]))) return s;
+    return CH_OK;
+  }
+  if (strcmp(name, "rect") == 0) {
+    double x = v[0], y = v[1], w = v[2], h = v[3];
+    if (w < 0.0 || h < 0.0) return fail_curve(ps, "negative rect size%s", "");
+    if (w == 0.0 || h == 0.0) return fail_curve(ps, "curve has zero length (empty rect)%s", "");
+    double rx = v[4], ry = v[5];
+    if (rx < 0.0 || ry < 0.0) return fail_curve(ps, "negative corner radius%s", "");
+    if (present[4] && !present[5]) ry = rx;
+    if (present[5] && !present[4]) rx = ry;
+    rx = fmin(rx, 0.5 * w);
+    ry = fmin(ry, 0.5 * h);
+    /* SVG 1.1 §9.2: the rect as a path, clockwise as seen: inside on the right. */
+    if ((s = move_to(&g, x + rx, y))) return s;
+    if ((s = line_to(&g, x + w - rx, y))) return s;
+    if (rx > 0.0 && ry > 0.0 && (s = arc_to(&g, rx, ry, 0, 0, 1, x + w, y + ry))) return s;
+    if ((s = line_to(&g, x + w, y + h - ry))) return s;
+    if (rx > 0.0 && ry > 0.0 && (s = arc_to(&g, rx, ry, 0, 0, 1, x + w - rx, y + h))) return s;
+    if ((s = line_to(&g, x + rx, y + h))) return s;
+    if (rx > 0.0 && ry > 0.0 && (s = arc_to(&g, rx, ry, 0, 0, 1, x, y + h - ry))) return s;
+    if ((s = line_to(&g, x, y + ry))) return s;
+    if (rx > 0.0 && ry > 0.0 && (s = arc_to(&g, rx, ry, 0, 0, 1, x + rx, y))) return s;
+    return close_path(&g);
+  }
+  double cx = v[0], cy = v[1], rx = v[2], ry = strcmp(name, "circle") == 0 ? v[2] : v[3];
+  if (rx < 0.0 || ry < 0.0) return fail_curve(ps, "negative radius%s", "");
+  if (rx == 0.0 || ry == 0.0) return fail_curve(ps, "curve has zero length (zero radius)%s", "");
+  /* Starts at (cx + rx, cy) towards (cx, cy + ry), as SVG 1.1 §9.3-9.4
+   * lay out circles and ellipses: clockwise as seen, so in UV (v up, the
+   * picture unchanged) the inside is on the right. */
+  if ((s = move_to(&g, cx + rx, cy))) return s;
+  if ((s = arc_to(&g, rx, ry, 0, 0, 1, cx, cy + ry))) return s;
+  if ((s = arc_to(&g, rx, ry, 0, 0, 1, cx - rx, cy))) return s;
+  if ((s = arc_to(&g, rx, ry, 0, 0, 1, cx, cy - ry))) return s;
+  if ((s = arc_to(&g, rx, ry, 0, 0, 1, cx + rx, cy))) return s;
+  return close_path(&g);
+}
+
+static void note_ignored(svg_parser *ps, const xmlNode *node) {
+  const char *name = (const char *)node->name;
+  for (int i = 0; i < ps->num_ignored_kinds; i++) {
+    if (strcmp(ps->ignored_name[i], name) == 0) {
+      ps->ignored_count[i]++;
+      return;
+    }
+  }
+  if (ps->num_ignored_kinds == IGNORED_KINDS) return;
+  int i = ps->num_ignored_kinds++;
+  snprintf(ps->ignored_name[i], sizeof ps->ignored_name[i], "%s", name);
+  ps->ignored_count[i] = 1;
+  ps->ignored_line[i] = (int)xmlGetLineNo(node);
+}
+
+static int is_svg_element(const xmlNode *node) {
+  return node->type == XML_ELEMENT_NODE &&
+         (!node->ns || !node->ns->href ||
+          strcmp((const char *)node->ns->href, "http://www.w3.org/2000/svg") == 0);
+}
+
+static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent) {
+  for (const xmlNode *n = node; n; n = n->next) {
+    if (!is_svg_element(n)) continue; /* text, comments, foreign namespaces */
+    const char *name = (const char *)n->name;
+    /* Non-rendering and descriptive elements: silently skipped. */
+    if (!strcmp(name, "title") || !strcmp(name, "desc") || !strcmp(name, "metadata") ||
+        !strcmp(name, "style") || !strcmp(name, "defs") || !strcmp(name, "symbol") ||
+        !strcmp(name, "clipPath") || !strcmp(name, "mask") || !strcmp(name, "linearGradient") ||
+        !strcmp(name, "radialGradient") || !strcmp(name, "pattern") || !strcmp(name, "marker"))
+      continue;
+    if (is_hidden(n)) continue;
+    svg_style st = *parent;
+    ch_status s;
+    int is_shape = !strcmp(name, "path") || !strcmp(name, "rect") || !strcmp(name, "circle") ||
+                   !strcmp(name, "ellipse") || !strcmp(name, "line") ||
+                   !strcmp(name, "polyline") || !strcmp(name, "polygon");
+    if (!strcmp(name, "g") || !strcmp(name, "a")) {
+      if ((s = inherit(ps, n, &st))) return s;
+      if ((s = walk(ps, n->children, &st))) return s;
+    } else if (is_shape) {
+      if ((s = inherit(ps, n, &st))) return s;
+      if ((s = begin_curve(ps, n, &st))) return s;
+      if ((s = shape_geometry(ps, n, &st))) return s;
+      if ((s = end_curve(ps))) return s;
+    } else {
+      note_ignored(ps, n);
+    }
+  }
+  return CH_OK;
+}
+
+/* The root's viewBox (or width/height) gives the user space -> UV map. */
+static ch_status root_mapping(svg_parser *ps, const xmlNode *root, svg_style *st) {
+  double vb[4];
+  const char *vbs = attr(root, "viewBox");
+  if (vbs) {
+    const char *p = vbs;
+    skip_wsp(&p);
+    for (int i = 0; i < 4; i++) {
+      if (i) skip_sep(&p);
+      if (scan_number(&p, &vb[i])) return fail_node(ps, root, "bad viewBox (expected four numbers)");
+    }
+    skip_wsp(&p);
+    if (*p) return fail_node(ps, root, "bad viewBox (expected four numbers)");
+    if (!(vb[2] > 0.0) || !(vb[3] > 0.0)) return fail_node(ps, root, "viewBox width and height must be positive");
+  } else {
+    const char *ws = attr(root, "width"), *hs = attr(root, "height");
+    if (!ws || !hs) return fail_node(ps, root, "no viewBox and no width/height: cannot map to UV");
+    vb[0] = vb[1] = 0.0;
+    if (parse_length(ws, &vb[2]) || parse_length(hs, &vb[3]))
+      return fail_node(ps, root, "width/height must be absolute lengths when there is no viewBox");
+    if (!(vb[2] > 0.0) || !(vb[3] > 0.0)) return fail_node(ps, root, "width and height must be positive");
+  }
+  memcpy(ps->set->viewbox, vb, sizeof vb);
+  /* u = (x - x0)/w, v = 1 - (y - y0)/h (SPEC §2). */
+  double m[6] = {1.0 / vb[2], 0.0, 0.0, -1.0 / vb[3], -vb[0] / vb[2], 1.0 + vb[1] / vb[3]};
+  memcpy(st->ctm, m, sizeof m);
+  /* Widths are lengths in viewBox units; with a non-square viewBox the
+   * geometric mean of the two scales keeps areas right. */
+  ps->width_scale = 1.0 / sqrt(vb[2] * vb[3]);
+  return CH_OK;
+}
+
+ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name, ch_curve_set *out,
+                              ch_error *err) {
+  memset(out, 0, sizeof *out);
+  if (size > (size_t)CH_SVG_MAX_BYTES)
+    return ch_error_set(err, CH_ERR_INPUT, "%s: file too large for an SVG (%zu bytes)", name, size);
+  xmlParserCtxtPtr ctx = xmlNewParserCtxt();
+  if (!ctx) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
+  xmlDocPtr doc = xmlCtxtReadMemory(ctx, data, (int)size, name, NULL,
+                                    XML_PARSE_NONET | XML_PARSE_NOERROR | XML_PARSE_NOWARNING);
+  if (!doc) {
+    const xmlError *xe = xmlCtxtGetLastError(ctx);
+    char msg[300] = "not well-formed XML";
+    int line = 0;
+    if (xe && xe->message) {
+      snprintf(msg, sizeof msg, "%s", xe->message);
+      size_t n = strlen(msg);
+      while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == ' ')) msg[--n] = '\0';
+      line = xe->line;
+    }
+    xmlFreeParserCtxt(ctx);
+    return ch_error_set(err, CH_ERR_INPUT, "%s: line %d: bad XML: %s", name, line, msg);
+  }
+  svg_parser ps = {.name = name, .err = err, .set = out};
+  ch_error local = {0};
+  if (!err) ps.err = &local;
+  ch_status st = CH_OK;
+  const xmlNode *root = xmlDocGetRootElement(doc);
+  if (!root || !is_svg_element(root) || strcmp((const char *)root->name, "svg") != 0) {
+    st = ch_error_set(ps.err, CH_ERR_INPUT, "%s: not an SVG file (root element is <%s>)", name,
+                      root ? (const char *)root->name : "none");
+  } else {
+    svg_style style = {0};
+    st = root_mapping(&ps, root, &style);
+    if (!st) st = inherit(&ps, root, &style);
+    if (!st) st = walk(&ps, root->children, &style);
+  }
+  if (!st && out->num_curves == 0)
+    st = ch_error_set(ps.err, CH_ERR_INPUT, "%s: no curves (no <path> or basic shape elements)", name);
+  if (!st) {
+    for (int i = 0; i < ps.num_ignored_kinds; i++)
+      ch_warn(ps.err, "%s: ignored %d <%s> element%s (first on line %d): not a feature curve", name,
+              ps.ignored_count[i], ps.ignored_name[i], ps.ignored_count[i] > 1 ? "s" : "",
+              ps.ignored_line[i]);
+  }
+  xmlFreeDoc(doc);
+  xmlFreeParserCtxt(ctx);
+  if (st) {
+    ch_curves_free(out);
+    return st;
+  }
+  return CH_OK;
+}
+
+ch_status ch_curves_read_svg(const char *path, ch_curve_set *out, ch_error *err) {
+  memset(out, 0, sizeof *out);
+  char *data;
+  size_t size;
+  ch_status st = ch_file_read_all(path, CH_SVG_MAX_BYTES, &data, &size, err);
+  if (st) return st;
+  st = ch_curves_parse_svg(data, size, path, out, err);
+  free(data);
+  return st;
+}

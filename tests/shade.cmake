@@ -1,0 +1,2 @@
+ch_add_test(NAME test_geometry SOURCES test_geometry.c LIBS chisel_shade)
+ch_add_test(NAME test_svg SOURCES test_svg.c LIBS chisel_shade)

@@ -1,0 +1,404 @@
+/* Exact curve geometry against independent brute force: closest points on
+ * lines and quadratics, signed distance with joints and rounded caps, cubic
+ * and arc splitting, and the grid-accelerated groove field against a scan of
+ * every curve. */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "ch_bezier.h"
+#include "ch_curves.h"
+#include "ch_groove.h"
+#include "ch_test.h"
+
+static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
+static double rnd(void) { /* xorshift64*, uniform in [0, 1) */
+  rng_state ^= rng_state >> 12;
+  rng_state ^= rng_state << 25;
+  rng_state ^= rng_state >> 27;
+  return (double)((rng_state * 0x2545f4914f6cdd1dull) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* Independent closest point: 4096 samples, then bisection on the sign of
+ * the derivative of the squared distance around the best sample (both
+ * neighbours' intervals). Shares no code with ch_bezier. */
+static void eval_q(const double p[3][2], double t, double out[2]) {
+  double s = 1 - t;
+  for (int k = 0; k < 2; k++) out[k] = s * s * p[0][k] + 2 * s * t * p[1][k] + t * t * p[2][k];
+}
+static double brute_d2(const double p[3][2], const double q[2], double *t_best) {
+  enum { N = 4096 };
+  double best = INFINITY;
+  int bi = 0;
+  for (int i = 0; i <= N; i++) {
+    double x[2];
+    eval_q(p, (double)i / N, x);
+    double d = (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
+    if (d < best) best = d, bi = i;
+  }
+  double tb = (double)bi / N;
+  for (int side = -1; side <= 1; side += 2) {
+    double lo = (double)bi / N, hi = (double)(bi + side) / N;
+    if (hi < 0 || hi > 1) continue;
+    if (lo > hi) { double tmp = lo; lo = hi; hi = tmp; }
+    for (int it = 0; it < 200; it++) {
+      double m = 0.5 * (lo + hi), x[2];
+      eval_q(p, m, x);
+      double s = 1 - m;
+      double d[2] = {2 * s * (p[1][0] - p[0][0]) + 2 * m * (p[2][0] - p[1][0]),
+                     2 * s * (p[1][1] - p[0][1]) + 2 * m * (p[2][1] - p[1][1])};
+      double g = (x[0] - q[0]) * d[0] + (x[1] - q[1]) * d[1];
+      if (g > 0) hi = m; else lo = m;
+    }
+    double x[2];
+    eval_q(p, 0.5 * (lo + hi), x);
+    double dd = (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
+    if (dd < best) best = dd, tb = 0.5 * (lo + hi);
+  }
+  *t_best = tb;
+  return best;
+}
+
+static void random_quad(double p[3][2], int kind) {
+  for (int i = 0; i < 3; i++) p[i][0] = rnd(), p[i][1] = rnd();
+  switch (kind) {
+  case 1: /* nearly straight: control point 1e-9 off the chord's middle */
+    p[1][0] = 0.5 * (p[0][0] + p[2][0]) + 1e-9 * (rnd() - 0.5);
+    p[1][1] = 0.5 * (p[0][1] + p[2][1]) + 1e-9 * (rnd() - 0.5);
+    break;
+  case 2: /* control point on an end */
+    memcpy(p[1], p[rnd() < 0.5 ? 0 : 2], sizeof p[1]);
+    break;
+  case 3: /* folded: collinear, control point beyond the end */
+    p[1][0] = p[0][0] + 1.7 * (p[2][0] - p[0][0]);
+    p[1][1] = p[0][1] + 1.7 * (p[2][1] - p[0][1]);
+    break;
+  case 4: /* closed loop: ends coincide */
+    memcpy(p[2], p[0], sizeof p[2]);
+    break;
+  case 5: /* tiny segment */
+    for (int i = 1; i < 3; i++) p[i][0] = p[0][0] + 1e-7 * rnd(), p[i][1] = p[0][1] + 1e-7 * rnd();
+    break;
+  default: break;
+  }
+}
+
+static void test_closest_vs_brute_force(void) {
+  double max_err = 0.0;
+  int n = 100000;
+  for (int i = 0; i < n; i++) {
+    double p[3][2], q[2] = {rnd() * 1.4 - 0.2, rnd() * 1.4 - 0.2};
+    random_quad(p, i % 6);
+    double t, tb;
+    double d = sqrt(ch_bezier_closest(p, 0, q, &t));
+    double db = sqrt(brute_d2(p, q, &tb));
+    /* The returned t must give the returned distance. */
+    double x[2];
+    eval_q(p, t, x);
+    double dt = hypot(x[0] - q[0], x[1] - q[1]);
+    double err = fmax(fabs(d - db), fabs(dt - d));
+    if (d > db + 1e-9) CHECK_MSG(0, "point %d kind %d: %.17g vs brute %.17g", i, i % 6, d, db);
+    if (err > max_err) max_err = err;
+  }
+  fprintf(stderr, "  quadratic closest point: max |d - brute| over %d points = %.3g\n", n, max_err);
+  CHECK(max_err <= 1e-9);
+}
+
+static void test_line_closest(void) {
+  double max_err = 0.0;
+  for (int i = 0; i < 100000; i++) {
+    double p[3][2], q[2] = {rnd(), rnd()}, t, tb;
+    random_quad(p, 0);
+    p[1][0] = 0.5 * (p[0][0] + p[2][0]);
+    p[1][1] = 0.5 * (p[0][1] + p[2][1]);
+    double d = sqrt(ch_bezier_closest(p, 1, q, &t));
+    double db = sqrt(brute_d2(p, q, &tb));
+    if (fabs(d - db) > max_err) max_err = fabs(d - db);
+  }
+  fprintf(stderr, "  line closest point: max |d - brute| = %.3g\n", max_err);
+  CHECK(max_err <= 1e-9);
+}
+
+/* Builds a one-curve set from segments given as polylines/quads. */
+static ch_curve_set make_set(const double (*pts)[3][2], int n, int closed, int is_line) {
+  static ch_curve curve;
+  static ch_segment segs[64];
+  static ch_subpath sub;
+  memset(&curve, 0, sizeof curve);
+  for (int i = 0; i < n; i++) {
+    memcpy(segs[i].p, pts[i], sizeof segs[i].p);
+    segs[i].curve = 0;
+    segs[i].is_line = is_line;
+    segs[i].prev = i > 0 ? i - 1 : closed ? n - 1 : -1;
+    segs[i].next = i + 1 < n ? i + 1 : closed ? 0 : -1;
+  }
+  curve.num_segments = n;
+  curve.num_subpaths = 1;
+  curve.width = 0.1;
+  curve.depth = 0.01;
+  sub.num_segments = n;
+  sub.closed = closed;
+  ch_curve_set set = {.num_curves = 1, .curves = &curve, .num_segments = n, .segments = segs,
+                      .num_subpaths = 1, .subpaths = &sub};
+  return set;
+}
+
+static void test_signed_distance_and_caps(void) {
+  /* A straight path from (0.2, 0.5) to (0.8, 0.5), heading +u: v up is left. */
+  double line[1][3][2] = {{{0.2, 0.5}, {0.5, 0.5}, {0.8, 0.5}}};
+  ch_curve_set set = make_set(line, 1, 0, 1);
+  ch_curve_point cp;
+  ch_curve_closest(&set, 0, (double[2]){0.5, 0.6}, &cp);
+  CHECK_NEAR(cp.signed_distance, 0.1, 1e-15);
+  ch_curve_closest(&set, 0, (double[2]){0.5, 0.47}, &cp);
+  CHECK_NEAR(cp.signed_distance, -0.03, 1e-15);
+  /* Rounded cap beyond the end: distance to the end point, sign from the
+   * tangent line there. */
+  ch_curve_closest(&set, 0, (double[2]){0.9, 0.55}, &cp);
+  CHECK_NEAR(cp.signed_distance, hypot(0.1, 0.05), 1e-15);
+  ch_curve_closest(&set, 0, (double[2]){0.9, 0.45}, &cp);
+  CHECK_NEAR(cp.signed_distance, -hypot(0.1, 0.05), 1e-15);
+  ch_curve_closest(&set, 0, (double[2]){0.1, 0.46}, &cp);
+  CHECK_NEAR(cp.signed_distance, -hypot(0.1, 0.04), 1e-15);
+  /* On the tangent line beyond the end: counted as left. */
+  ch_curve_closest(&set, 0, (double[2]){0.95, 0.5}, &cp);
+  CHECK_NEAR(cp.signed_distance, 0.15, 1e-15);
+
+  /* A left turn: east then north, corner at (0.5, 0.5). The outer wedge
+   * (south-east of the corner) is on the right; the inside on the left. */
+  double turn[2][3][2] = {{{0.2, 0.5}, {0.35, 0.5}, {0.5, 0.5}}, {{0.5, 0.5}, {0.5, 0.65}, {0.5, 0.8}}};
+  set = make_set(turn, 2, 0, 1);
+  ch_curve_closest(&set, 0, (double[2]){0.6, 0.4}, &cp);
+  CHECK_NEAR(cp.signed_distance, -hypot(0.1, 0.1), 1e-15);
+  ch_curve_closest(&set, 0, (double[2]){0.45, 0.55}, &cp);
+  CHECK_NEAR(cp.signed_distance, 0.05, 1e-15);
+  /* A right turn: east then south; the outer wedge (north-east) is left. */
+  double rturn[2][3][2] = {{{0.2, 0.5}, {0.35, 0.5}, {0.5, 0.5}}, {{0.5, 0.5}, {0.5, 0.35}, {0.5, 0.2}}};
+  set = make_set(rturn, 2, 0, 1);
+  ch_curve_closest(&set, 0, (double[2]){0.6, 0.6}, &cp);
+  CHECK_NEAR(cp.signed_distance, hypot(0.1, 0.1), 1e-15);
+  ch_curve_closest(&set, 0, (double[2]){0.45, 0.45}, &cp);
+  CHECK_NEAR(cp.signed_distance, -0.05, 1e-15);
+
+  /* A turn sharper than a right angle (170 degrees to the right): the
+   * joint's region reaches round to the right of the incoming tangent, yet
+   * all of it is on the left (outside the narrow inner sector). */
+  {
+    double a0 = -65.0 * 3.14159265358979 / 180, a1 = 125.0 * 3.14159265358979 / 180;
+    double c[2] = {0.5, 0.5};
+    double sharp[2][3][2] = {{{c[0] - 0.3 * cos(a0), c[1] - 0.3 * sin(a0)}, {0}, {c[0], c[1]}},
+                             {{c[0], c[1]}, {0}, {c[0] + 0.3 * cos(a1), c[1] + 0.3 * sin(a1)}}};
+    for (int k = 0; k < 2; k++)
+      for (int j = 0; j < 2; j++) sharp[k][1][j] = 0.5 * (sharp[k][0][j] + sharp[k][2][j]);
+    set = make_set(sharp, 2, 0, 1);
+    double ang = -89.0 * 3.14159265358979 / 180;
+    ch_curve_closest(&set, 0, (double[2]){0.5 + 0.01 * cos(ang), 0.5 + 0.01 * sin(ang)}, &cp);
+    CHECK_NEAR(cp.signed_distance, 0.01, 1e-12);
+    /* Inside the 10-degree inner sector: right. */
+    ang = 120.0 * 3.14159265358979 / 180;
+    ch_curve_closest(&set, 0, (double[2]){0.5 + 0.01 * cos(ang), 0.5 + 0.01 * sin(ang)}, &cp);
+    CHECK(cp.signed_distance < 0);
+  }
+
+  /* A closed counter-clockwise square: the inside is on the left. */
+  double sq[4][3][2] = {{{0.2, 0.2}, {0.5, 0.2}, {0.8, 0.2}}, {{0.8, 0.2}, {0.8, 0.5}, {0.8, 0.8}},
+                        {{0.8, 0.8}, {0.5, 0.8}, {0.2, 0.8}}, {{0.2, 0.8}, {0.2, 0.5}, {0.2, 0.2}}};
+  set = make_set(sq, 4, 1, 1);
+  int inside_ok = 1, outside_ok = 1;
+  for (int i = 0; i < 2000; i++) {
+    double q[2] = {rnd(), rnd()};
+    ch_curve_closest(&set, 0, q, &cp);
+    int inside = q[0] > 0.2 && q[0] < 0.8 && q[1] > 0.2 && q[1] < 0.8;
+    if (inside && cp.signed_distance <= 0) inside_ok = 0;
+    if (!inside && cp.signed_distance > 0) outside_ok = 0;
+  }
+  CHECK(inside_ok);
+  CHECK(outside_ok);
+}
+
+static void test_profiles(void) {
+  ch_profile p;
+  char why[200];
+  CHECK(ch_profile_parse("v", &p, why, sizeof why) == 0 && p.kind == CH_PROFILE_V);
+  CHECK_NEAR(ch_profile_eval(&p, 0.0), -1.0, 0);
+  CHECK_NEAR(ch_profile_eval(&p, 0.25), -0.5, 1e-15);
+  CHECK_NEAR(ch_profile_eval(&p, -0.5), 0.0, 0);
+  CHECK_NEAR(ch_profile_eval(&p, 0.7), 0.0, 0);
+  CHECK(ch_profile_parse(" u ", &p, why, sizeof why) == 0 && p.kind == CH_PROFILE_U);
+  CHECK_NEAR(ch_profile_eval(&p, 0.3), -sqrt(1 - 4 * 0.09), 1e-15);
+  CHECK(ch_profile_parse("box", &p, why, sizeof why) == 0);
+  CHECK_NEAR(ch_profile_eval(&p, 0.4999), -1.0, 0);
+  CHECK_NEAR(ch_profile_eval(&p, 0.5), 0.0, 0);
+  CHECK(ch_profile_parse("ridge", &p, why, sizeof why) == 0);
+  CHECK_NEAR(ch_profile_eval(&p, -0.1), 0.8, 1e-15);
+  CHECK(ch_profile_parse("bevel", &p, why, sizeof why) == 0);
+  CHECK_NEAR(ch_profile_eval(&p, 0.1), -0.8, 1e-15);
+  CHECK_NEAR(ch_profile_eval(&p, -0.1), 0.0, 0);
+  CHECK(ch_profile_parse("-0.5,0 -0.25,-0.6 0,-0.6 0.25,-1 0.5,0", &p, why, sizeof why) == 0);
+  CHECK(p.kind == CH_PROFILE_CUSTOM && p.num_points == 5);
+  CHECK_NEAR(ch_profile_eval(&p, -0.375), -0.3, 1e-15);
+  CHECK_NEAR(ch_profile_eval(&p, 0.125), -0.8, 1e-15);
+  /* A custom box: at the walls the smaller magnitude. */
+  CHECK(ch_profile_parse("-0.3,0 -0.3,-1 0.3,-1 0.3,0", &p, why, sizeof why) == 0);
+  CHECK_NEAR(ch_profile_eval(&p, -0.3), 0.0, 0);
+  CHECK_NEAR(ch_profile_eval(&p, 0.0), -1.0, 0);
+  double t[8];
+  CHECK(ch_profile_creases(&p, t, 8) == 2);
+  CHECK(ch_profile_parse("w", &p, why, sizeof why) != 0);
+  CHECK(ch_profile_parse("0.1,0 0,1", &p, why, sizeof why) != 0);    /* decreasing t */
+  CHECK(ch_profile_parse("0.1,0 0.6,1", &p, why, sizeof why) != 0);  /* outside [-1/2,1/2] */
+  CHECK(ch_profile_parse("0.1,0 0.2", &p, why, sizeof why) != 0);    /* odd count */
+  CHECK(ch_profile_parse("0,0 0,1 0,2", &p, why, sizeof why) != 0);  /* three at one t */
+}
+
+/* Cubic splitting: every quadratic piece is within the tolerance of the
+ * cubic (checked at 2000 points against the cubic itself). */
+static int collect_quads(void *user, const double q[3][2]) {
+  double (*arr)[3][2] = ((double(**)[3][2])user)[0];
+  int *count = ((int **)user)[1];
+  memcpy(arr[*count], q, sizeof arr[0]);
+  (*count)++;
+  return 0;
+}
+
+static void test_cubic_split(void) {
+  static double quads[5000][3][2];
+  double max_dev = 0.0;
+  for (int trial = 0; trial < 50; trial++) {
+    double c[4][2];
+    for (int i = 0; i < 4; i++) c[i][0] = rnd(), c[i][1] = rnd();
+    int count = 0;
+    void *user[2] = {quads, &count};
+    ch_cubic_to_quads(c, 1e-6, collect_quads, user);
+    REQUIRE(count > 0 && count < 5000);
+    CHECK(quads[0][0][0] == c[0][0] && quads[count - 1][2][1] == c[3][1]);
+    for (int i = 0; i <= 2000; i++) {
+      double t = i / 2000.0, s = 1 - t, x[2];
+      for (int k = 0; k < 2; k++)
+        x[k] = s * s * s * c[0][k] + 3 * s * s * t * c[1][k] + 3 * s * t * t * c[2][k] + t * t * t * c[3][k];
+      double best = INFINITY;
+      for (int j = 0; j < count; j++) {
+        double tt;
+        double d = ch_bezier_closest(quads[j], 0, x, &tt);
+        if (d < best) best = d;
+      }
+      if (sqrt(best) > max_dev) max_dev = sqrt(best);
+    }
+  }
+  fprintf(stderr, "  cubic -> quadratics: max deviation %.3g (tolerance 1e-6)\n", max_dev);
+  CHECK(max_dev <= 1e-6);
+}
+
+static void test_arc_split(void) {
+  static double quads[5000][3][2];
+  int count = 0;
+  void *user[2] = {quads, &count};
+  /* A full circle of radius 0.3 about (0.5, 0.5). */
+  double m[6] = {0.3, 0, 0, 0.3, 0.5, 0.5};
+  ch_arc_to_quads(0.0, 2 * 3.14159265358979323846, m, 1e-6, collect_quads, user);
+  double max_dev = 0.0;
+  for (int j = 0; j < count; j++)
+    for (int i = 0; i <= 50; i++) {
+      double x[2];
+      eval_q(quads[j], i / 50.0, x);
+      double r = hypot(x[0] - 0.5, x[1] - 0.5);
+      if (fabs(r - 0.3) > max_dev) max_dev = fabs(r - 0.3);
+    }
+  fprintf(stderr, "  circle -> %d quadratics: max radial deviation %.3g\n", count, max_dev);
+  CHECK(max_dev <= 1e-6);
+  CHECK(count <= 48); /* h^4/8 <= tol/r: 44 pieces for r = 0.3 */
+}
+
+/* The grid-accelerated field equals a scan of every curve. */
+static void test_field_vs_scan(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_read_svg(CHISEL_TEST_DATA "/svg/mixed.svg", &set, &err) == CH_OK);
+  ch_groove_field field;
+  REQUIRE(ch_groove_field_init(&field, &set, &err) == CH_OK);
+  int mismatches = 0;
+  for (int i = 0; i < 20000; i++) {
+    double q[2] = {rnd() * 1.2 - 0.1, rnd() * 1.2 - 0.1};
+    double min_carve = 0, max_raise = 0;
+    for (int c = 0; c < set.num_curves; c++) {
+      if (set.curves[c].kind != CH_CURVE_GROOVE) continue;
+      ch_curve_point cp;
+      ch_curve_closest(&set, c, q, &cp);
+      double g = set.curves[c].depth * ch_profile_eval(&set.curves[c].profile, cp.signed_distance / set.curves[c].width);
+      if (g < min_carve) min_carve = g;
+      if (g > max_raise) max_raise = g;
+    }
+    double want = min_carve < 0 ? min_carve : max_raise;
+    double got = ch_groove_field_eval(&field, q[0], q[1], NULL);
+    if (fabs(got - want) > 1e-12) mismatches++;
+  }
+  CHECK_MSG(mismatches == 0, "%d of 20000 points differ", mismatches);
+  ch_groove_field_free(&field);
+  ch_curves_free(&set);
+}
+
+/* h_groove at hand-computed points. */
+static void test_groove_values(void) {
+  static const char svg[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<path id='a' d='M 10 50 L 90 50' data-width='10' data-depth='0.02'/>"          /* v along v=0.5 */
+      "<path id='b' d='M 50 10 L 50 90' data-profile='box' data-width='4' data-depth='0.01'/>"
+      "<path id='c' d='M 10 20 L 90 20' data-profile='ridge' data-width='10' data-depth='-0.03'/>"
+      "<path id='d' d='M 10 80 L 90 80' data-profile='bevel' data-width='10' data-depth='0.01'/>"
+      "</svg>";
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(svg, sizeof svg - 1, "inline.svg", &set, &err) == CH_OK);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  /* v groove: width 0.1, at s = 0.025: P = -(1 - 2*0.25) = -0.5, h = -0.01. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.525, NULL), -0.01, 1e-15);
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.5, NULL), -0.02, 1e-15);
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.56, NULL), 0.0, 0);
+  /* Rounded cap: 0.03 beyond the start (0.1, 0.5): t = 0.3, P = -0.4. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.07, 0.5, NULL), -0.008, 1e-15);
+  /* Crossing of v (-0.02 at its centre) and box (-0.01): the minimum. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.5, 0.5, NULL), -0.02, 1e-15);
+  /* Beside the v centre but inside the box: v gives -0.02*(1-2*0.05) = -0.018. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.5, 0.505, NULL), -0.018, 1e-15);
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.51, 0.3, NULL), -0.01, 0);
+  /* SVG y = 20 is v = 0.8. A ridge with negative depth carves:
+   * -0.03 * (1 - 2 * 0.1) at 0.01 from its centre. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.81, NULL), -0.024, 1e-15);
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.79, NULL), -0.024, 1e-15);
+  /* Bevel at v = 0.2: the left of a path heading +u is above it. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.21, NULL), -0.01 * 0.8, 1e-15);
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.19, NULL), 0.0, 0);
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+
+  /* Raised ridges combine by max, and any carve wins over them. */
+  static const char svg2[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<path d='M 10 50 L 90 50' data-profile='ridge' data-width='10' data-depth='0.02'/>"
+      "<path d='M 10 52 L 90 52' data-profile='ridge' data-width='10' data-depth='0.02'/>"
+      "<path d='M 70 10 L 70 90' data-profile='v' data-width='4' data-depth='0.001'/>"
+      "</svg>";
+  REQUIRE(ch_curves_parse_svg(svg2, sizeof svg2 - 1, "inline2.svg", &set, &err) == CH_OK);
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  /* At v = 0.51: both ridges at s = 0.01 -> 0.02 * 0.8 = 0.016. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.51, NULL), 0.016, 1e-15);
+  /* At v = 0.5: first ridge 0.02, second 0.02*(1-0.4) = 0.012 -> max 0.02. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.3, 0.5, NULL), 0.02, 1e-15);
+  /* The v groove carves through the ridges: -0.001. */
+  CHECK_NEAR(ch_groove_field_eval(&f, 0.7, 0.5, NULL), -0.001, 1e-15);
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
+int main(void) {
+  RUN(test_closest_vs_brute_force);
+  RUN(test_line_closest);
+  RUN(test_signed_distance_and_caps);
+  RUN(test_profiles);
+  RUN(test_cubic_split);
+  RUN(test_arc_split);
+  RUN(test_groove_values);
+  RUN(test_field_vs_scan);
+  TEST_MAIN_END();
+}

@@ -1,0 +1,286 @@
+/* The SVG reader (SPEC §2): every path command, shapes, transforms,
+ * inheritance and the viewBox mapping on valid input; one clear message for
+ * every malformed file in data/svg/bad. */
+#include <math.h>
+#include <string.h>
+
+#include "ch_bezier.h"
+#include "ch_curves.h"
+#include "ch_groove.h"
+#include "ch_test.h"
+
+static int parse(const char *body, ch_curve_set *set, ch_error *err) {
+  char buf[8192];
+  snprintf(buf, sizeof buf,
+           "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>%s</svg>", body);
+  memset(err, 0, sizeof *err);
+  return ch_curves_parse_svg(buf, strlen(buf), "t.svg", set, err);
+}
+
+/* The UV point of control point k of segment i. */
+static double P(const ch_curve_set *s, int i, int k, int axis) { return s->segments[i].p[k][axis]; }
+
+static void test_viewbox_mapping(void) {
+  ch_curve_set s;
+  ch_error err;
+  const char *svg = "<svg xmlns='http://www.w3.org/2000/svg' viewBox='10 20 200 100'>"
+                    "<path d='M 10 20 L 210 120' data-width='8'/></svg>";
+  REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "vb.svg", &s, &err) == CH_OK);
+  REQUIRE(s.num_segments == 1);
+  CHECK_NEAR(P(&s, 0, 0, 0), 0.0, 1e-15);
+  CHECK_NEAR(P(&s, 0, 0, 1), 1.0, 1e-15); /* SVG top is v = 1 */
+  CHECK_NEAR(P(&s, 0, 2, 0), 1.0, 1e-15);
+  CHECK_NEAR(P(&s, 0, 2, 1), 0.0, 1e-15);
+  CHECK(s.segments[0].is_line);
+  /* Width in viewBox units, geometric mean scale for non-square boxes. */
+  CHECK_NEAR(s.curves[0].width, 8.0 / sqrt(200.0 * 100.0), 1e-15);
+  ch_curves_free(&s);
+  /* Without a viewBox: width/height in user units (mm -> px). */
+  svg = "<svg xmlns='http://www.w3.org/2000/svg' width='50mm' height='50mm'>"
+        "<path d='M 0 0 L 94.48818897637796 0'/></svg>";
+  REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "wh.svg", &s, &err) == CH_OK);
+  CHECK_NEAR(P(&s, 0, 2, 0), 0.5, 1e-12);
+  ch_curves_free(&s);
+}
+
+static void test_path_commands(void) {
+  ch_curve_set s;
+  ch_error err;
+  /* Relative commands, H/V, implicit lineto after M, closepath. */
+  REQUIRE(parse("<path d='m 10 10 l 10 0 h 5 v 5 20 z'/>", &s, &err) == CH_OK);
+  REQUIRE(s.num_segments == 5); /* "v 5 20" is two vertical linetos */
+  CHECK_NEAR(P(&s, 0, 2, 0), 0.20, 1e-15);
+  CHECK_NEAR(P(&s, 1, 2, 0), 0.25, 1e-15);
+  CHECK_NEAR(P(&s, 2, 2, 1), 1 - 0.15, 1e-15);
+  CHECK_NEAR(P(&s, 3, 2, 1), 1 - 0.35, 1e-15);
+  CHECK_NEAR(P(&s, 4, 2, 0), 0.10, 1e-15); /* z returns to the start */
+  CHECK(s.subpaths[0].closed);
+  ch_curves_free(&s);
+  /* Numbers without separators: "M10-5L.5.5" is (10,-5) (.5,.5). */
+  REQUIRE(parse("<path d='M10-5L.5.5'/>", &s, &err) == CH_OK);
+  CHECK_NEAR(P(&s, 0, 0, 0), 0.10, 1e-15);
+  CHECK_NEAR(P(&s, 0, 0, 1), 1.05, 1e-15);
+  CHECK_NEAR(P(&s, 0, 2, 0), 0.005, 1e-15);
+  CHECK_NEAR(P(&s, 0, 2, 1), 0.995, 1e-15);
+  ch_curves_free(&s);
+  /* Implicit lineto after M, exponent numbers. */
+  REQUIRE(parse("<path d='M 0 0 1e1 0 10 1E1'/>", &s, &err) == CH_OK);
+  CHECK(s.num_segments == 2);
+  CHECK_NEAR(P(&s, 1, 2, 1), 0.9, 1e-15);
+  ch_curves_free(&s);
+  /* Q then T reflects the control point. */
+  REQUIRE(parse("<path d='M 10 50 Q 30 10 50 50 T 90 50'/>", &s, &err) == CH_OK);
+  REQUIRE(s.num_segments == 2);
+  CHECK_NEAR(P(&s, 1, 1, 0), 0.70, 1e-15);
+  CHECK_NEAR(P(&s, 1, 1, 1), 1 - 0.90, 1e-15);
+  ch_curves_free(&s);
+  /* C then S: S's first control point mirrors C's second. Both cubics are
+   * symmetric S-curves; check that the point at the join is exact and that
+   * the curve passes through the cubic's midpoint. */
+  REQUIRE(parse("<path d='M 10 50 C 10 20 40 20 40 50 S 70 80 70 50'/>", &s, &err) == CH_OK);
+  CHECK(s.num_segments > 2);
+  {
+    /* Cubic 2 is (40,50) (40,80) (70,80) (70,50): midpoint (55, 72.5). */
+    double q[2] = {0.55, 1 - 0.725};
+    ch_curve_point cp;
+    ch_curve_closest(&s, 0, q, &cp);
+    CHECK(cp.distance < 1e-6);
+  }
+  ch_curves_free(&s);
+  /* Arc: a half circle of radius 40 about (50,50); flags without spaces. */
+  REQUIRE(parse("<path d='M10 50A40 40 0 0190 50'/>", &s, &err) == CH_OK);
+  {
+    double max_dev = 0;
+    for (int i = 0; i < s.num_segments; i++)
+      for (int k = 0; k <= 10; k++) {
+        double x[2];
+        ch_bezier_eval(s.segments[i].p, k / 10.0, x);
+        max_dev = fmax(max_dev, fabs(hypot(x[0] - 0.5, x[1] - 0.5) - 0.4));
+      }
+    CHECK(max_dev < 1e-6);
+    /* Sweep 1 runs clockwise on screen from the left: over the top, v > 0.5. */
+    double mid[2];
+    ch_bezier_eval(s.segments[s.num_segments / 2].p, 0.5, mid);
+    CHECK(mid[1] > 0.85);
+    CHECK_NEAR(P(&s, s.num_segments - 1, 2, 0), 0.9, 0);
+  }
+  ch_curves_free(&s);
+  /* Arc with radii too small is scaled up (F.6.6): still a half circle. */
+  REQUIRE(parse("<path d='M 10 50 A 1 1 0 0 0 90 50'/>", &s, &err) == CH_OK);
+  {
+    double mid[2];
+    ch_bezier_eval(s.segments[s.num_segments / 2].p, 0.5, mid);
+    CHECK_NEAR(hypot(mid[0] - 0.5, mid[1] - 0.5), 0.4, 1e-6);
+    CHECK(mid[1] < 0.15);
+  }
+  ch_curves_free(&s);
+  /* Subpaths: two open pieces in one path; Z closes and links. */
+  REQUIRE(parse("<path d='M 10 10 L 20 10 M 30 30 L 40 30 L 40 40 Z'/>", &s, &err) == CH_OK);
+  CHECK(s.num_subpaths == 2 && s.curves[0].num_subpaths == 2);
+  CHECK(!s.subpaths[0].closed && s.subpaths[1].closed);
+  CHECK(s.segments[0].prev == -1 && s.segments[0].next == -1);
+  CHECK(s.segments[1].prev == 3 && s.segments[3].next == 1);
+  ch_curves_free(&s);
+  /* A path ending on its start without Z counts as closed. */
+  REQUIRE(parse("<path d='M 10 10 L 20 10 L 20 20 L 10 10'/>", &s, &err) == CH_OK);
+  CHECK(s.subpaths[0].closed);
+  ch_curves_free(&s);
+}
+
+static void test_shapes_and_sides(void) {
+  ch_curve_set s;
+  ch_error err;
+  /* SVG lays circles out clockwise as seen on screen (from (cx+r, cy)
+   * towards (cx, cy+r), which is below the centre): the inside is on the
+   * right. */
+  REQUIRE(parse("<circle cx='50' cy='50' r='20' data-kind='step' data-left='1'/>", &s, &err) == CH_OK);
+  CHECK(s.curves[0].kind == CH_CURVE_STEP && s.curves[0].left == 1.0);
+  CHECK(s.subpaths[0].closed);
+  ch_curve_point cp;
+  ch_curve_closest(&s, 0, (double[2]){0.5, 0.55}, &cp);
+  CHECK_NEAR(cp.signed_distance, -0.15, 1e-6);
+  ch_curve_closest(&s, 0, (double[2]){0.95, 0.5}, &cp);
+  CHECK_NEAR(cp.signed_distance, 0.25, 1e-6);
+  ch_curves_free(&s);
+  /* Rounded rect: straight sides plus quarter arcs, also clockwise. */
+  REQUIRE(parse("<rect x='20' y='30' width='60' height='40' rx='10'/>", &s, &err) == CH_OK);
+  CHECK(s.subpaths[0].closed);
+  ch_curve_closest(&s, 0, (double[2]){0.5, 0.5}, &cp);
+  CHECK_NEAR(cp.signed_distance, -0.2, 1e-12);
+  ch_curve_closest(&s, 0, (double[2]){0.2, 0.7}, &cp); /* the rounded corner's outside */
+  CHECK_NEAR(cp.signed_distance, sqrt(2) * 0.1 - 0.1, 1e-6);
+  ch_curves_free(&s);
+  REQUIRE(parse("<ellipse cx='50' cy='50' rx='30' ry='10'/><line x1='0' y1='0' x2='100' y2='100'/>"
+                "<polygon points='10,10 20,10 20,20'/><polyline points='10 10, 20 10 20 20'/>",
+                &s, &err) == CH_OK);
+  CHECK(s.num_curves == 4);
+  CHECK(s.subpaths[s.curves[2].first_subpath].closed && !s.subpaths[s.curves[3].first_subpath].closed);
+  CHECK(strcmp(s.curves[0].element, "ellipse") == 0);
+  ch_curves_free(&s);
+}
+
+static void test_transforms_and_inheritance(void) {
+  ch_curve_set s;
+  ch_error err;
+  REQUIRE(parse("<g transform='translate(50,50)' data-profile='box' data-width='4'>"
+                "  <g transform='rotate(90) scale(2)' data-depth='0.05'>"
+                "    <path d='M 0 0 L 10 0'/>"
+                "    <path d='M 0 0 L 0 5' data-profile='u' data-width='2'/>"
+                "  </g>"
+                "</g>"
+                "<path d='M 0 0 L 1 1' transform='matrix(1 0 0 1 5 5) skewX(45)'/>",
+                &s, &err) == CH_OK);
+  REQUIRE(s.num_curves == 3);
+  /* (10,0) -> scale 2 -> (20,0) -> rotate 90 -> (0,20) -> +(50,50) -> (50,70). */
+  CHECK_NEAR(P(&s, 0, 2, 0), 0.5, 1e-15);
+  CHECK_NEAR(P(&s, 0, 2, 1), 1 - 0.7, 1e-15);
+  CHECK(s.curves[0].profile.kind == CH_PROFILE_BOX && s.curves[0].depth == 0.05);
+  CHECK_NEAR(s.curves[0].width, 0.04, 1e-15); /* widths are in viewBox units */
+  CHECK(s.curves[1].profile.kind == CH_PROFILE_U);
+  CHECK_NEAR(s.curves[1].width, 0.02, 1e-15);
+  CHECK(s.curves[2].profile.kind == CH_PROFILE_V && s.curves[2].depth == 0.01);
+  CHECK_NEAR(s.curves[2].width, 0.08, 1e-15); /* default 8 */
+  /* skewX(45) maps (1,1) to (2,1), then +(5,5). */
+  CHECK_NEAR(P(&s, 2, 2, 0), 0.07, 1e-15);
+  ch_curves_free(&s);
+  /* Hidden elements and descriptive ones are skipped; unknown ones warn. */
+  REQUIRE(parse("<title>x</title><g style='display:none'><path d='M 0 0 L 1 1'/></g>"
+                "<path display='none' d='M 0 0 L 1 1'/><text>hi</text><text>ho</text>"
+                "<path id='kept' d='M 0 0 L 1 1' data-kind='step' data-left='0.5' data-right='-0.5'"
+                " data-left-color='#ff8000' data-right-color='#0f0' data-blur='2' data-priority='3'/>",
+                &s, &err) == CH_OK);
+  CHECK(s.num_curves == 1 && strcmp(s.curves[0].id, "kept") == 0);
+  CHECK(err.num_warnings == 1); /* one line for both <text> elements */
+  CHECK(s.curves[0].has_colors);
+  CHECK_NEAR(s.curves[0].left_color[1], 128 / 255.0, 1e-15);
+  CHECK_NEAR(s.curves[0].right_color[1], 1.0, 0);
+  CHECK_NEAR(s.curves[0].blur, 0.02, 1e-15);
+  CHECK(s.curves[0].priority == 3 && s.curves[0].right == -0.5);
+  ch_curves_free(&s);
+}
+
+/* Every malformed file: CH_ERR_INPUT, the file named, the problem named. */
+static void test_malformed_files(void) {
+  static const struct { const char *file, *expect; } cases[] = {
+      {"not_xml.svg", "bad XML"},
+      {"unclosed.svg", "bad XML"},
+      {"html_root.svg", "not an SVG"},
+      {"no_viewbox.svg", "no viewBox"},
+      {"bad_viewbox.svg", "viewBox width and height must be positive"},
+      {"bad_path_data.svg", "<path> 'p1' (line 2): bad path data at offset 11 ('x'): expected a number"},
+      {"no_moveto.svg", "must start with a moveto"},
+      {"unknown_profile.svg", "unknown profile 'w'"},
+      {"negative_width.svg", "<path> #0 (line 3): negative data-width"},
+      {"zero_width.svg", "zero data-width"},
+      {"bad_kind.svg", "unknown data-kind 'rail'"},
+      {"bad_depth.svg", "data-depth 'deep' is not a number"},
+      {"nan_depth.svg", "data-depth 'NaN' is not a number"},
+      {"inf_coordinate.svg", "bad path data"},
+      {"overflow_transform.svg", "out of range"},
+      {"bad_transform.svg", "missing ')'"},
+      {"unknown_transform.svg", "bad transform"},
+      {"zero_length.svg", "'dot' (line 1): curve has zero length"},
+      {"moveto_only.svg", "zero length"},
+      {"no_curves.svg", "no curves"},
+      {"odd_points.svg", "odd number of coordinates"},
+      {"negative_radius.svg", "negative radius"},
+      {"zero_radius.svg", "zero length"},
+      {"negative_rect.svg", "negative rect size"},
+      {"bad_color.svg", "bad data-left-color 'red'"},
+      {"bad_custom_profile.svg", "must not decrease"},
+      {"custom_profile_range.svg", "outside [-0.5, 0.5]"},
+      {"empty.svg", "bad XML"},
+      {"garbage.svg", "bad XML"},
+      {"missing_d.svg", "missing d attribute"},
+      {"bad_arc_flag.svg", "expected an arc flag"},
+      {"fractional_priority.svg", "not an integer"},
+      {"negative_blur.svg", "negative data-blur"},
+      {"bad_length.svg", "is not a length"},
+      {"billion_laughs.svg", "bad XML"},
+      {"external_entity.svg", "external entity"},
+      {"deep_nesting.svg", "bad XML"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/svg/bad/%s", CHISEL_TEST_DATA, cases[i].file);
+    ch_curve_set s;
+    ch_error err = {0};
+    ch_status st = ch_curves_read_svg(path, &s, &err);
+    CHECK_MSG(st == CH_ERR_INPUT, "%s: status %d", cases[i].file, st);
+    CHECK_MSG(strstr(err.message, cases[i].file) != NULL, "%s: message lacks the file: %s", cases[i].file,
+              err.message);
+    CHECK_MSG(strstr(err.message, cases[i].expect) != NULL, "%s: expected '%s' in: %s", cases[i].file,
+              cases[i].expect, err.message);
+    CHECK_MSG(strchr(err.message, '\n') == NULL, "%s: message is not one line: %s", cases[i].file, err.message);
+    CHECK(s.num_curves == 0 && s.curves == NULL);
+  }
+  /* A missing file is an I/O error naming it. */
+  ch_curve_set s;
+  ch_error err = {0};
+  CHECK(ch_curves_read_svg("/nonexistent/x.svg", &s, &err) == CH_ERR_IO);
+  CHECK(strstr(err.message, "/nonexistent/x.svg") != NULL);
+}
+
+/* Every bundled curve set parses without warnings. */
+static void test_bundled_curves(void) {
+  static const char *files[] = {"glyphs", "ornament", "frame", "relief", "star", "spiral", "bricks", "panels"};
+  for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/curves/%s.svg", CHISEL_MODELS, files[i]);
+    ch_curve_set s;
+    ch_error err = {0};
+    CHECK_MSG(ch_curves_read_svg(path, &s, &err) == CH_OK, "%s", err.message);
+    CHECK_MSG(err.num_warnings == 0, "%s: %d warnings", files[i], err.num_warnings);
+    ch_curves_free(&s);
+  }
+}
+
+int main(void) {
+  RUN(test_viewbox_mapping);
+  RUN(test_path_commands);
+  RUN(test_shapes_and_sides);
+  RUN(test_transforms_and_inheritance);
+  RUN(test_malformed_files);
+  RUN(test_bundled_curves);
+  TEST_MAIN_END();
+}
