@@ -1,0 +1,116 @@
+#!/usr/bin/env bash
+# The chisel command line end to end: exit statuses (SPEC §5), one-line
+# messages naming the file and the problem, no output file on failure,
+# deterministic output.
+# usage: test_cli.sh CHISEL TESTS_DIR MODELS_DIR TMP_DIR
+set -u
+chisel=$1 tests=$2 models=$3 tmp=$4
+rm -rf "$tmp"
+mkdir -p "$tmp"
+failures=0 checks=0
+
+fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
+
+# expect STATUS CMD...: runs CMD, checks its exit status, keeps stdout/stderr.
+expect() {
+  local want=$1
+  shift
+  checks=$((checks + 1))
+  "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+  local got=$?
+  if [ "$got" != "$want" ]; then
+    fail "exit $got (want $want): $*"
+    sed 's/^/    /' "$tmp/stderr" >&2
+    return 1
+  fi
+  return 0
+}
+# The last command wrote exactly one line on stderr, containing $1.
+one_line_with() {
+  checks=$((checks + 1))
+  local lines
+  lines=$(wc -l <"$tmp/stderr")
+  if [ "$lines" != 1 ]; then fail "$lines stderr lines (want 1), expected '$1':"; sed 's/^/    /' "$tmp/stderr" >&2; return; fi
+  grep -qF -- "$1" "$tmp/stderr" || fail "stderr lacks '$1': $(cat "$tmp/stderr")"
+}
+no_file() {
+  checks=$((checks + 1))
+  [ ! -e "$1" ] || fail "output $1 exists after a failure"
+  # Nor a temporary file beside it.
+  ls "$(dirname "$1")" | grep -q '\.tmp\.' && fail "temporary file left in $(dirname "$1")"
+}
+
+# ---- help and usage ----
+expect 2 "$chisel" && grep -q "usage: chisel COMMAND" "$tmp/stderr" || fail "no usage without arguments"
+expect 0 "$chisel" --help && grep -q "sample" "$tmp/stdout" || fail "--help lists no commands"
+expect 0 "$chisel" --version && grep -q "^chisel " "$tmp/stdout" || fail "--version"
+expect 0 "$chisel" help sample && grep -q "usage: chisel sample" "$tmp/stdout" || fail "help sample"
+expect 0 "$chisel" sample --help && grep -q "supersample" "$tmp/stdout" || fail "sample --help"
+expect 0 "$chisel" info -h && grep -q "usage: chisel info" "$tmp/stdout" || fail "info -h"
+expect 2 "$chisel" bogus && one_line_with "unknown command 'bogus'"
+expect 2 "$chisel" help bogus && one_line_with "unknown command 'bogus'"
+
+svg=$models/curves/glyphs.svg
+out=$tmp/h.exr
+expect 2 "$chisel" sample && one_line_with "missing the curve file"
+expect 2 "$chisel" sample "$svg" -o "$out" && one_line_with "missing --res"
+expect 2 "$chisel" sample "$svg" --res 16 && one_line_with "missing -o"
+expect 2 "$chisel" sample "$svg" --res 0 -o "$out" && one_line_with "--res 0 is outside 1..16384"
+expect 2 "$chisel" sample "$svg" --res abc -o "$out" && one_line_with "--res expects an integer, got 'abc'"
+expect 2 "$chisel" sample "$svg" --res 99999999999 -o "$out" && one_line_with "--res"
+expect 2 "$chisel" sample "$svg" --res 16 --supersample 0 -o "$out" && one_line_with "--supersample 0"
+expect 2 "$chisel" sample "$svg" --res 16 --frobnicate -o "$out" && one_line_with "unknown option '--frobnicate'"
+expect 2 "$chisel" sample "$svg" --res && one_line_with "option --res needs a value"
+expect 2 "$chisel" sample "$svg" other.svg --res 16 -o "$out" && one_line_with "unexpected argument 'other.svg'"
+no_file "$out"
+expect 2 "$chisel" sample "$svg" --res 16 -o "$tmp/no/such/dir/h.exr" && one_line_with "cannot write into directory"
+expect 2 "$chisel" sample "$svg" --res 16 -o "$out" --png "$tmp/no/such/h.png" && one_line_with "cannot write into directory"
+no_file "$out"
+expect 2 "$chisel" sample "$tmp/missing.svg" --res 16 -o "$out" && one_line_with "$tmp/missing.svg: cannot open"
+no_file "$out"
+
+# ---- every malformed curve file: exit 2, one line naming it, no output ----
+for bad in "$tests"/data/svg/bad/*.svg; do
+  name=$(basename "$bad")
+  expect 2 "$chisel" sample "$bad" --res 8 -o "$out" --png "$tmp/h.png" && one_line_with "$name"
+  no_file "$out"
+  no_file "$tmp/h.png"
+done
+
+# ---- a real run: EXR + PNG, deterministic bytes ----
+expect 0 "$chisel" sample "$svg" --res 64 -o "$out" --png "$tmp/h.png" || true
+checks=$((checks + 1))
+[ -s "$out" ] && [ -s "$tmp/h.png" ] || fail "sample wrote no EXR/PNG"
+checks=$((checks + 1))
+[ "$(head -c 8 "$tmp/h.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ] || fail "PNG signature"
+expect 0 "$chisel" sample "$svg" --res 64 -o "$tmp/h2.exr" --png "$tmp/h2.png" || true
+checks=$((checks + 1))
+cmp -s "$out" "$tmp/h2.exr" && cmp -s "$tmp/h.png" "$tmp/h2.png" || fail "same input gave different bytes"
+# Same bytes with one thread as with two.
+expect 0 env OMP_NUM_THREADS=1 "$chisel" sample "$svg" --res 64 -o "$tmp/h1.exr" || true
+checks=$((checks + 1))
+cmp -s "$out" "$tmp/h1.exr" || fail "one thread and two threads differ"
+if command -v python3 >/dev/null; then
+  checks=$((checks + 1))
+  python3 - "$out" "$tests/tools" <<'EOF' || fail "EXR content"
+import sys
+sys.path.insert(0, sys.argv[2])
+from exr_read import read_exr
+h = read_exr(sys.argv[1])
+assert list(h) == ["h"], list(h)
+rows = h["h"]
+assert len(rows) == 64 and all(len(r) == 64 for r in rows)
+lo = min(min(r) for r in rows)
+assert lo < -0.001, lo   # glyphs carve
+EOF
+fi
+
+# ---- info ----
+expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
+expect 0 "$chisel" info "$models/plane.obj" && grep -q "UV charts *1" "$tmp/stdout" || fail "info plane.obj"
+expect 2 "$chisel" info "$tests/data/svg/bad/negative_width.svg" && one_line_with "negative data-width"
+expect 2 "$chisel" info "$tmp/nothing.obj" && one_line_with "nothing.obj"
+expect 2 "$chisel" info && one_line_with "missing FILE"
+
+echo "$checks checks, $failures failures" >&2
+[ "$failures" = 0 ]
