@@ -1,0 +1,93 @@
+/* ch_mesh: the base mesh as a plain C struct, its readers (OBJ, PLY, OFF,
+ * STL through OpenMesh), validation and statistics, and the OBJ/PLY writers.
+ *
+ * Faces have any number of corners. Attributes are face-varying: corner k of
+ * the mesh (faces are runs of corners) has a position index, and, when the
+ * file has them, a UV index and a normal index. */
+#ifndef CH_MESH_H
+#define CH_MESH_H
+
+#include <stddef.h>
+
+#include "ch_error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ch_mesh {
+  int num_positions;
+  double *positions;     /* 3 * num_positions */
+  int num_faces;
+  int *face_start;       /* num_faces + 1 offsets into the corner arrays */
+  int num_corners;       /* face_start[num_faces] */
+  int *corner_position;  /* num_corners position indices */
+  int num_uvs;
+  double *uvs;           /* 2 * num_uvs, NULL when the file has no UVs */
+  int *corner_uv;        /* num_corners UV indices, NULL when no UVs */
+  int num_normals;
+  double *normals;       /* 3 * num_normals, NULL when the file has none */
+  int *corner_normal;    /* num_corners normal indices, NULL when none */
+} ch_mesh;
+
+/* Largest accepted counts: far beyond any base mesh, small enough that
+ * int offsets never overflow. */
+enum { CH_MESH_MAX_ELEMENTS = 1 << 28 };
+
+/* Reads OBJ, PLY, OFF or STL (chosen by extension) into out. Structural
+ * problems the file itself has (indices out of range, faces with fewer than
+ * 3 corners, NaN/Inf coordinates, a face whose UV count does not match its
+ * corners) give CH_ERR_INPUT naming the file and the element. Missing UVs
+ * are not an error here: see ch_mesh_validate. out is zeroed on failure.
+ * Messages number elements as the file does (OBJ from 1, PLY/OFF from 0).
+ * UV and normal values are deduplicated exactly (equal bits, one index).
+ * OpenMesh reads coordinates as float, so values carry float precision.
+ * Thread-safe, but reads are serialised (OpenMesh's readers are global). */
+ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err);
+
+/* The same from memory; format is "obj", "ply", "off" or "stl"; name is
+ * used in messages. For the fuzz targets. OFF goes through a temporary file
+ * in $TMPDIR (OpenMesh parses OFF headers only from files). */
+ch_status ch_mesh_read_memory(const void *data, size_t size, const char *format,
+                              const char *name, ch_mesh *out, ch_error *err);
+
+/* Releases every array and zeroes the struct. Safe on a zeroed struct. */
+void ch_mesh_free(ch_mesh *mesh);
+
+/* What chisel needs of a base mesh, as ch_mesh_validate checks it. */
+typedef struct ch_mesh_report {
+  int num_triangles, num_quads, num_polygons;  /* faces by corner count */
+  double bounds_min[3], bounds_max[3];
+  double uv_min[2], uv_max[2];
+  int num_uvs_outside;          /* UV values outside [0,1] (warning) */
+  int num_boundary_edges;       /* edges with one face */
+  int num_nonmanifold_edges;    /* edges with more than two faces */
+  int num_nonmanifold_vertices; /* vertices whose faces form several fans */
+  int num_degenerate_faces;     /* zero area in 3D */
+  int num_zero_uv_area_faces;   /* zero area in UV */
+  int num_components;           /* connected components (by shared positions) */
+  int num_charts;               /* UV charts (faces joined across edges with equal UVs) */
+  double uv_coverage;           /* share of the unit square covered by UV faces */
+  double uv_overlap;            /* share of the unit square covered twice or more */
+} ch_mesh_report;
+
+/* Checks mesh for use as a base surface and fills report (may be NULL).
+ * Errors (CH_ERR_INPUT, message names `name` and the element): no faces,
+ * no UVs, NaN/Inf, indices out of range. Warnings through err: UVs outside
+ * [0,1], non-manifold edges or vertices, degenerate faces, zero UV area. */
+ch_status ch_mesh_validate(const ch_mesh *mesh, const char *name,
+                           ch_mesh_report *report, ch_error *err);
+
+/* Writes OBJ (v, vt, vn, f with the indices the mesh has) atomically with
+ * deterministic bytes (%.9g coordinates). */
+ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err);
+
+/* Writes binary little-endian PLY atomically: float x y z, optional float
+ * nx ny nz and u v per vertex. Face-varying attributes are made per vertex
+ * by splitting vertices where corners disagree (deterministic order). */
+ch_status ch_mesh_write_ply(const char *path, const ch_mesh *mesh, ch_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,752 @@
+/* Tests of the mesh module: readers (OBJ, PLY, OFF, STL through OpenMesh),
+ * validation statistics, and the OBJ/PLY writers. Inputs are in
+ * tests/data/mesh; the expected values are worked out by hand in the
+ * comments of those files. */
+#define _POSIX_C_SOURCE 200809L
+#include <fcntl.h>
+#include <stdint.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "ch_mesh.h"
+#include "ch_test.h"
+
+/* ---- helpers ------------------------------------------------------------ */
+
+static const char *data_path(const char *name) {
+  static char buf[4][1024];
+  static int slot;
+  char *p = buf[slot++ % 4];
+  snprintf(p, 1024, "%s/mesh/%s", CHISEL_TEST_DATA, name);
+  return p;
+}
+
+static char tmp_dir[1024];
+
+static const char *tmp_path(const char *name) {
+  static char buf[4][1100];
+  static int slot;
+  char *p = buf[slot++ % 4];
+  snprintf(p, 1100, "%s/%s", tmp_dir, name);
+  return p;
+}
+
+typedef struct warnings {
+  int count;
+  char text[4096];
+} warnings;
+
+static void collect(void *user, const char *msg) {
+  warnings *w = user;
+  w->count++;
+  size_t n = strlen(w->text);
+  snprintf(w->text + n, sizeof w->text - n, "%s\n", msg);
+}
+
+static ch_error new_error(warnings *w) {
+  ch_error e;
+  memset(&e, 0, sizeof e);
+  if (w) {
+    memset(w, 0, sizeof *w);
+    e.warn = collect;
+    e.warn_user = w;
+  }
+  return e;
+}
+
+static int mesh_is_zero(const ch_mesh *m) {
+  ch_mesh z;
+  memset(&z, 0, sizeof z);
+  return memcmp(m, &z, sizeof z) == 0;
+}
+
+static int same_array(const void *a, const void *b, size_t bytes) {
+  if (!a || !b) return a == b;
+  return memcmp(a, b, bytes) == 0;
+}
+
+static int mesh_equal(const ch_mesh *a, const ch_mesh *b) {
+  return a->num_positions == b->num_positions && a->num_faces == b->num_faces &&
+         a->num_corners == b->num_corners && a->num_uvs == b->num_uvs &&
+         a->num_normals == b->num_normals &&
+         same_array(a->positions, b->positions, 3 * sizeof(double) * a->num_positions) &&
+         same_array(a->face_start, b->face_start, sizeof(int) * (a->num_faces + 1)) &&
+         same_array(a->corner_position, b->corner_position, sizeof(int) * a->num_corners) &&
+         same_array(a->uvs, b->uvs, 2 * sizeof(double) * a->num_uvs) &&
+         same_array(a->corner_uv, b->corner_uv, sizeof(int) * a->num_corners) &&
+         same_array(a->normals, b->normals, 3 * sizeof(double) * a->num_normals) &&
+         same_array(a->corner_normal, b->corner_normal, sizeof(int) * a->num_corners);
+}
+
+static char *slurp(const char *path, size_t *size) {
+  FILE *fp = fopen(path, "rb");
+  if (!fp) return NULL;
+  fseek(fp, 0, SEEK_END);
+  long n = ftell(fp);
+  fseek(fp, 0, SEEK_SET);
+  char *buf = malloc((size_t)n + 1);
+  if (buf && fread(buf, 1, (size_t)n, fp) != (size_t)n) {
+    free(buf);
+    buf = NULL;
+  }
+  fclose(fp);
+  if (buf) buf[n] = '\0';
+  *size = (size_t)n;
+  return buf;
+}
+
+static int files_equal(const char *a, const char *b) {
+  size_t na, nb;
+  char *da = slurp(a, &na), *db = slurp(b, &nb);
+  int same = da && db && na == nb && memcmp(da, db, na) == 0;
+  free(da);
+  free(db);
+  return same;
+}
+
+static const double *corner_pos(const ch_mesh *m, int c) {
+  return &m->positions[3 * m->corner_position[c]];
+}
+
+static const double *corner_uv(const ch_mesh *m, int c) {
+  return &m->uvs[2 * m->corner_uv[c]];
+}
+
+/* Reads name (under data/mesh) and expects success. */
+static ch_status read_data(const char *name, ch_mesh *m, warnings *w) {
+  ch_error err = new_error(w);
+  ch_status st = ch_mesh_read(data_path(name), m, &err);
+  CHECK_MSG(st == CH_OK, "%s: %s", name, err.message);
+  return st;
+}
+
+/* Expects the read of name to fail with status and a message that is the
+ * path, ": ", then `tail`, on one line. */
+static void expect_read_error(const char *name, ch_status status, const char *tail) {
+  ch_mesh m;
+  ch_error err = new_error(NULL);
+  const char *path = data_path(name);
+  ch_status st = ch_mesh_read(path, &m, &err);
+  CHECK_MSG(st == status, "%s: status %d (%s)", name, (int)st, err.message);
+  CHECK(mesh_is_zero(&m));
+  size_t n = strlen(path);
+  CHECK_MSG(strncmp(err.message, path, n) == 0 && strncmp(err.message + n, ": ", 2) == 0,
+            "%s: message '%s'", name, err.message);
+  CHECK_MSG(strstr(err.message, tail) != NULL, "%s: message '%s' lacks '%s'", name, err.message, tail);
+  CHECK(strchr(err.message, '\n') == NULL);
+  ch_mesh_free(&m);
+}
+
+/* The same from a string, through ch_mesh_read_memory. */
+static void expect_memory_error(const char *text, const char *format, const char *tail) {
+  ch_mesh m;
+  ch_error err = new_error(NULL);
+  ch_status st = ch_mesh_read_memory(text, strlen(text), format, "mem", &m, &err);
+  CHECK_MSG(st == CH_ERR_INPUT, "status %d for %s input (%s)", (int)st, format, err.message);
+  CHECK_MSG(strstr(err.message, tail) != NULL, "message '%s' lacks '%s'", err.message, tail);
+  CHECK(strncmp(err.message, "mem: ", 5) == 0);
+  CHECK(mesh_is_zero(&m));
+  ch_mesh_free(&m);
+}
+
+static ch_status validate(const ch_mesh *m, ch_mesh_report *r, warnings *w) {
+  ch_error err = new_error(w);
+  ch_status st = ch_mesh_validate(m, "test", r, &err);
+  CHECK_MSG(st == CH_OK, "validate: %s", err.message);
+  return st;
+}
+
+/* ---- readers ------------------------------------------------------------ */
+
+static void test_plane_obj(void) {
+  ch_mesh m;
+  REQUIRE(read_data("plane.obj", &m, NULL) == CH_OK);
+  CHECK(m.num_positions == 9 && m.num_faces == 4 && m.num_corners == 16);
+  CHECK(m.num_uvs == 9 && m.num_normals == 1);
+  /* Position 5 of the file is (1,1,0), position 9 is (2,2,0). */
+  CHECK(m.positions[3 * 4] == 1.0 && m.positions[3 * 4 + 1] == 1.0 && m.positions[3 * 4 + 2] == 0.0);
+  CHECK(m.positions[3 * 8] == 2.0 && m.positions[3 * 8 + 1] == 2.0);
+  CHECK(m.face_start[0] == 0 && m.face_start[1] == 4 && m.face_start[4] == 16);
+  /* The second face is "2 3 6 5". */
+  CHECK(m.corner_position[4] == 1 && m.corner_position[5] == 2 && m.corner_position[6] == 5 &&
+        m.corner_position[7] == 4);
+  /* On this plane every corner's UV is its (x, y) halved. */
+  int uv_ok = 1;
+  for (int c = 0; c < m.num_corners; c++)
+    uv_ok &= corner_uv(&m, c)[0] == corner_pos(&m, c)[0] / 2 &&
+             corner_uv(&m, c)[1] == corner_pos(&m, c)[1] / 2;
+  CHECK(uv_ok);
+  /* Corners sharing a UV value share its index: position 5 has one UV. */
+  CHECK(m.corner_uv[2] == m.corner_uv[7] && m.corner_uv[7] == m.corner_uv[9]);
+  CHECK(m.normals[0] == 0 && m.normals[1] == 0 && m.normals[2] == 1);
+  int normals_ok = 1;
+  for (int c = 0; c < m.num_corners; c++) normals_ok &= m.corner_normal[c] == 0;
+  CHECK(normals_ok);
+
+  ch_mesh_report r;
+  warnings w;
+  REQUIRE(validate(&m, &r, &w) == CH_OK);
+  CHECK(r.num_quads == 4 && r.num_triangles == 0 && r.num_polygons == 0);
+  CHECK(r.bounds_min[0] == 0 && r.bounds_max[0] == 2 && r.bounds_max[1] == 2 && r.bounds_max[2] == 0);
+  CHECK(r.uv_min[0] == 0 && r.uv_max[0] == 1 && r.uv_min[1] == 0 && r.uv_max[1] == 1);
+  CHECK(r.num_uvs_outside == 0);
+  CHECK(r.num_boundary_edges == 8 && r.num_nonmanifold_edges == 0);
+  CHECK(r.num_nonmanifold_vertices == 0 && r.num_degenerate_faces == 0);
+  CHECK(r.num_zero_uv_area_faces == 0);
+  CHECK(r.num_components == 1 && r.num_charts == 1);
+  CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
+  CHECK(r.uv_overlap == 0.0);
+  CHECK_MSG(w.count == 0, "%s", w.text);
+  ch_mesh_free(&m);
+  CHECK(mesh_is_zero(&m));
+  ch_mesh_free(&m); /* safe twice */
+}
+
+static void test_cube_obj(void) {
+  ch_mesh m;
+  warnings rw;
+  REQUIRE(read_data("cube.obj", &m, &rw) == CH_OK);
+  CHECK_MSG(rw.count == 0, "%s", rw.text); /* missing cube.mtl/usemtl: silent */
+  CHECK(m.num_positions == 8 && m.num_faces == 6 && m.num_corners == 24);
+  CHECK(m.num_uvs == 18 && m.num_normals == 6);
+  /* Face-varying normals survive: every corner of a face has its normal. */
+  static const double face_normal[6][3] = {{0, -1, 0}, {1, 0, 0}, {0, 1, 0},
+                                           {-1, 0, 0}, {0, 0, 1}, {0, 0, -1}};
+  int normals_ok = 1;
+  for (int f = 0; f < 6; f++)
+    for (int c = m.face_start[f]; c < m.face_start[f + 1]; c++)
+      normals_ok &= memcmp(&m.normals[3 * m.corner_normal[c]], face_normal[f], sizeof face_normal[f]) == 0;
+  CHECK(normals_ok);
+  /* The seam: position 1 is (0,0) in the front face and (1,0) in the left. */
+  CHECK(m.corner_position[0] == 0 && corner_uv(&m, 0)[0] == 0.0 && corner_uv(&m, 0)[1] == 0.0);
+  CHECK(m.corner_position[13] == 0 && corner_uv(&m, 13)[0] == 1.0 && corner_uv(&m, 13)[1] == 0.0);
+
+  ch_mesh_report r;
+  warnings w;
+  REQUIRE(validate(&m, &r, &w) == CH_OK);
+  CHECK(r.num_quads == 6);
+  CHECK(r.num_boundary_edges == 0 && r.num_nonmanifold_edges == 0 && r.num_nonmanifold_vertices == 0);
+  CHECK(r.num_components == 1);
+  CHECK_MSG(r.num_charts == 3, "charts %d", r.num_charts);
+  CHECK_NEAR(r.uv_coverage, 0.375, 1e-3);
+  CHECK(r.uv_overlap == 0.0);
+  CHECK_MSG(w.count == 0, "%s", w.text);
+  ch_mesh_free(&m);
+}
+
+static void test_ply(void) {
+  ch_mesh m;
+  ch_mesh_report r;
+  REQUIRE(read_data("plane.ply", &m, NULL) == CH_OK);
+  CHECK(m.num_positions == 4 && m.num_faces == 2 && m.num_corners == 6 && m.num_uvs == 4);
+  CHECK(m.positions[3 * 2] == 1 && m.positions[3 * 2 + 1] == 1 && m.positions[3 * 2 + 2] == 0);
+  CHECK(m.normals == NULL && m.corner_normal == NULL);
+  int uv_ok = 1; /* per-vertex UVs: u = x, v = y */
+  for (int c = 0; c < m.num_corners; c++)
+    uv_ok &= corner_uv(&m, c)[0] == corner_pos(&m, c)[0] && corner_uv(&m, c)[1] == corner_pos(&m, c)[1];
+  CHECK(uv_ok);
+  REQUIRE(validate(&m, &r, NULL) == CH_OK);
+  CHECK(r.num_triangles == 2 && r.num_charts == 1 && r.num_boundary_edges == 4);
+  CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
+  CHECK(r.uv_overlap == 0.0);
+  ch_mesh_free(&m);
+
+  REQUIRE(read_data("plane_bin.ply", &m, NULL) == CH_OK);
+  CHECK(m.num_positions == 4 && m.num_faces == 1 && m.num_corners == 4 && m.num_uvs == 4);
+  /* One normal value, shared by every corner (values are deduplicated). */
+  CHECK(m.num_normals == 1 && m.normals[2] == 1.0 && m.corner_normal[3] == 0);
+  CHECK(m.positions[3 * 3 + 1] == 1.0 && m.uvs[2 * m.corner_uv[3] + 1] == 1.0);
+  REQUIRE(validate(&m, &r, NULL) == CH_OK);
+  CHECK(r.num_quads == 1);
+  CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
+  ch_mesh_free(&m);
+}
+
+static void test_off(void) {
+  ch_mesh m;
+  ch_mesh_report r;
+  REQUIRE(read_data("plane.off", &m, NULL) == CH_OK);
+  CHECK(m.num_positions == 4 && m.num_faces == 2 && m.uvs == NULL && m.corner_uv == NULL);
+  CHECK(m.positions[3 * 3 + 1] == 1.0);
+  ch_error err = new_error(NULL);
+  CHECK(ch_mesh_validate(&m, "plane.off", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message,
+               "plane.off: mesh has no texture coordinates (vt); chisel needs UVs in [0,1]") == 0);
+  ch_mesh_free(&m);
+
+  /* STOFF: per-vertex texture coordinates (lost by OpenMesh's stream reader). */
+  REQUIRE(read_data("plane_st.off", &m, NULL) == CH_OK);
+  CHECK(m.num_positions == 4 && m.num_faces == 1 && m.num_uvs == 4);
+  CHECK(m.positions[3 * 2] == 2.0 && corner_uv(&m, 2)[0] == 1.0 && corner_uv(&m, 2)[1] == 1.0);
+  REQUIRE(validate(&m, &r, NULL) == CH_OK);
+  CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
+  ch_mesh_free(&m);
+
+  /* From memory as well (goes through a temporary file). */
+  size_t n;
+  char *text = slurp(data_path("plane_st.off"), &n);
+  REQUIRE(text);
+  ch_error err2 = new_error(NULL);
+  CHECK(ch_mesh_read_memory(text, n, "off", "st", &m, &err2) == CH_OK);
+  CHECK(m.num_uvs == 4);
+  ch_mesh_free(&m);
+  free(text);
+}
+
+static void test_stl(void) {
+  const char *names[] = {"square.stl", "square_bin.stl"};
+  for (int i = 0; i < 2; i++) {
+    ch_mesh m;
+    REQUIRE(read_data(names[i], &m, NULL) == CH_OK);
+    /* OpenMesh merges equal positions: 4 vertices, 2 triangles, no UVs. */
+    CHECK_MSG(m.num_positions == 4 && m.num_faces == 2 && m.num_corners == 6, "%s", names[i]);
+    CHECK(m.uvs == NULL);
+    CHECK(m.positions[3 * 2] == 1.0 && m.positions[3 * 2 + 1] == 1.0);
+    CHECK(m.corner_position[3] == 0 && m.corner_position[4] == 2 && m.corner_position[5] == 3);
+    ch_mesh_free(&m);
+  }
+}
+
+static void test_float_precision(void) {
+  /* OpenMesh's readers hold coordinates in float. */
+  const char *text = "v 0.1 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+  ch_mesh m;
+  ch_error err = new_error(NULL);
+  REQUIRE(ch_mesh_read_memory(text, strlen(text), "obj", "p", &m, &err) == CH_OK);
+  CHECK(m.positions[0] == (double)0.1f);
+  ch_mesh_free(&m);
+}
+
+static void test_read_errors(void) {
+  expect_read_error("index_range.obj", CH_ERR_INPUT,
+                    "face 2 (line 10): position index 40 out of range (1..8)");
+  expect_read_error("negative_index.obj", CH_ERR_INPUT,
+                    "face 2 (line 8): position index -10 reaches before the first one (3 defined so far)");
+  expect_read_error("nan.obj", CH_ERR_INPUT, "vertex 3 (line 3): 'nan' is not a finite number");
+  expect_read_error("two_corners.obj", CH_ERR_INPUT, "face 2 (line 8): 2 corners, a face needs at least 3");
+  expect_read_error("vt_range.obj", CH_ERR_INPUT, "face 1 (line 7): texture index 9 out of range (1..3)");
+  expect_read_error("empty.obj", CH_ERR_INPUT, "file is empty");
+  expect_read_error("garbage.obj", CH_ERR_INPUT, "not a text OBJ file");
+  expect_read_error("garbage.ply", CH_ERR_INPUT, "not a PLY file");
+  expect_read_error("truncated.ply", CH_ERR_INPUT, "vertex 2 of 4: data ends here");
+  expect_read_error("comment_before_end.ply", CH_ERR_INPUT, "misplaces binary data");
+  expect_read_error("no_end_header.ply", CH_ERR_INPUT, "no end_header");
+  expect_read_error("face_colors.off", CH_ERR_INPUT, "face 0 (line 6): values after the 3 indices");
+  expect_read_error("does_not_exist.obj", CH_ERR_IO, "cannot open");
+  expect_read_error("model.dae", CH_ERR_INPUT,
+                    "unknown mesh format '.dae' (accepted: .obj, .ply, .off, .stl)");
+
+  ch_mesh m;
+  ch_error err = new_error(NULL);
+  CHECK(ch_mesh_read_memory("v 0 0 0\n", 8, "3ds", "x", &m, &err) == CH_ERR_INPUT);
+  CHECK(strstr(err.message, "unknown mesh format '3ds'") != NULL);
+}
+
+/* Inputs that OpenMesh itself crashes on, hangs on or misreads. */
+static void test_hostile_inputs(void) {
+  const char *tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n";
+  char buf[512];
+  snprintf(buf, sizeof buf, "%sf /1 2/2 3/3\n", tri); /* back() of an empty vector */
+  expect_memory_error(buf, "obj", "cannot read corner '/1'");
+  snprintf(buf, sizeof buf, "%sf 0/1 1/2 2/3\n", tri);
+  expect_memory_error(buf, "obj", "position index 0 is invalid (OBJ indices start at 1)");
+  snprintf(buf, sizeof buf, "%sf 1/1 2/2 3/3 2/2\n", tri); /* OpenMesh drops the corner */
+  expect_memory_error(buf, "obj", "position 2 appears twice");
+  snprintf(buf, sizeof buf, "%sf 1/1 2 3/3\n", tri);
+  expect_memory_error(buf, "obj", "2 of its 3 corners have texture coordinates");
+  snprintf(buf, sizeof buf, "%sf 1 2 x3\n", tri);
+  expect_memory_error(buf, "obj", "cannot read corner 'x3'");
+  expect_memory_error("v 1e39 0 0\n", "obj", "vertex 1 (line 1): '1e39' is not a finite number");
+  expect_memory_error("v 1 2\n", "obj", "needs three coordinates");
+  expect_memory_error("vt 0.5\n", "obj", "texture coordinate 1 (line 1): needs two values u v");
+  expect_memory_error("vn 0 0 inf\n", "obj", "normal 1 (line 1): 'inf' is not a finite number");
+
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex abc\nproperty float x\nend_header\n",
+                      "ply", "element vertex needs a count");
+  expect_memory_error("ply\nformat ascii 1.0\nproperty float x\nelement vertex 1\nend_header\n1\n",
+                      "ply", "property before the first element");
+  expect_memory_error("ply\nformat ascii x.y\nend_header\n", "ply", "bad format version");
+  expect_memory_error("ply\nformat ascii 1\nend_header\n", "ply", "PLY: no vertex element");
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uint int vertex_indices\n"
+                      "end_header\n",
+                      "ply", "list count type 'uint'");
+  expect_memory_error("ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+                      "3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n",
+                      "ply", "face element comes before the vertex element");
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                      "3 0 1 2 6 0 0 1 0 0 1\n",
+                      "ply", "list property 'texcoord' of element face is not supported");
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "end_header\n0 0 0\n1 0 0\n0 1 nan\n3 0 1 2\n",
+                      "ply", "vertex 2: property z: 'nan' is not a finite number");
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+                      "ply", "face 0: vertex index 7 out of range (0..2)");
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "end_header\n0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n",
+                      "ply", "bad corner count");
+  {
+    /* A binary face claiming 2^30 corners (OpenMesh would push them all). */
+    static const char hdr[] =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list int int vertex_indices\nend_header\n";
+    unsigned char bin[sizeof hdr - 1 + 36 + 4 + 12];
+    memset(bin, 0, sizeof bin);
+    memcpy(bin, hdr, sizeof hdr - 1);
+    unsigned char *count = bin + sizeof hdr - 1 + 36;
+    count[3] = 0x40;
+    ch_mesh m;
+    ch_error err = new_error(NULL);
+    CHECK(ch_mesh_read_memory(bin, sizeof bin, "ply", "big", &m, &err) == CH_ERR_INPUT);
+    CHECK_MSG(strstr(err.message, "face 0 of 1: data ends here") != NULL, "%s", err.message);
+  }
+  expect_memory_error("OFF BINARY\n", "off", "binary OFF is not supported");
+  expect_memory_error("OFF\n# comment\n3 1 0\n", "off", "does not accept comments");
+  expect_memory_error("OFF\n3 1 0\n0 0 0\n1 0 0\n", "off", "vertex 2 of 3: data ends here");
+  expect_memory_error("COFF\n3 1 0\n", "off", "OFF header 'COFF' is not supported");
+  expect_memory_error("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                      "vertex nan 1 0\nendloop\nendfacet\nendsolid\n",
+                      "stl", "facet 0 (line 6): expected 'vertex x y z'");
+}
+
+/* `mtllib` is neutralised: OpenMesh would open any path it names. */
+static void test_mtllib_ignored(void) {
+  const char *text = "mtllib /dev/zero\nmtllib ../../../../../../../../dev/stdin\n"
+                     "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl x\nf 1/1 2/2 3/3\n";
+  ch_mesh m;
+  ch_error err = new_error(NULL);
+  CHECK(ch_mesh_read_memory(text, strlen(text), "obj", "mtl", &m, &err) == CH_OK);
+  CHECK(m.num_faces == 1);
+  ch_mesh_free(&m);
+}
+
+/* OpenMesh prints to std::cerr; none of it may reach the process's stderr. */
+static void test_silence(void) {
+  fflush(stderr);
+  int saved = dup(2);
+  const char *log = tmp_path("stderr.txt");
+  int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  REQUIRE(saved >= 0 && fd >= 0);
+  dup2(fd, 2);
+  close(fd);
+  ch_mesh m;
+  ch_error err = new_error(NULL);
+  ch_mesh_read(data_path("cube.obj"), &m, &err); /* usemtl of an unknown material */
+  ch_mesh_free(&m);
+  ch_mesh_read(data_path("garbage.ply"), &m, &err);
+  ch_mesh_read(data_path("square_bin.stl"), &m, &err);
+  ch_mesh_free(&m);
+  fflush(stderr);
+  dup2(saved, 2);
+  close(saved);
+  size_t n = 0;
+  char *text = slurp(log, &n);
+  CHECK_MSG(text && n == 0, "stderr got: %.200s", text ? text : "(unreadable)");
+  free(text);
+}
+
+/* Every prefix of valid files: a clean status, never a crash or leak. */
+static void test_truncations(void) {
+  const char *names[] = {"cube.obj", "plane.ply", "plane_bin.ply", "plane_st.off", "square_bin.stl"};
+  const char *formats[] = {"obj", "ply", "ply", "off", "stl"};
+  for (int i = 0; i < 5; i++) {
+    size_t n;
+    char *text = slurp(data_path(names[i]), &n);
+    REQUIRE(text);
+    int bad = 0, ok = 0;
+    for (size_t k = 0; k <= n; k++) {
+      ch_mesh m;
+      ch_error err = new_error(NULL);
+      ch_status st = ch_mesh_read_memory(text, k, formats[i], names[i], &m, &err);
+      if (st == CH_OK) {
+        ok++;
+        ch_mesh_report r;
+        ch_error verr = new_error(NULL);
+        ch_status vs = ch_mesh_validate(&m, names[i], &r, &verr);
+        if (vs != CH_OK && vs != CH_ERR_INPUT) bad++;
+      } else if (st != CH_ERR_INPUT || !mesh_is_zero(&m)) {
+        bad++;
+      }
+      ch_mesh_free(&m);
+    }
+    CHECK_MSG(bad == 0, "%s: %d prefixes gave an unexpected status", names[i], bad);
+    CHECK(ok >= 1); /* at least the whole file */
+    free(text);
+  }
+}
+
+/* ---- validation of meshes built in memory ------------------------------- */
+
+typedef struct small_mesh {
+  ch_mesh m;
+  double pos[3 * 16], uv[2 * 16];
+  int start[9], cpos[32], cuv[32];
+} small_mesh;
+
+/* Faces given as position index lists of length 3 or 4 (-1 ends a face of
+ * 3); UVs per position unless uv_per_corner. */
+static void make_mesh(small_mesh *s, int npos, const double *pos, const double *uv, int nfaces,
+                      const int (*faces)[4]) {
+  memset(s, 0, sizeof *s);
+  memcpy(s->pos, pos, sizeof(double) * 3 * npos);
+  memcpy(s->uv, uv, sizeof(double) * 2 * npos);
+  int c = 0;
+  for (int f = 0; f < nfaces; f++) {
+    s->start[f] = c;
+    for (int k = 0; k < 4 && faces[f][k] >= 0; k++) {
+      s->cpos[c] = faces[f][k];
+      s->cuv[c] = faces[f][k];
+      c++;
+    }
+  }
+  s->start[nfaces] = c;
+  s->m.num_positions = npos;
+  s->m.positions = s->pos;
+  s->m.num_faces = nfaces;
+  s->m.face_start = s->start;
+  s->m.num_corners = c;
+  s->m.corner_position = s->cpos;
+  s->m.num_uvs = npos;
+  s->m.uvs = s->uv;
+  s->m.corner_uv = s->cuv;
+}
+
+static void test_nonmanifold(void) {
+  ch_mesh m;
+  REQUIRE(read_data("nonmanifold.obj", &m, NULL) == CH_OK); /* reported, not fatal */
+  CHECK(m.num_faces == 3);
+  ch_mesh_report r;
+  warnings w;
+  REQUIRE(validate(&m, &r, &w) == CH_OK);
+  CHECK(r.num_nonmanifold_edges == 1);
+  CHECK(r.num_boundary_edges == 6);
+  CHECK(r.num_components == 1);
+  CHECK_MSG(strstr(w.text, "test: 1 non-manifold edges (more than two faces), first between positions 1 and 2"),
+            "%s", w.text);
+  ch_mesh_free(&m);
+
+  /* A bow tie: two triangles meeting at one vertex. */
+  static const double pos[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0};
+  static const double uv[] = {.5, .5, 1, .5, .5, 1, 0, .5, .5, 0};
+  static const int faces[][4] = {{0, 1, 2, -1}, {0, 3, 4, -1}};
+  small_mesh s;
+  make_mesh(&s, 5, pos, uv, 2, faces);
+  REQUIRE(validate(&s.m, &r, &w) == CH_OK);
+  CHECK(r.num_nonmanifold_vertices == 1 && r.num_nonmanifold_edges == 0);
+  CHECK(r.num_components == 1 && r.num_charts == 2 && r.num_boundary_edges == 6);
+  CHECK(strstr(w.text, "1 non-manifold vertices (separate fans of faces), first: position 1") != NULL);
+  CHECK(w.count == 1);
+}
+
+static void test_validate_uv(void) {
+  /* Two quads over the same UV square: coverage 1, overlap 1, one chart each
+   * (no shared edge), two components. */
+  static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 5, 1, 0, 5, 1, 1, 5, 0, 1, 5};
+  static const double uv[] = {0, 0, 1, 0, 1, 1, 0, 1, 0, 0, 1, 0, 1, 1, 0, 1};
+  static const int faces[][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}};
+  small_mesh s;
+  ch_mesh_report r;
+  warnings w;
+  make_mesh(&s, 8, pos, uv, 2, faces);
+  REQUIRE(validate(&s.m, &r, &w) == CH_OK);
+  CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
+  CHECK_NEAR(r.uv_overlap, 1.0, 1e-3);
+  CHECK(r.num_components == 2 && r.num_charts == 2);
+
+  /* A triangle over the lower-left half: coverage 1/2 within a cell row. */
+  static const int tri[][4] = {{0, 1, 3, -1}};
+  make_mesh(&s, 4, pos, uv, 1, tri);
+  REQUIRE(validate(&s.m, &r, &w) == CH_OK);
+  CHECK_NEAR(r.uv_coverage, 0.5, 1e-3);
+  CHECK(r.uv_overlap == 0.0);
+
+  /* A concave (arrow) quad: its area, not its fan's, is counted once. */
+  static const double apos[] = {0, 0, 0, 1, .5, 0, 0, 1, 0, .5, .5, 0};
+  static const double auv[] = {0, 0, 1, .5, 0, 1, .5, .5};
+  static const int arrow[][4] = {{0, 1, 2, 3}};
+  make_mesh(&s, 4, apos, auv, 1, arrow);
+  REQUIRE(validate(&s.m, &r, &w) == CH_OK);
+  CHECK_NEAR(r.uv_coverage, 0.25, 1e-3); /* 1/2 * 1 * 1/2 */
+  CHECK(r.uv_overlap == 0.0);
+
+  /* UVs outside [0,1], a zero-area face and a zero-UV-area face: warnings,
+   * one line each. */
+  static const double bpos[] = {0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0};
+  static const double buv[] = {0, 0, 1.5, 0, 0, -0.25, 0, 0};
+  static const int bad[][4] = {{0, 1, 2, -1}, {0, 1, 3, -1}};
+  make_mesh(&s, 4, bpos, buv, 2, bad);
+  REQUIRE(validate(&s.m, &r, &w) == CH_OK);
+  CHECK(r.num_uvs_outside == 2);
+  CHECK(r.num_degenerate_faces == 1 && r.num_zero_uv_area_faces == 1);
+  CHECK(r.uv_min[1] == -0.25 && r.uv_max[0] == 1.5);
+  CHECK_MSG(w.count == 3, "%s", w.text);
+  CHECK(strstr(w.text, "test: 2 texture coordinates lie outside [0,1] (u 0..1.5, v -0.25..0)") != NULL);
+  CHECK(strstr(w.text, "test: 1 faces have zero area, first: face 1") != NULL);
+  CHECK(strstr(w.text, "test: 1 faces have zero UV area, first: face 2") != NULL);
+}
+
+static void test_validate_errors(void) {
+  static const double pos[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  static const double uv[] = {0, 0, 1, 0, 0, 1};
+  static const int faces[][4] = {{0, 1, 2, -1}};
+  small_mesh s;
+  ch_mesh_report r;
+  ch_error err;
+
+  make_mesh(&s, 3, pos, uv, 1, faces);
+  s.m.num_faces = 0;
+  err = new_error(NULL);
+  CHECK(ch_mesh_validate(&s.m, "m", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message, "m: mesh has no faces") == 0);
+
+  make_mesh(&s, 3, pos, uv, 1, faces);
+  s.pos[4] = NAN;
+  err = new_error(NULL);
+  CHECK(ch_mesh_validate(&s.m, "m", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message, "m: vertex 2: position is not finite") == 0);
+
+  make_mesh(&s, 3, pos, uv, 1, faces);
+  s.uv[5] = INFINITY;
+  err = new_error(NULL);
+  CHECK(ch_mesh_validate(&s.m, "m", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message, "m: texture coordinate 3 is not finite") == 0);
+
+  make_mesh(&s, 3, pos, uv, 1, faces);
+  s.cpos[2] = 3;
+  err = new_error(NULL);
+  CHECK(ch_mesh_validate(&s.m, "m", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message, "m: face 1: position index 4 out of range (1..3)") == 0);
+
+  make_mesh(&s, 3, pos, uv, 1, faces);
+  s.cuv[0] = -1;
+  err = new_error(NULL);
+  CHECK(ch_mesh_validate(&s.m, "m", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message, "m: face 1: texture index 0 out of range (1..3)") == 0);
+
+  make_mesh(&s, 3, pos, uv, 1, faces);
+  s.start[1] = 2;
+  s.m.num_corners = 2;
+  err = new_error(NULL);
+  CHECK(ch_mesh_validate(&s.m, "m", &r, &err) == CH_ERR_INPUT);
+  CHECK(strcmp(err.message, "m: face 1: 2 corners, a face needs at least 3") == 0);
+}
+
+/* ---- writers ------------------------------------------------------------ */
+
+static void test_obj_round_trip(void) {
+  const char *names[] = {"cube.obj", "plane.obj", "plane_bin.ply", "nonmanifold.obj"};
+  for (int i = 0; i < 4; i++) {
+    ch_mesh a, b;
+    REQUIRE(read_data(names[i], &a, NULL) == CH_OK);
+    ch_error err = new_error(NULL);
+    const char *out1 = tmp_path("round1.obj"), *out2 = tmp_path("round2.obj");
+    CHECK(ch_mesh_write_obj(out1, &a, &err) == CH_OK);
+    CHECK(ch_mesh_write_obj(out2, &a, &err) == CH_OK);
+    CHECK_MSG(files_equal(out1, out2), "%s: two writes differ", names[i]);
+    CHECK(ch_mesh_read(out1, &b, &err) == CH_OK);
+    CHECK_MSG(mesh_equal(&a, &b), "%s: read -> write -> read changed the arrays", names[i]);
+    ch_mesh_free(&a);
+    ch_mesh_free(&b);
+  }
+  /* The bytes themselves, for a small mesh. */
+  ch_mesh m;
+  REQUIRE(read_data("plane_st.off", &m, NULL) == CH_OK);
+  ch_error err = new_error(NULL);
+  CHECK(ch_mesh_write_obj(tmp_path("st.obj"), &m, &err) == CH_OK);
+  size_t n;
+  char *text = slurp(tmp_path("st.obj"), &n);
+  CHECK(text && strcmp(text, "# chisel\nv 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+                             "vt 0 1\nf 1/1 2/2 3/3 4/4\n") == 0);
+  free(text);
+  ch_mesh_free(&m);
+}
+
+static void test_ply_round_trip(void) {
+  ch_mesh a, b;
+  ch_error err = new_error(NULL);
+  REQUIRE(read_data("cube.obj", &a, NULL) == CH_OK);
+  const char *out1 = tmp_path("cube1.ply"), *out2 = tmp_path("cube2.ply");
+  CHECK(ch_mesh_write_ply(out1, &a, &err) == CH_OK);
+  CHECK(ch_mesh_write_ply(out2, &a, &err) == CH_OK);
+  CHECK(files_equal(out1, out2));
+  REQUIRE(ch_mesh_read(out1, &b, &err) == CH_OK);
+  /* Each cube position carries three normals: split into 8 + 16 vertices. */
+  CHECK_MSG(b.num_positions == 24, "%d", b.num_positions);
+  CHECK(b.num_faces == a.num_faces && b.num_corners == a.num_corners);
+  CHECK(memcmp(b.positions, a.positions, sizeof(double) * 3 * 8) == 0);
+  int same = 1;
+  for (int c = 0; c < a.num_corners; c++) {
+    same &= memcmp(corner_pos(&a, c), corner_pos(&b, c), 3 * sizeof(double)) == 0;
+    same &= memcmp(corner_uv(&a, c), corner_uv(&b, c), 2 * sizeof(double)) == 0;
+    same &= memcmp(&a.normals[3 * a.corner_normal[c]], &b.normals[3 * b.corner_normal[c]],
+                   3 * sizeof(double)) == 0;
+  }
+  CHECK(same);
+  ch_mesh_free(&a);
+  ch_mesh_free(&b);
+
+  /* Without seams the PLY keeps the positions exactly as they were. */
+  REQUIRE(read_data("plane.obj", &a, NULL) == CH_OK);
+  CHECK(ch_mesh_write_ply(out1, &a, &err) == CH_OK);
+  REQUIRE(ch_mesh_read(out1, &b, &err) == CH_OK);
+  CHECK(b.num_positions == 9 && memcmp(a.positions, b.positions, sizeof(double) * 27) == 0);
+  CHECK(memcmp(a.corner_position, b.corner_position, sizeof(int) * 16) == 0);
+  ch_mesh_report r;
+  REQUIRE(validate(&b, &r, NULL) == CH_OK);
+  CHECK(r.num_charts == 1);
+  CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
+  ch_mesh_free(&a);
+  ch_mesh_free(&b);
+}
+
+static void test_write_errors(void) {
+  ch_mesh m;
+  REQUIRE(read_data("plane.obj", &m, NULL) == CH_OK);
+  const char *bad_obj = tmp_path("no/such/dir/out.obj"), *bad_ply = tmp_path("no/such/dir/out.ply");
+  ch_error err = new_error(NULL);
+  CHECK(ch_mesh_write_obj(bad_obj, &m, &err) == CH_ERR_IO);
+  CHECK(strncmp(err.message, bad_obj, strlen(bad_obj)) == 0);
+  err = new_error(NULL);
+  CHECK(ch_mesh_write_ply(bad_ply, &m, &err) == CH_ERR_IO);
+  struct stat st;
+  CHECK(stat(bad_obj, &st) != 0 && stat(bad_ply, &st) != 0 && stat(tmp_path("no"), &st) != 0);
+  ch_mesh_free(&m);
+}
+
+int main(void) {
+  const char *base = getenv("TMPDIR");
+  snprintf(tmp_dir, sizeof tmp_dir, "%s/test_mesh.XXXXXX", base && *base ? base : "/tmp");
+  if (!mkdtemp(tmp_dir)) {
+    perror("mkdtemp");
+    return 1;
+  }
+  RUN(test_plane_obj);
+  RUN(test_cube_obj);
+  RUN(test_ply);
+  RUN(test_off);
+  RUN(test_stl);
+  RUN(test_float_precision);
+  RUN(test_read_errors);
+  RUN(test_hostile_inputs);
+  RUN(test_mtllib_ignored);
+  RUN(test_silence);
+  RUN(test_truncations);
+  RUN(test_nonmanifold);
+  RUN(test_validate_uv);
+  RUN(test_validate_errors);
+  RUN(test_obj_round_trip);
+  RUN(test_ply_round_trip);
+  RUN(test_write_errors);
+  const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply"};
+  for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) remove(tmp_path(made[i]));
+  rmdir(tmp_dir);
+  TEST_MAIN_END();
+}
