@@ -1,0 +1,4 @@
+# Base surface and tessellation tests (tess/ch_surface). tess_reference.cpp
+# is an independent Catmull-Clark evaluation through Far's PatchTable.
+ch_add_test(NAME test_tess SOURCES test_tess.c tess_reference.cpp
+            LIBS chisel_tess chisel_opensubdiv OpenMP::OpenMP_C)
