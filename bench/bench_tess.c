@@ -10,23 +10,8 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "ch_surface.h"
-
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
-
-static double median(double *v, int n) {
-  for (int i = 1; i < n; i++)
-    for (int j = i; j > 0 && v[j] < v[j - 1]; j--) {
-      double t = v[j];
-      v[j] = v[j - 1];
-      v[j - 1] = t;
-    }
-  return v[n / 2];
-}
 
 /* Median seconds of ch_tess_build; *tris gets the count. */
 static double time_build(const ch_surface *S, long target, int *tris) {
@@ -35,16 +20,16 @@ static double time_build(const ch_surface *S, long target, int *tris) {
   for (int r = 0; r < RUNS; r++) {
     ch_tess_result res;
     ch_error err = {0};
-    double t0 = now();
+    double t0 = bench_now();
     if (ch_tess_build(S, &(ch_tess_desc){0, target}, &res, &err) != CH_OK) {
       fprintf(stderr, "%s\n", err.message);
       exit(1);
     }
-    t[r] = now() - t0;
+    t[r] = bench_now() - t0;
     *tris = res.mesh.num_faces;
     ch_tess_free(&res);
   }
-  return median(t, RUNS);
+  return bench_median(t, RUNS);
 }
 
 int main(int argc, char **argv) {
@@ -66,12 +51,12 @@ int main(int argc, char **argv) {
     }
     for (int sc = 0; sc < 2; sc++) {
       ch_surface *S;
-      double t0 = now();
+      double t0 = bench_now();
       if (ch_surface_create(&mesh, (ch_scheme)sc, &S, &err) != CH_OK) {
         fprintf(stderr, "%s\n", err.message);
         return 1;
       }
-      double tc = now() - t0;
+      double tc = bench_now() - t0;
       for (int k = 0; k < 3; k++) {
         int tris = 0;
         omp_set_num_threads(1);

@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-20}
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=Debug -DCHISEL_FUZZ=ON -DBUILD_TESTING=OFF >/dev/null
-cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_exr
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_exr fuzz_dci
 run() {
   local target=$1 seeds=$2
   local corpus=build-fuzz/corpus/$target
@@ -18,3 +18,4 @@ run() {
 run fuzz_svg tests/data/svg
 run fuzz_mesh_obj tests/data/mesh
 run fuzz_exr tests/data/exr
+run fuzz_dci tests/data/dci

@@ -4,7 +4,7 @@
 set -euo pipefail
 pkgs=(build-essential cmake pkg-config
       libosd-dev libopenmesh-dev libembree-dev libglfw3-dev libopenexr-dev
-      libcjson-dev libxml2-dev libpng-dev zlib1g-dev openexr
+      libcjson-dev libxml2-dev libpng-dev zlib1g-dev openexr libsuitesparse-dev
       xvfb xauth libgl1-mesa-dri libgl-dev
       python3)
 if [ "${1:-}" = "--fuzz" ]; then

@@ -13,6 +13,24 @@ void ch_curves_free(ch_curve_set *set) {
   memset(set, 0, sizeof *set);
 }
 
+void ch_segment_point(const ch_segment *s, double t, double out[2]) {
+  if (s->is_line) {
+    out[0] = s->p[0][0] + t * (s->p[2][0] - s->p[0][0]);
+    out[1] = s->p[0][1] + t * (s->p[2][1] - s->p[0][1]);
+  } else {
+    double a = (1.0 - t) * (1.0 - t), b = 2.0 * (1.0 - t) * t, d = t * t;
+    out[0] = a * s->p[0][0] + b * s->p[1][0] + d * s->p[2][0];
+    out[1] = a * s->p[0][1] + b * s->p[1][1] + d * s->p[2][1];
+  }
+}
+
+void ch_segment_box(const ch_segment *s, double r, double box[4]) {
+  box[0] = fmin(fmin(s->p[0][0], s->p[1][0]), s->p[2][0]) - r;
+  box[1] = fmin(fmin(s->p[0][1], s->p[1][1]), s->p[2][1]) - r;
+  box[2] = fmax(fmax(s->p[0][0], s->p[1][0]), s->p[2][0]) + r;
+  box[3] = fmax(fmax(s->p[0][1], s->p[1][1]), s->p[2][1]) + r;
+}
+
 void ch_curve_describe(const ch_curve *curve, char *out, size_t out_size) {
   const char *el = curve->element[0] ? curve->element : "path";
   if (curve->id[0])

@@ -114,6 +114,13 @@ int ch_profile_parse(const char *text, ch_profile *out, char *why, size_t why_si
  * crease lines: e.g. -1/2, 0, 1/2 for v. Returns the count (<= max). */
 int ch_profile_creases(const ch_profile *profile, double *t, int max);
 
+/* The point of segment s at parameter t (exact on the straight branch). */
+void ch_segment_point(const ch_segment *s, double t, double out[2]);
+
+/* The box of s's control points (which holds the segment) grown by r on
+ * every side: umin vmin umax vmax. */
+void ch_segment_box(const ch_segment *s, double r, double box[4]);
+
 /* A human-readable name of a curve for messages: "path 'id'" or "path #3". */
 void ch_curve_describe(const ch_curve *curve, char *out, size_t out_size);
 

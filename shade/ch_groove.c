@@ -11,19 +11,10 @@
 #include "ch_bezier.h"
 #include "ch_math.h"
 
-static void segment_point(const ch_segment *s, double t, double out[2]) {
-  if (s->is_line) {
-    out[0] = s->p[0][0] + t * (s->p[2][0] - s->p[0][0]);
-    out[1] = s->p[0][1] + t * (s->p[2][1] - s->p[0][1]);
-  } else {
-    ch_bezier_eval(s->p, t, out);
-  }
-}
-
 int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q[2]) {
   const ch_segment *s = &set->segments[segment];
   double c[2], d[2], here[2];
-  segment_point(s, t, c);
+  ch_segment_point(s, t, c);
   d[0] = q[0] - c[0];
   d[1] = q[1] - c[1];
   if (t > 0.0 && t < 1.0) {
@@ -38,6 +29,10 @@ int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q
   ch_bezier_tangent(set->segments[other].p, at_start ? 1.0 : 0.0, there);
   memcpy(tin, at_start ? there : here, sizeof tin);
   memcpy(tout, at_start ? here : there, sizeof tout);
+  return ch_joint_side(tin, tout, d);
+}
+
+int ch_joint_side(const double tin[2], const double tout[2], const double d[2]) {
   /* Near the joint the curve is two rays from it: back along the incoming
    * tangent (a) and along the outgoing one (b). Walking in along a and out
    * along b, the left side is the sector swept counter-clockwise from b to
@@ -67,7 +62,7 @@ void ch_curve_closest(const ch_curve_set *set, int curve, const double q[2], ch_
   }
   out->segment = best_seg;
   out->t = best_t;
-  segment_point(&set->segments[best_seg], best_t, out->point);
+  ch_segment_point(&set->segments[best_seg], best_t, out->point);
   out->distance = sqrt(best);
   out->signed_distance = out->distance * ch_curve_side(set, best_seg, best_t, q);
 }
@@ -88,11 +83,7 @@ ch_status ch_groove_field_init(ch_groove_field *f, const ch_curve_set *set, ch_e
     }
     /* The control polygon's box holds the quadratic; grow it by the half
      * width, beyond which the profile is zero. */
-    double r = 0.5 * c->width;
-    b[0] = fmin(fmin(s->p[0][0], s->p[1][0]), s->p[2][0]) - r;
-    b[1] = fmin(fmin(s->p[0][1], s->p[1][1]), s->p[2][1]) - r;
-    b[2] = fmax(fmax(s->p[0][0], s->p[1][0]), s->p[2][0]) + r;
-    b[3] = fmax(fmax(s->p[0][1], s->p[1][1]), s->p[2][1]) + r;
+    ch_segment_box(s, 0.5 * c->width, b);
   }
   for (int i = 0; i < set->num_curves; i++) f->num_grooves += set->curves[i].kind == CH_CURVE_GROOVE;
   ch_status st = ch_grid_build(&f->grid, set->num_segments, (const double(*)[4])f->boxes, err);
@@ -188,23 +179,4 @@ double ch_groove_field_eval(const ch_groove_field *f, double u, double v, ch_gro
     detail->t = cs.owner >= 0 ? cs.owner_t : 0.0;
   }
   return h;
-}
-
-void ch_groove_field_render(const ch_groove_field *f, int R, int S, float *plane) {
-  double inv = 1.0 / R, sub = 1.0 / S, norm = 1.0 / ((double)S * S);
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < R; y++) {
-    for (int x = 0; x < R; x++) {
-      double sum = 0.0;
-      for (int j = 0; j < S; j++) {
-        /* Row 0 is the top: v runs down from 1. */
-        double v = 1.0 - (y + (j + 0.5) * sub) * inv;
-        for (int i = 0; i < S; i++) {
-          double u = (x + (i + 0.5) * sub) * inv;
-          sum += ch_groove_field_eval(f, u, v, NULL);
-        }
-      }
-      plane[(size_t)y * R + x] = (float)(sum * norm);
-    }
-  }
 }

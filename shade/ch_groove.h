@@ -28,6 +28,11 @@ typedef struct ch_curve_point {
  * on a tangent line count as left. */
 int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q[2]);
 
+/* The side of d (a vector from a joint) for a path arriving along tin and
+ * leaving along tout: +1 left, -1 right. Correct for turns of any
+ * sharpness (a test against one tangent is wrong beyond 90 degrees). */
+int ch_joint_side(const double tin[2], const double tout[2], const double d[2]);
+
 /* Closest point of curve `curve` to q by visiting all its segments; ties go
  * to the first segment. */
 void ch_curve_closest(const ch_curve_set *set, int curve, const double q[2], ch_curve_point *out);
@@ -60,12 +65,6 @@ typedef struct ch_groove_sample {
  * detail may be NULL. */
 double ch_groove_field_eval(const ch_groove_field *field, double u, double v,
                             ch_groove_sample *detail);
-
-/* SPEC §5 sampling: fills an R x R plane (row 0 on top) with the mean of an
- * S x S grid of point samples inside each pixel (S = 1: the centre).
- * Parallel over rows; identical to a serial run. */
-void ch_groove_field_render(const ch_groove_field *field, int resolution, int supersample,
-                            float *plane);
 
 #ifdef __cplusplus
 }

@@ -13,6 +13,8 @@ typedef struct cli_command {
 
 extern const cli_command cli_info_command;
 extern const cli_command cli_sample_command;
+extern const cli_command cli_dci_command;
+extern const cli_command cli_magnify_command;
 
 /* Prints "chisel: message" and returns the exit status of err's status. */
 int cli_fail(const ch_error *err);
@@ -31,6 +33,10 @@ ch_error cli_error(void);
  * error and returns nonzero. */
 int cli_parse_int(const char *cmd, const char *option, const char *text, long lo, long hi,
                   long *out);
+
+/* Parses exactly n comma-separated finite numbers; on failure prints a
+ * usage error and returns nonzero. */
+int cli_parse_doubles(const char *cmd, const char *option, const char *text, int n, double *out);
 
 /* Fetches the value of option argv[*i] (advancing *i); NULL and a usage
  * error if it is missing. */

@@ -1,6 +1,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -50,6 +51,21 @@ int cli_parse_int(const char *cmd, const char *option, const char *text, long lo
     return -1;
   }
   *out = v;
+  return 0;
+}
+
+int cli_parse_doubles(const char *cmd, const char *option, const char *text, int n, double *out) {
+  const char *p = text;
+  for (int i = 0; i < n; i++) {
+    char *end;
+    errno = 0;
+    out[i] = strtod(p, &end);
+    if (end == p || errno || !isfinite(out[i]) || (i + 1 < n ? *end != ',' : *end != '\0')) {
+      cli_usage_error(cmd, "%s expects %d comma-separated numbers, got '%s'", option, n, text);
+      return -1;
+    }
+    p = end + 1;
+  }
   return 0;
 }
 

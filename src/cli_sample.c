@@ -5,7 +5,7 @@
 
 #include "ch_curves.h"
 #include "ch_exr.h"
-#include "ch_groove.h"
+#include "ch_height.h"
 #include "ch_image.h"
 #include "ch_png.h"
 #include "cli.h"
@@ -13,9 +13,11 @@
 static const char usage[] =
     "usage: chisel sample CURVES.svg --res R -o H.exr [--supersample S] [--png P.png]\n"
     "\n"
-    "Writes the exact displacement h of the curves (SPEC §3) as an R x R float32\n"
-    "EXR with one channel named h. Pixel (x, y), y counted down from the top row,\n"
-    "covers u in [x/R, (x+1)/R] and v in [1-(y+1)/R, 1-y/R].\n"
+    "Writes the displacement h = h_step + h_groove of the curves (SPEC §3) as an\n"
+    "R x R float32 EXR with one channel named h. Pixel (x, y), y counted down from\n"
+    "the top row, covers u in [x/R, (x+1)/R] and v in [1-(y+1)/R, 1-y/R].\n"
+    "Grooves are exact; steps are diffused on an R x R grid (chisel dci) and read\n"
+    "with the exact curves' sides, so walls are sharp inside pixels.\n"
     "\n"
     "  --res R            image resolution, 1..16384 (required)\n"
     "  -o, --output FILE  the EXR to write (required)\n"
@@ -59,20 +61,17 @@ static int run(int argc, char **argv) {
   ch_error err = cli_error();
   ch_curve_set set;
   if (ch_curves_read_svg(svg, &set, &err)) return cli_fail(&err);
-  int steps = 0;
-  for (int i = 0; i < set.num_curves; i++) steps += set.curves[i].kind == CH_CURVE_STEP;
-  if (steps)
-    ch_warn(&err, "%s: %d step curve%s not included: h_step needs the diffusion solver", svg, steps,
-            steps > 1 ? "s are" : " is");
-
-  ch_groove_field field;
+  /* h_step comes from a DCI at the output resolution, read with the exact
+   * curves' sides so that supersampled pixels resolve the walls. */
+  ch_height height;
+  ch_height_desc hd = {.dci_resolution = (int)res, .step_method = CH_RECON_EXACT};
   ch_image img = {0};
   const char *names[] = {"h"};
   cli_outputs outs = {0};
-  ch_status st = ch_groove_field_init(&field, &set, &err);
+  ch_status st = ch_height_init(&height, &set, &hd, &err);
   if (!st) st = ch_image_init(&img, (int)res, (int)res, 1, names, &err);
   if (!st) {
-    ch_groove_field_render(&field, (int)res, (int)ss, ch_image_plane(&img, 0));
+    ch_height_render(&height, (int)res, (int)ss, ch_image_plane(&img, 0));
     char res_text[32], ss_text[32];
     snprintf(res_text, sizeof res_text, "%ld", res);
     snprintf(ss_text, sizeof ss_text, "%ld", ss);
@@ -89,7 +88,7 @@ static int run(int argc, char **argv) {
   }
   if (st) cli_outputs_remove_all(&outs);
   ch_image_free(&img);
-  ch_groove_field_free(&field);
+  ch_height_free(&height);
   ch_curves_free(&set);
   return st ? cli_fail(&err) : 0;
 }

@@ -105,6 +105,65 @@ assert lo < -0.001, lo   # glyphs carve
 EOF
 fi
 
+# ---- steps: sample includes h_step; dci writes every layer; magnify reads them ----
+steps=$models/curves/steps_simple.svg
+expect 0 "$chisel" sample "$steps" --res 50 --supersample 1 -o "$tmp/steps.exr" || true
+if command -v python3 >/dev/null; then
+  checks=$((checks + 1))
+  python3 - "$tmp/steps.exr" "$tests/tools" <<'EOF' || fail "h_step values of steps_simple"
+import sys
+sys.path.insert(0, sys.argv[2])
+from exr_read import read_exr
+h = read_exr(sys.argv[1])["h"]
+# Disc of radius 0.18 about (0.35, 0.38): 0.02 inside; 0 between; 0.01 above
+# the crossing curve (which runs near v = 0.72 .. 0.78).
+def at(u, v):
+    return h[int((1 - v) * 50)][int(u * 50)]
+assert abs(at(0.35, 0.38) - 0.02) < 1e-7, at(0.35, 0.38)
+assert abs(at(0.8, 0.4) - 0.0) < 1e-7, at(0.8, 0.4)
+assert abs(at(0.5, 0.95) - 0.01) < 1e-7, at(0.5, 0.95)
+EOF
+fi
+relief=$models/curves/relief.svg
+expect 0 "$chisel" dci "$relief" --res 128 -o "$tmp/dci.exr" --png "$tmp/dci.png" || true
+checks=$((checks + 1))
+[ -s "$tmp/dci.exr" ] && [ -s "$tmp/dci.png" ] || fail "dci wrote no EXR/PNG"
+if command -v python3 >/dev/null; then
+  checks=$((checks + 1))
+  python3 - "$tmp/dci.exr" "$tests/tools" <<'EOF' || fail "dci layers"
+import sys
+sys.path.insert(0, sys.argv[2])
+from exr_read import read_exr, read_header
+d = read_exr(sys.argv[1])
+want = {"h", "R", "G", "B", "opp.h", "opp.R", "opp.G", "opp.B", "distance", "sp.u", "sp.v",
+        "chain", "t", "curve", "side", "exact", "fixed", "blur"}
+assert want <= set(d), sorted(want - set(d))
+assert read_header(sys.argv[1])["chisel:rect"][1] == "0 0 1 1", read_header(sys.argv[1])["chisel:rect"]
+EOF
+fi
+expect 0 "$chisel" dci "$svg" --res 32 -o "$tmp/flat.exr" && grep -q "no step curves" "$tmp/stderr" || fail "dci without steps warns"
+for m in bilinear recon5 recon3; do
+  expect 0 "$chisel" magnify "$tmp/dci.exr" --rect 0.6,0.75,0.7,0.85 --out-res 64 -o "$tmp/mag_$m.png" --method $m || true
+done
+expect 0 "$chisel" magnify "$tmp/dci.exr" --rect 0.6,0.75,0.7,0.85 --out-res 64 -o "$tmp/mag_exact.png" \
+  --method exact --curves "$relief" --exr "$tmp/mag.exr" || true
+checks=$((checks + 1))
+[ -s "$tmp/mag_exact.png" ] && [ -s "$tmp/mag.exr" ] || fail "magnify wrote no PNG/EXR"
+expect 2 "$chisel" magnify "$tmp/dci.exr" --rect 0.6,0.75,0.7,0.85 --out-res 64 -o "$tmp/m.png" --method exact \
+  && one_line_with "--method exact needs --curves"
+expect 2 "$chisel" magnify "$tmp/dci.exr" --rect 0.6,0.75,0.7,0.85 --out-res 64 -o "$tmp/m.png" --method cubic \
+  && one_line_with "unknown method 'cubic'"
+expect 2 "$chisel" magnify "$tmp/dci.exr" --rect 0.7,0.75,0.6,0.85 --out-res 64 -o "$tmp/m.png" \
+  && one_line_with "--rect needs u0 < u1"
+expect 2 "$chisel" magnify "$tmp/dci.exr" --rect 0.6,0.75,0.7 --out-res 64 -o "$tmp/m.png" \
+  && one_line_with "--rect expects 4 comma-separated numbers"
+expect 2 "$chisel" magnify "$out" --rect 0.6,0.75,0.7,0.85 --out-res 64 -o "$tmp/m.png" \
+  && one_line_with "not a chisel DCI: no 'opp.h' layer"
+no_file "$tmp/m.png"
+expect 2 "$chisel" magnify "$tests/data/svg/bad/garbage.svg" --rect 0,0,1,1 --out-res 8 -o "$tmp/m.png" \
+  && one_line_with "garbage.svg"
+no_file "$tmp/m.png"
+
 # ---- info ----
 expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
 expect 0 "$chisel" info "$models/plane.obj" && grep -q "UV charts *1" "$tmp/stdout" || fail "info plane.obj"

@@ -1,0 +1,298 @@
+/* Diffusion-curve images (diffusion-curves-on-surfaces §3.2; the diffusion
+ * itself follows Orzan et al.'s formulation: Laplace with the curves as
+ * two-sided Dirichlet boundaries). Where the paper rasterises curve colours
+ * into the texels a curve touches, we fix every texel within one texel of a
+ * curve to its side's value, taken from the exact feature samples; texels
+ * near open ends stay free so values flow round the ends, as in the paper.
+ *
+ * Reblur (SPEC §3, Jeschke et al. 2009): the blur radius is diffused like a
+ * colour (the curve's radius on blurred curves, 0 on sharp ones), capped at
+ * d / (3 sqrt 2), d the distance to the nearest sharp curve, and applied as
+ * a separable Gaussian truncated at 3 sigma: both passes together stay in
+ * the L-infinity ball of radius 3 sigma, which then never crosses a sharp
+ * curve. */
+#include "ch_dci.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static double now_seconds(void) { return omp_get_wtime(); }
+
+void ch_dci_free(ch_dci *d) {
+  ch_samples_free(&d->samples);
+  free(d->h);
+  free(d->rgb);
+  free(d->blur);
+  free(d->fixed);
+  memset(d, 0, sizeof *d);
+}
+
+/* Separable Gaussian with a radius per texel (in texels); axis 0 blurs
+ * along x, 1 along y. Borders clamp (zero flux). */
+static void blur_pass(int W, int H, int channels, const float *sigma, const float *in, float *out, int axis) {
+#pragma omp parallel for schedule(dynamic, 8)
+  for (int y = 0; y < H; y++) {
+    for (int x = 0; x < W; x++) {
+      size_t i = (size_t)y * W + x;
+      float s = sigma[i];
+      int k = (int)floorf(3.0f * s);
+      if (s < 0.25f || k < 1) {
+        for (int c = 0; c < channels; c++) out[i * channels + c] = in[i * channels + c];
+        continue;
+      }
+      double acc[4] = {0, 0, 0, 0}, wsum = 0.0, inv = 1.0 / (2.0 * (double)s * s);
+      for (int j = -k; j <= k; j++) {
+        int xx = axis == 0 ? x + j : x, yy = axis == 0 ? y : y + j;
+        xx = xx < 0 ? 0 : xx >= W ? W - 1 : xx;
+        yy = yy < 0 ? 0 : yy >= H ? H - 1 : yy;
+        double w = exp(-(double)j * j * inv);
+        size_t n = (size_t)yy * W + xx;
+        for (int c = 0; c < channels; c++) acc[c] += w * in[n * channels + c];
+        wsum += w;
+      }
+      for (int c = 0; c < channels; c++) out[i * channels + c] = (float)(acc[c] / wsum);
+    }
+  }
+}
+
+/* Blurs h (and rgb) where curves carry data-blur. values holds the diffused
+ * channels interleaved: h, [r g b], sigma last. */
+static ch_status reblur(const ch_curve_set *set, ch_dci *d, float *values, int channels, ch_error *err) {
+  ch_samples *s = &d->samples;
+  int W = s->width, H = s->height;
+  size_t n = (size_t)W * H;
+  int sigma_channel = channels - 1, data_channels = channels - 1;
+  /* Distance to the nearest sharp step curve caps the radius. */
+  unsigned char *sharp = calloc((size_t)(set->num_curves > 0 ? set->num_curves : 1), 1);
+  if (!sharp) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
+  int any_sharp = 0;
+  for (int c = 0; c < set->num_curves; c++) {
+    sharp[c] = set->curves[c].kind == CH_CURVE_STEP && set->curves[c].blur == 0.0;
+    any_sharp |= sharp[c];
+  }
+  ch_samples sharp_samples = {0};
+  if (any_sharp) {
+    ch_status st = ch_samples_build_subset(set, sharp, W, H, s->rect, CH_DCI_SAMPLE_BAND, &sharp_samples, err);
+    if (st) {
+      free(sharp);
+      return st;
+    }
+  }
+  free(sharp);
+  d->blur = malloc(n * sizeof *d->blur);
+  float *a = malloc(n * data_channels * sizeof *a), *b = malloc(n * data_channels * sizeof *b);
+  if (!d->blur || !a || !b) {
+    free(a);
+    free(b);
+    ch_samples_free(&sharp_samples);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
+  }
+  for (size_t i = 0; i < n; i++) {
+    float sg = values[i * channels + sigma_channel];
+    if (any_sharp && sharp_samples.curve[i] >= 0) {
+      float cap = sharp_samples.distance[i] / (3.0f * 1.41421356f);
+      if (sg > cap) sg = cap;
+    }
+    d->blur[i] = sg > 0.0f ? sg : 0.0f;
+    for (int c = 0; c < data_channels; c++) a[i * data_channels + c] = values[i * channels + c];
+  }
+  ch_samples_free(&sharp_samples);
+  blur_pass(W, H, data_channels, d->blur, a, b, 0);
+  blur_pass(W, H, data_channels, d->blur, b, a, 1);
+  for (size_t i = 0; i < n; i++)
+    for (int c = 0; c < data_channels; c++) values[i * channels + c] = a[i * data_channels + c];
+  free(a);
+  free(b);
+  return CH_OK;
+}
+
+ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci *d, ch_error *err) {
+  memset(d, 0, sizeof *d);
+  int R = desc->resolution;
+  double rect[4] = {desc->rect[0], desc->rect[1], desc->rect[2], desc->rect[3]};
+  if (rect[0] == 0.0 && rect[1] == 0.0 && rect[2] == 0.0 && rect[3] == 0.0) rect[2] = rect[3] = 1.0;
+  double t0 = now_seconds();
+  ch_status st = ch_samples_build(set, R, R, rect, CH_DCI_SAMPLE_BAND, &d->samples, err);
+  if (st) return st;
+  d->seconds_samples = now_seconds() - t0;
+  ch_samples *s = &d->samples;
+  size_t n = (size_t)R * R;
+  int any_blur = 0;
+  for (int c = 0; c < set->num_curves; c++)
+    if (set->curves[c].kind == CH_CURVE_STEP && set->curves[c].blur > 0.0) any_blur = 1;
+  int colors = s->num_colors;
+  int channels = 1 + colors + any_blur;
+  float *values = malloc(n * channels * sizeof *values);
+  d->fixed = calloc(n, 1);
+  d->h = malloc(n * sizeof *d->h);
+  if (colors) d->rgb = malloc(3 * n * sizeof *d->rgb);
+  if (!values || !d->fixed || !d->h || (colors && !d->rgb)) {
+    free(values);
+    ch_dci_free(d);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d diffusion-curve image", R, R);
+  }
+  double texel = sqrt(s->texel[0] * s->texel[1]);
+  for (size_t i = 0; i < n; i++) {
+    int fixed = s->curve[i] >= 0 && s->exact[i] && !(s->side[i] & CH_SIDE_END) &&
+                s->distance[i] <= CH_DCI_FIXED_BAND;
+    d->fixed[i] = (unsigned char)fixed;
+    /* Free texels start from their nearest curve's side: a good guess. */
+    float *v = values + i * channels;
+    v[0] = s->curve[i] >= 0 ? s->value[2 * i] : 0.0f;
+    for (int c = 0; c < colors; c++) v[1 + c] = s->curve[i] >= 0 ? s->color[6 * i + c] : 0.0f;
+    if (any_blur) v[channels - 1] = s->curve[i] >= 0 ? (float)(set->curves[s->curve[i]].blur / texel) : 0.0f;
+  }
+  t0 = now_seconds();
+  ch_diffuse_desc dd = {.tolerance = desc->tolerance};
+  st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
+  d->seconds_diffuse = now_seconds() - t0;
+  if (!st && any_blur) {
+    t0 = now_seconds();
+    st = reblur(set, d, values, channels, err);
+    d->seconds_blur = now_seconds() - t0;
+  }
+  if (st) {
+    free(values);
+    ch_dci_free(d);
+    return st;
+  }
+  for (size_t i = 0; i < n; i++) {
+    d->h[i] = values[i * channels];
+    for (int c = 0; c < colors; c++) d->rgb[3 * i + c] = values[i * channels + 1 + c];
+  }
+  free(values);
+  return CH_OK;
+}
+
+/* ---- EXR layers ---- */
+
+enum {
+  L_H, L_R, L_G, L_B, L_OPP_H, L_OPP_R, L_OPP_G, L_OPP_B, L_DIST, L_SPU, L_SPV, L_CHAIN, L_T,
+  L_CURVE, L_SIDE, L_EXACT, L_FIXED, L_BLUR, NUM_LAYERS
+};
+static const char *layer_names[NUM_LAYERS] = {
+    "h", "R", "G", "B", "opp.h", "opp.R", "opp.G", "opp.B", "distance", "sp.u", "sp.v", "chain", "t",
+    "curve", "side", "exact", "fixed", "blur"};
+
+static int layer_present(const ch_dci *d, int layer) {
+  if (layer == L_R || layer == L_G || layer == L_B || (layer >= L_OPP_R && layer <= L_OPP_B))
+    return d->rgb != NULL;
+  if (layer == L_BLUR) return d->blur != NULL;
+  return 1;
+}
+
+ch_status ch_dci_to_image(const ch_dci *d, ch_image *out, ch_error *err) {
+  const ch_samples *s = &d->samples;
+  const char *names[NUM_LAYERS];
+  int map[NUM_LAYERS], count = 0;
+  for (int l = 0; l < NUM_LAYERS; l++) {
+    map[l] = -1;
+    if (layer_present(d, l)) {
+      map[l] = count;
+      names[count++] = layer_names[l];
+    }
+  }
+  ch_status st = ch_image_init(out, s->width, s->height, count, names, err);
+  if (st) return st;
+  size_t n = (size_t)s->width * s->height;
+  for (size_t i = 0; i < n; i++) {
+    int x = (int)(i % (size_t)s->width), y = (int)(i / (size_t)s->width);
+    double c[2];
+    ch_samples_center(s, x, y, c);
+    float v[NUM_LAYERS] = {0};
+    v[L_H] = d->h[i];
+    v[L_OPP_H] = s->value[2 * i + 1];
+    if (d->rgb)
+      for (int k = 0; k < 3; k++) {
+        v[L_R + k] = d->rgb[3 * i + k];
+        v[L_OPP_R + k] = s->color[6 * i + 3 + k];
+      }
+    v[L_DIST] = s->curve[i] >= 0 ? s->distance[i] : INFINITY;
+    v[L_SPU] = (float)(c[0] + s->offset[2 * i] * s->texel[0]);
+    v[L_SPV] = (float)(c[1] + s->offset[2 * i + 1] * s->texel[1]);
+    v[L_CHAIN] = (float)s->chain[i];
+    v[L_T] = s->param[i];
+    v[L_CURVE] = (float)s->curve[i];
+    v[L_SIDE] = (float)s->side[i];
+    v[L_EXACT] = (float)s->exact[i];
+    v[L_FIXED] = (float)d->fixed[i];
+    if (d->blur) v[L_BLUR] = d->blur[i];
+    for (int l = 0; l < NUM_LAYERS; l++)
+      if (map[l] >= 0) ch_image_plane(out, map[l])[i] = v[l];
+  }
+  return CH_OK;
+}
+
+ch_status ch_dci_from_image(const ch_image *img, const double rect[4], const char *name, ch_dci *d,
+                            ch_error *err) {
+  memset(d, 0, sizeof *d);
+  int idx[NUM_LAYERS];
+  for (int l = 0; l < NUM_LAYERS; l++) idx[l] = ch_image_find(img, layer_names[l]);
+  static const int required[] = {L_H, L_OPP_H, L_DIST, L_SPU, L_SPV, L_CHAIN, L_T, L_CURVE, L_SIDE, L_EXACT};
+  for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
+    if (idx[required[k]] < 0)
+      return ch_error_set(err, CH_ERR_INPUT, "%s: not a chisel DCI: no '%s' layer (write it with chisel dci)",
+                          name, layer_names[required[k]]);
+  int colors = idx[L_R] >= 0 && idx[L_G] >= 0 && idx[L_B] >= 0 && idx[L_OPP_R] >= 0 && idx[L_OPP_G] >= 0 &&
+               idx[L_OPP_B] >= 0;
+  ch_samples *s = &d->samples;
+  int W = img->width, H = img->height;
+  size_t n = (size_t)W * H;
+  s->width = W;
+  s->height = H;
+  memcpy(s->rect, rect, sizeof s->rect);
+  s->texel[0] = (rect[2] - rect[0]) / W;
+  s->texel[1] = (rect[3] - rect[1]) / H;
+  s->band = CH_DCI_SAMPLE_BAND;
+  s->num_colors = colors ? 3 : 0;
+#define ALLOC(p, count) (((p) = calloc((count), sizeof *(p))) != NULL)
+  int ok = ALLOC(s->offset, 2 * n) && ALLOC(s->distance, n) && ALLOC(s->curve, n) && ALLOC(s->segment, n) &&
+           ALLOC(s->seg_t, n) && ALLOC(s->chain, n) && ALLOC(s->param, n) && ALLOC(s->side, n) &&
+           ALLOC(s->exact, n) && ALLOC(s->value, 2 * n) && ALLOC(d->h, n) && ALLOC(d->fixed, n);
+  if (ok && colors) ok = ALLOC(s->color, 6 * n) && ALLOC(d->rgb, 3 * n);
+  if (ok && idx[L_BLUR] >= 0) ok = ALLOC(d->blur, n);
+#undef ALLOC
+  if (!ok) {
+    ch_dci_free(d);
+    return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
+  }
+#define L(layer) ch_image_plane(img, idx[layer])[i]
+  for (size_t i = 0; i < n; i++) {
+    int x = (int)(i % (size_t)W), y = (int)(i / (size_t)W);
+    double c[2];
+    ch_samples_center(s, x, y, c);
+    float curve = L(L_CURVE), side = L(L_SIDE), chain = L(L_CHAIN);
+    if (!(curve >= -1.0f && curve < 16777216.0f && curve == floorf(curve)) || !(side >= 0.0f && side < 32.0f && side == floorf(side)) ||
+        !(chain >= -1.0f && chain < 16777216.0f) || !isfinite(L(L_H)) || !isfinite(L(L_OPP_H))) {
+      ch_dci_free(d);
+      return ch_error_set(err, CH_ERR_INPUT, "%s: pixel (%d, %d): DCI layers out of range", name, x, y);
+    }
+    d->h[i] = L(L_H);
+    s->value[2 * i] = L(L_H);
+    s->value[2 * i + 1] = L(L_OPP_H);
+    s->curve[i] = (int32_t)curve;
+    s->chain[i] = (int32_t)chain;
+    s->param[i] = L(L_T);
+    s->side[i] = (uint8_t)side;
+    s->exact[i] = L(L_EXACT) != 0.0f;
+    s->distance[i] = L(L_DIST);
+    s->segment[i] = -1; /* segments are not stored: the curves are not known here */
+    if (s->curve[i] >= 0) {
+      s->offset[2 * i] = (float)((L(L_SPU) - c[0]) / s->texel[0]);
+      s->offset[2 * i + 1] = (float)((L(L_SPV) - c[1]) / s->texel[1]);
+    }
+    if (idx[L_FIXED] >= 0) d->fixed[i] = L(L_FIXED) != 0.0f;
+    if (colors)
+      for (int k = 0; k < 3; k++) {
+        d->rgb[3 * i + k] = L(L_R + k);
+        s->color[6 * i + k] = L(L_R + k);
+        s->color[6 * i + 3 + k] = L(L_OPP_R + k);
+      }
+    if (d->blur) d->blur[i] = L(L_BLUR);
+  }
+#undef L
+  return CH_OK;
+}

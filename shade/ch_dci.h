@@ -1,0 +1,68 @@
+/* ch_dci: a diffusion-curve image (diffusion-curves-on-surfaces §3.2-3.3):
+ * the feature samples of the step curves, the diffused values (h_step of
+ * SPEC §3, and RGB when curves carry colours) and the reblur. Together with
+ * ch_recon it evaluates h_step crisply at any UV. */
+#ifndef CH_DCI_H
+#define CH_DCI_H
+
+#include "ch_curves.h"
+#include "ch_diffuse.h"
+#include "ch_error.h"
+#include "ch_image.h"
+#include "ch_samples.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Zero means default. */
+typedef struct ch_dci_desc {
+  int resolution;     /* R: R x R texels (required) */
+  double rect[4];     /* u0 v0 u1 v1; all zero: the unit square */
+  double tolerance;   /* diffusion relative residual; 0: 1e-6 */
+} ch_dci_desc;
+
+typedef struct ch_dci {
+  ch_samples samples;      /* layout, closest points, sides, side values */
+  float *h;                /* W*H: diffused and reblurred value (h_step) */
+  float *rgb;              /* 3*W*H or NULL: diffused colour */
+  float *blur;             /* W*H blur radius in texels, or NULL (no blur) */
+  unsigned char *fixed;    /* W*H: 1 where the texel was a Dirichlet texel */
+  ch_diffuse_stats stats;
+  double seconds_samples, seconds_diffuse, seconds_blur;
+} ch_dci;
+
+/* Texels at most this far (in texels) from a curve, on its side, are fixed
+ * to that side's value. One texel is the least that keeps diffusion from
+ * leaking across: a curve crossing the segment between two neighbouring
+ * texel centres is within one texel of both. */
+#define CH_DCI_FIXED_BAND 1.0
+/* Exact closest points are computed this far from curves (texels); the
+ * reconstruction reads a 5 x 5 neighbourhood. */
+#define CH_DCI_SAMPLE_BAND 3.0
+
+/* Builds the DCI of the step curves of set. A set without step curves gives
+ * h = 0 everywhere. Curves with data-blur are blurred after diffusion by a
+ * Gaussian whose radius is itself diffused from the curves (0 on sharp
+ * curves) and capped at distance / (3 sqrt 2) to the nearest sharp curve,
+ * so the separable footprint never reaches across a sharp curve. */
+ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci *out, ch_error *err);
+
+void ch_dci_free(ch_dci *dci);
+
+/* The DCI as image layers for EXR: h, R G B (with colours), opp.h and
+ * opp.R opp.G opp.B (the values on the other side), distance (texels),
+ * sp.u sp.v (closest curve point, UV), chain, t (parameter along the
+ * chain), curve, side (CH_SIDE_* bits), exact, fixed, blur (with blur). */
+ch_status ch_dci_to_image(const ch_dci *dci, ch_image *out, ch_error *err);
+
+/* Rebuilds a DCI from those layers (what `chisel magnify` reads); rect is
+ * the UV rectangle the image covers. Missing layers give CH_ERR_INPUT
+ * naming them; name is used in messages. */
+ch_status ch_dci_from_image(const ch_image *img, const double rect[4], const char *name, ch_dci *out,
+                            ch_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
