@@ -1,0 +1,291 @@
+/* chisel-accuracy: the accuracy figures of issue 4 for displaced meshes over
+ * the planar base (see accuracy.h for the definitions).
+ *
+ * usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid 2048]
+ *                        [--dci-res 4096] [--json] [--verbose]
+ * One line per mesh: text, or one JSON object. Several meshes share one
+ * reference (h, distances to features, exact gradients), which is where the
+ * time goes for step curves (the DCI). Exit status: 0, 2 bad input or usage,
+ * 1 internal failure. */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "accuracy.h"
+
+static const char usage[] =
+    "usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid G] [--dci-res R] [--json] [--verbose]\n"
+    "\n"
+    "Rasterises each mesh's non-vertical triangles in xy on the cell centres of a\n"
+    "G x G grid over the unit square (planar base: z should be h(x, y)) and prints\n"
+    "L1, band error, normal error near features (mean, p95) and holes (issue 4).\n"
+    "  --grid G      sample grid, 16..16384 (default 2048)\n"
+    "  --dci-res R   resolution of the step curves' DCI for the exact h (default 4096)\n"
+    "  --json        one JSON object per mesh instead of a text line\n"
+    "  --verbose     timings on stderr\n";
+
+static void print_warning(void *user, const char *message) {
+  (void)user;
+  fprintf(stderr, "chisel-accuracy: warning: %s\n", message);
+}
+
+static int fail(const ch_error *err) {
+  fprintf(stderr, "chisel-accuracy: %s\n", err->message[0] ? err->message : ch_status_name(err->status));
+  int code = ch_status_exit_code(err->status);
+  return code ? code : 1;
+}
+
+static int usage_error(const char *what, const char *arg) {
+  fprintf(stderr, "chisel-accuracy: %s%s%s\n%s", what, arg ? " " : "", arg ? arg : "", usage);
+  return 2;
+}
+
+static int parse_int(const char *text, long lo, long hi, long *out) {
+  char *end;
+  errno = 0;
+  long v = strtol(text, &end, 10);
+  if (end == text || *end || errno || v < lo || v > hi) return -1;
+  *out = v;
+  return 0;
+}
+
+static double now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* A plain OBJ reader for the positions and faces only: ch_mesh_read goes
+ * through OpenMesh, which takes about 7 s for a 2.1M-triangle OBJ; this
+ * takes well under 1 s. Anything but .obj goes to ch_mesh_read. Keeps
+ * coordinates in double (OpenMesh reads float). */
+static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
+  memset(m, 0, sizeof *m);
+  FILE *fp = fopen(path, "rb");
+  if (!fp) return ch_error_set(err, CH_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+  char *text = NULL;
+  size_t size = 0, cap = 0;
+  for (;;) {
+    if (cap - size < (1u << 20)) {
+      cap = cap ? 2 * cap : (size_t)1 << 24;
+      char *grown = realloc(text, cap + 1);
+      if (!grown) {
+        free(text);
+        fclose(fp);
+        return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+      }
+      text = grown;
+    }
+    size_t got = fread(text + size, 1, cap - size, fp);
+    size += got;
+    if (got == 0) break;
+  }
+  int bad_read = ferror(fp);
+  fclose(fp);
+  if (bad_read) {
+    free(text);
+    return ch_error_set(err, CH_ERR_IO, "%s: read error", path);
+  }
+  text[size] = '\0';
+  size_t np = 0, nf = 0, nc = 0, cap_p = 1024, cap_f = 1024, cap_c = 4096;
+  double *pos = malloc(3 * cap_p * sizeof *pos);
+  int *fs = malloc((cap_f + 1) * sizeof *fs), *cp = malloc(cap_c * sizeof *cp);
+  ch_status st = CH_OK;
+  long line = 0;
+  char *p = text, *end = text + size;
+  while (p < end && !st && pos && fs && cp) {
+    line++;
+    char *eol = memchr(p, '\n', (size_t)(end - p));
+    if (!eol) eol = end;
+    *eol = '\0';
+    if (p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
+      if (np == cap_p) {
+        double *g = realloc(pos, 3 * (cap_p *= 2) * sizeof *pos);
+        if (!g) break;
+        pos = g;
+      }
+      char *q = p + 1;
+      for (int k = 0; k < 3; k++) {
+        char *next;
+        pos[3 * np + k] = strtod(q, &next);
+        if (next == q || !isfinite(pos[3 * np + k]))
+          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad vertex", path, line);
+        q = next;
+      }
+      np++;
+    } else if (p[0] == 'f' && (p[1] == ' ' || p[1] == '\t')) {
+      size_t first = nc;
+      char *q = p + 1;
+      for (;;) {
+        while (*q == ' ' || *q == '\t' || *q == '\r') q++;
+        if (!*q) break;
+        char *next;
+        long idx = strtol(q, &next, 10);
+        if (next == q) {
+          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad face", path, line);
+          break;
+        }
+        if (idx < 0) idx += (long)np + 1;
+        if (idx < 1 || idx > (long)np) {
+          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: vertex index out of range", path, line);
+          break;
+        }
+        if (nc == cap_c) {
+          int *g = realloc(cp, (cap_c *= 2) * sizeof *cp);
+          if (!g) {
+            st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+            break;
+          }
+          cp = g;
+        }
+        cp[nc++] = (int)(idx - 1);
+        q = next;
+        while (*q && *q != ' ' && *q != '\t' && *q != '\r') q++; /* /vt/vn */
+      }
+      if (!st && nc - first < 3) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: face with fewer than 3 corners", path, line);
+      if (!st) {
+        if (nf == cap_f) {
+          int *g = realloc(fs, ((cap_f *= 2) + 1) * sizeof *fs);
+          if (!g) break;
+          fs = g;
+        }
+        fs[nf++] = (int)first;
+      }
+    }
+    if (!st && (np > CH_MESH_MAX_ELEMENTS || nc > CH_MESH_MAX_ELEMENTS))
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: too many elements", path);
+    p = eol + 1;
+  }
+  free(text);
+  if (!st && (p < end || !pos || !fs || !cp)) st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+  if (st) {
+    free(pos);
+    free(fs);
+    free(cp);
+    return st;
+  }
+  fs[nf] = (int)nc;
+  m->num_positions = (int)np;
+  m->positions = pos;
+  m->num_faces = (int)nf;
+  m->face_start = fs;
+  m->num_corners = (int)nc;
+  m->corner_position = cp;
+  return CH_OK;
+}
+
+static ch_status read_mesh(const char *path, ch_mesh *m, ch_error *err) {
+  size_t n = strlen(path);
+  if (n >= 4 && (!strcmp(path + n - 4, ".obj") || !strcmp(path + n - 4, ".OBJ"))) return read_obj_fast(path, m, err);
+  return ch_mesh_read(path, m, err);
+}
+
+/* JSON string body: paths with quotes or backslashes are escaped. */
+static void json_string(const char *s) {
+  putchar('"');
+  for (; *s; s++) {
+    if (*s == '"' || *s == '\\') putchar('\\');
+    if ((unsigned char)*s < 0x20) printf("\\u%04x", (unsigned char)*s);
+    else putchar(*s);
+  }
+  putchar('"');
+}
+
+int main(int argc, char **argv) {
+  const char *paths[256];
+  int npaths = 0, json = 0, verbose = 0;
+  long grid = 2048, dci_res = 4096;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+      fputs(usage, stdout);
+      return 0;
+    } else if (!strcmp(a, "--grid") || !strcmp(a, "--dci-res")) {
+      if (i + 1 >= argc) return usage_error("missing the value of", a);
+      int bad = !strcmp(a, "--grid") ? parse_int(argv[i + 1], 16, 16384, &grid)
+                                     : parse_int(argv[i + 1], 16, 16384, &dci_res);
+      if (bad) return usage_error("bad value (16..16384) for", a);
+      i++;
+    } else if (!strcmp(a, "--json")) {
+      json = 1;
+    } else if (!strcmp(a, "--verbose") || !strcmp(a, "-v")) {
+      verbose = 1;
+    } else if (a[0] == '-' && a[1]) {
+      return usage_error("unknown option", a);
+    } else {
+      if (npaths >= 256) return usage_error("too many files", NULL);
+      paths[npaths++] = a;
+    }
+  }
+  if (npaths < 2) return usage_error("needs MESH.obj and CURVES.svg", NULL);
+  const char *svg = paths[npaths - 1];
+
+  ch_error err = {0};
+  err.warn = print_warning;
+  ch_curve_set set;
+  double t0 = now();
+  if (ch_curves_read_svg(svg, &set, &err)) return fail(&err);
+  ch_height height;
+  ch_height_desc hd = {.dci_resolution = (int)dci_res, .step_method = CH_RECON_EXACT};
+  if (ch_height_init(&height, &set, &hd, &err)) {
+    ch_curves_free(&set);
+    return fail(&err);
+  }
+  double t1 = now();
+  ch_accuracy_reference ref;
+  if (ch_accuracy_reference_init(&ref, &height, &set, (int)grid, &err)) {
+    ch_height_free(&height);
+    ch_curves_free(&set);
+    return fail(&err);
+  }
+  double t2 = now();
+  if (verbose)
+    fprintf(stderr, "chisel-accuracy: %s: h (DCI %ld) %.2f s, reference %ld^2 %.2f s\n", svg, dci_res, t1 - t0,
+            grid, t2 - t1);
+  int rc = 0;
+  for (int m = 0; m + 1 < npaths; m++) {
+    ch_mesh mesh;
+    double t3 = now();
+    if (read_mesh(paths[m], &mesh, &err)) {
+      rc = fail(&err);
+      break;
+    }
+    double t4 = now();
+    ch_accuracy a;
+    ch_status st = ch_accuracy_measure_reference(&ref, &mesh, &a, &err);
+    double t5 = now();
+    ch_mesh_free(&mesh);
+    if (st) {
+      rc = fail(&err);
+      break;
+    }
+    if (verbose)
+      fprintf(stderr, "chisel-accuracy: %s: read %.2f s, measure %.2f s\n", paths[m], t4 - t3, t5 - t4);
+    if (json) {
+      printf("{\"mesh\": ");
+      json_string(paths[m]);
+      printf(", \"curves\": ");
+      json_string(svg);
+      printf(", \"grid\": %ld, \"dci_res\": %ld, \"triangles\": %ld, \"edge_length\": %.9g, "
+             "\"max_abs_h\": %.9g, \"l1\": %.9g, \"band\": %.9g, \"normal_mean_deg\": %.9g, "
+             "\"normal_p95_deg\": %.9g, \"holes\": %.9g, \"samples\": %ld, \"band_samples\": %ld, "
+             "\"normal_samples\": %ld}\n",
+             grid, dci_res, a.triangles, a.edge_length, a.max_abs_h, a.l1, a.band, a.normal_mean_deg,
+             a.normal_p95_deg, a.holes, a.samples, a.band_samples, a.normal_samples);
+    } else {
+      printf("%s: triangles %ld e %.4g L1 %.4g band %.4g (%ld samples) normal mean %.3g p95 %.3g deg (%ld "
+             "samples) holes %.4g max|h| %.4g\n",
+             paths[m], a.triangles, a.edge_length, a.l1, a.band, a.band_samples, a.normal_mean_deg,
+             a.normal_p95_deg, a.normal_samples, a.holes, a.max_abs_h);
+    }
+    fflush(stdout);
+  }
+  ch_accuracy_reference_free(&ref);
+  ch_height_free(&height);
+  ch_curves_free(&set);
+  return rc;
+}
