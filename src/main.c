@@ -9,7 +9,7 @@
 #define CHISEL_VERSION "unknown"
 #endif
 
-static const cli_command *commands[] = {&cli_info_command, &cli_sample_command,
+static const cli_command *commands[] = {&cli_displace_command, &cli_info_command, &cli_sample_command,
                                         &cli_dci_command, &cli_magnify_command};
 enum { NUM_COMMANDS = sizeof commands / sizeof commands[0] };
 

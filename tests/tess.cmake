@@ -2,3 +2,4 @@
 # is an independent Catmull-Clark evaluation through Far's PatchTable.
 ch_add_test(NAME test_tess SOURCES test_tess.c tess_reference.cpp
             LIBS chisel_tess chisel_opensubdiv OpenMP::OpenMP_C)
+ch_add_test(NAME test_geomimage SOURCES test_geomimage.c LIBS chisel_tess)

@@ -164,6 +164,37 @@ expect 2 "$chisel" magnify "$tests/data/svg/bad/garbage.svg" --rect 0,0,1,1 --ou
   && one_line_with "garbage.svg"
 no_file "$tmp/m.png"
 
+# ---- displace ----
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/d.obj" --target-tris 20000 --no-snap \
+  --png "$tmp/d.png" --exr "$tmp/d.exr" --ply "$tmp/d.ply" || true
+checks=$((checks + 1))
+[ -s "$tmp/d.obj" ] && [ -s "$tmp/d.png" ] && [ -s "$tmp/d.exr" ] && [ -s "$tmp/d.ply" ] || fail "displace outputs"
+expect 0 "$chisel" info "$tmp/d.obj" || true
+checks=$((checks + 1))
+tris=$(sed -n 's/^ *faces *\([0-9]*\) (\([0-9]*\) triangles.*/\2/p' "$tmp/stdout")
+[ -n "$tris" ] && [ "$tris" -ge 19000 ] && [ "$tris" -le 21000 ] || fail "displace: $tris triangles for a target of 20000"
+grep -q "UV charts *1" "$tmp/stdout" || fail "displace: UVs lost"
+grep -q "normals *from the file" "$tmp/stdout" || fail "displace: no normals"
+grep -q "edges *[0-9]* boundary, 0 non-manifold" "$tmp/stdout" || fail "displace: non-manifold output"
+expect 0 "$chisel" displace "$models/torus.obj" "$svg" -o "$tmp/t.obj" --target-tris 20000 --no-snap --scheme catmark || true
+expect 0 "$chisel" info "$tmp/t.obj" && grep -q "edges *0 boundary, 0 non-manifold" "$tmp/stdout" || fail "displaced torus not closed"
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/d2.obj" --target-tris 20000 --no-snap || true
+checks=$((checks + 1))
+cmp -s "$tmp/d.obj" "$tmp/d2.obj" || fail "displace: same input, different bytes"
+expect 2 "$chisel" displace "$tests/data/mesh/no_uv.obj" "$svg" -o "$tmp/x.obj" --no-snap && one_line_with "no_uv.obj: mesh has no texture coordinates"
+no_file "$tmp/x.obj"
+expect 2 "$chisel" displace "$models/plane.obj" "$tests/data/svg/bad/negative_width.svg" -o "$tmp/x.obj" --no-snap \
+  && one_line_with "negative data-width"
+no_file "$tmp/x.obj"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --target-tris 0 && one_line_with "--target-tris 0"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --target-tris 10 --no-snap \
+  && one_line_with "target"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --res 99999999 && one_line_with "--res"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --scheme loop && one_line_with "unknown scheme 'loop'"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" && one_line_with "missing -o"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --exr "$tmp/x.obj" && one_line_with "name the same file"
+no_file "$tmp/x.obj"
+
 # ---- info ----
 expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
 expect 0 "$chisel" info "$models/plane.obj" && grep -q "UV charts *1" "$tmp/stdout" || fail "info plane.obj"

@@ -1,0 +1,204 @@
+/* chisel displace: base mesh + feature curves -> displaced mesh (SPEC §5). */
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_curves.h"
+#include "ch_displace.h"
+#include "ch_exr.h"
+#include "ch_geomimage.h"
+#include "ch_height.h"
+#include "ch_mesh.h"
+#include "ch_png.h"
+#include "ch_surface.h"
+#include "cli.h"
+
+static const char usage[] =
+    "usage: chisel displace BASE.obj CURVES.svg -o OUT.obj [--target-tris N] [--res R]\n"
+    "                      [--scheme bilinear|catmark] [--no-snap] [--exr MAPS.exr]\n"
+    "                      [--png P.png] [--ply OUT.ply] [--stats]\n"
+    "\n"
+    "Tessellates the base surface (OpenSubdiv) and displaces it by h = h_step +\n"
+    "h_groove (SPEC §3): P = B + h N. Writes OBJ with vt (the original UVs) and vn.\n"
+    "\n"
+    "  -o, --output FILE  the OBJ to write (required)\n"
+    "  --target-tris N    triangles in the output, within 5% (default 520000)\n"
+    "  --res R            resolution of the step curves' diffusion image (default 1024)\n"
+    "  --scheme S         base surface: bilinear (default) or catmark (Catmull-Clark)\n"
+    "  --no-snap          the naive mesh: no feature embedding (for comparison)\n"
+    "  --camera ...       view-dependent warp (not available yet)\n"
+    "  --exr FILE         maps on an R x R grid over the UV square: h, and the\n"
+    "                     geometry image (P.x P.y P.z N.x N.y N.z face s t) of the\n"
+    "                     base surface, evaluated exactly at the texel centres\n"
+    "  --png FILE         a preview of h (false colour, hill shaded)\n"
+    "  --ply FILE         also write binary PLY\n"
+    "  --stats            stage timings on stderr\n"
+    "\n"
+    "Feature embedding (vertices snapped onto walls and creases) is not\n"
+    "implemented yet: every run writes the naive mesh, with a warning unless\n"
+    "--no-snap is given.\n";
+
+static int run(int argc, char **argv) {
+  const char *cmd = "displace";
+  const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL;
+  long target = 520000, res = 1024;
+  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    if (!strcmp(a, "--target-tris")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_int(cmd, a, v, 1, 100000000, &target)) return 2;
+    } else if (!strcmp(a, "--res")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_int(cmd, a, v, 16, 16384, &res)) return 2;
+    } else if (!strcmp(a, "--scheme")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v) return 2;
+      if (!strcmp(v, "bilinear"))
+        scheme = CH_SCHEME_BILINEAR;
+      else if (!strcmp(v, "catmark"))
+        scheme = CH_SCHEME_CATMARK;
+      else
+        return cli_usage_error(cmd, "unknown scheme '%s' (bilinear or catmark)", v);
+    } else if (!strcmp(a, "--camera")) {
+      return cli_usage_error(cmd, "--camera: the view-dependent warp is not available yet");
+    } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
+      if (!(out = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (!strcmp(a, "--exr")) {
+      if (!(exr = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (!strcmp(a, "--png")) {
+      if (!(png = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (!strcmp(a, "--ply")) {
+      if (!(ply = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (!strcmp(a, "--no-snap")) {
+      no_snap = 1;
+    } else if (!strcmp(a, "--stats")) {
+      stats = 1;
+    } else if (a[0] == '-' && a[1]) {
+      return cli_usage_error(cmd, "unknown option '%s'", a);
+    } else if (!base) {
+      base = a;
+    } else if (!svg) {
+      svg = a;
+    } else {
+      return cli_usage_error(cmd, "unexpected argument '%s'", a);
+    }
+  }
+  if (!base) return cli_usage_error(cmd, "missing the base mesh BASE.obj");
+  if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
+  if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
+  const char *outputs[4] = {out, exr, png, ply}, *names[4] = {"-o", "--exr", "--png", "--ply"};
+  for (int i = 0; i < 4; i++) {
+    if (!outputs[i]) continue;
+    for (int j = 0; j < i; j++)
+      if (outputs[j] && !strcmp(outputs[i], outputs[j]))
+        return cli_usage_error(cmd, "%s and %s name the same file", names[j], names[i]);
+    int rc = cli_check_output(cmd, names[i], outputs[i]);
+    if (rc) return rc;
+  }
+
+  ch_error err = cli_error();
+  double t0 = omp_get_wtime();
+  ch_mesh mesh;
+  if (ch_mesh_read(base, &mesh, &err)) return cli_fail(&err);
+  ch_mesh_report report;
+  if (ch_mesh_validate(&mesh, base, &report, &err)) {
+    ch_mesh_free(&mesh);
+    return cli_fail(&err);
+  }
+  ch_curve_set set;
+  if (ch_curves_read_svg(svg, &set, &err)) {
+    ch_mesh_free(&mesh);
+    return cli_fail(&err);
+  }
+  if (!no_snap)
+    ch_warn(&err, "feature embedding is not implemented yet: writing the naive mesh (pass --no-snap to "
+                  "silence this)");
+  double t_read = omp_get_wtime();
+  ch_surface *surface = NULL;
+  ch_tess_result tess = {0};
+  ch_height height = {0};
+  ch_displace_stats dstats = {0};
+  cli_outputs outs = {0};
+  double t_surface = 0, t_height = 0, t_tess = 0, t_disp = 0, t_write = 0;
+  ch_height_desc hd = {.dci_resolution = (int)res, .step_method = CH_RECON_EXACT};
+  ch_status st = ch_surface_create(&mesh, (ch_scheme)scheme, &surface, &err);
+  if (!st) {
+    t_surface = omp_get_wtime();
+    st = ch_height_init(&height, &set, &hd, &err);
+    t_height = omp_get_wtime();
+  }
+  if (!st) {
+    ch_tess_desc td = {.target_triangles = target};
+    st = ch_tess_build(surface, &td, &tess, &err);
+    t_tess = omp_get_wtime();
+  }
+  if (!st) {
+    st = ch_displace_apply(&tess, &height, &dstats, &err);
+    t_disp = omp_get_wtime();
+  }
+  if (!st) {
+    st = ch_mesh_write_obj(out, &tess.mesh, &err);
+    if (!st) cli_outputs_add(&outs, out);
+  }
+  if (!st && ply) {
+    st = ch_mesh_write_ply(ply, &tess.mesh, &err);
+    if (!st) cli_outputs_add(&outs, ply);
+  }
+  if (!st && (exr || png)) {
+    /* The displacement map over the UV square at the pixel centres, and
+     * with --exr the geometry image it displaces. */
+    ch_image hmap = {0}, maps = {0};
+    const char *layer[] = {"h"};
+    st = ch_image_init(&hmap, (int)res, (int)res, 1, layer, &err);
+    if (!st) ch_height_render(&height, (int)res, 1, ch_image_plane(&hmap, 0));
+    if (!st && exr) {
+      ch_geomimage gi;
+      st = ch_geomimage_build(surface, (int)res, (int)res, NULL, &gi, &err);
+      ch_image gimg = {0};
+      if (!st) st = ch_geomimage_to_image(&gi, &gimg, &err);
+      if (!st) {
+        const char *names[CH_IMAGE_MAX_CHANNELS];
+        names[0] = "h";
+        for (int c = 0; c < gimg.num_channels; c++) names[1 + c] = gimg.names[c];
+        st = ch_image_init(&maps, (int)res, (int)res, 1 + gimg.num_channels, names, &err);
+      }
+      if (!st) {
+        size_t plane = (size_t)res * (size_t)res * sizeof(float);
+        memcpy(ch_image_plane(&maps, 0), ch_image_plane(&hmap, 0), plane);
+        memcpy(ch_image_plane(&maps, 1), gimg.pixels, plane * (size_t)gimg.num_channels);
+        const ch_exr_attribute attrs[] = {{"chisel:command", "displace"}, {"chisel:rect", "0 0 1 1"}};
+        ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = 2};
+        st = ch_exr_write(exr, &maps, &wd, &err);
+        if (!st) cli_outputs_add(&outs, exr);
+      }
+      ch_image_free(&gimg);
+      ch_geomimage_free(&gi);
+    }
+    if (!st && png) {
+      st = ch_png_write_height(png, ch_image_plane(&hmap, 0), hmap.width, hmap.height, &err);
+      if (!st) cli_outputs_add(&outs, png);
+    }
+    ch_image_free(&maps);
+    ch_image_free(&hmap);
+  }
+  t_write = omp_get_wtime();
+  if (!st && stats)
+    fprintf(stderr,
+            "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, tessellate %.0f ms, "
+            "displace %.0f ms (h %.0f ms), write %.0f ms; h in [%.4g, %.4g]\n",
+            tess.mesh.num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface),
+            1e3 * (t_tess - t_height), 1e3 * (t_disp - t_tess), 1e3 * dstats.seconds_height,
+            1e3 * (t_write - t_disp), dstats.min_h, dstats.max_h);
+  if (st) cli_outputs_remove_all(&outs);
+  ch_tess_free(&tess);
+  ch_height_free(&height);
+  ch_surface_destroy(surface);
+  ch_curves_free(&set);
+  ch_mesh_free(&mesh);
+  return st ? cli_fail(&err) : 0;
+}
+
+const cli_command cli_displace_command = {"displace", "displace a base mesh by the curves (OBJ out)", usage, run};

@@ -1,0 +1,270 @@
+/* Geometry images: the base surface sampled on a grid in UV. Every face's
+ * UV map is bilinear on each of its quad patches (SPEC §1), so a texel
+ * centre is located by inverting a bilinear map in closed form and then
+ * evaluated exactly on the surface. */
+#include "ch_geomimage.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_alloc.h"
+#include "ch_image.h"
+#include "ch_math.h"
+
+/* A bilinear patch of a face: (s, t) = origin + scale * (a, b) for local
+ * (a, b) in [0,1]^2, with the UVs of its four corners (a, b) = (0,0),
+ * (1,0), (1,1), (0,1). */
+typedef struct patch {
+  int face;
+  double origin[2], scale;
+  double uv[4][2];
+  double box[4];
+} patch;
+
+/* Local (a, b) of q in the bilinear quad p (closed form: the quadratic in b
+ * of Quilez's inverse bilinear map, then two Newton steps). Returns 0 when
+ * q lies inside (within eps). */
+static int inverse_bilinear(const double p[4][2], const double q[2], double eps, double ab[2]) {
+  double e[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
+  double f[2] = {p[3][0] - p[0][0], p[3][1] - p[0][1]};
+  double g[2] = {p[0][0] - p[1][0] + p[2][0] - p[3][0], p[0][1] - p[1][1] + p[2][1] - p[3][1]};
+  double h[2] = {q[0] - p[0][0], q[1] - p[0][1]};
+  double k2 = ch_cross2(g, f), k1 = ch_cross2(e, f) + ch_cross2(h, g), k0 = ch_cross2(h, e);
+  double cand[2];
+  int nc = 0;
+  double scale = fabs(k1) + fabs(k2) + fabs(k0);
+  if (scale == 0.0) return -1;
+  if (fabs(k2) <= 1e-12 * scale) {
+    if (k1 == 0.0) return -1;
+    cand[nc++] = -k0 / k1;
+  } else {
+    double disc = k1 * k1 - 4.0 * k0 * k2;
+    if (disc < 0.0) {
+      if (disc < -1e-12 * k1 * k1) return -1;
+      disc = 0.0;
+    }
+    double sq = sqrt(disc), qq = -0.5 * (k1 + (k1 >= 0.0 ? sq : -sq));
+    cand[nc++] = qq / k2;
+    if (qq != 0.0) cand[nc++] = k0 / qq;
+  }
+  for (int i = 0; i < nc; i++) {
+    double b = cand[i];
+    double dx = e[0] + g[0] * b, dy = e[1] + g[1] * b;
+    double a = fabs(dx) >= fabs(dy) ? (h[0] - f[0] * b) / dx : (h[1] - f[1] * b) / dy;
+    if (!isfinite(a) || !isfinite(b)) continue;
+    /* Newton on q = p0 + a e + b f + a b g. */
+    for (int it = 0; it < 2; it++) {
+      double r[2] = {p[0][0] + a * e[0] + b * f[0] + a * b * g[0] - q[0],
+                     p[0][1] + a * e[1] + b * f[1] + a * b * g[1] - q[1]};
+      double ja[2] = {e[0] + b * g[0], e[1] + b * g[1]}, jb[2] = {f[0] + a * g[0], f[1] + a * g[1]};
+      double det = ch_cross2(ja, jb);
+      if (det == 0.0) break;
+      a -= ch_cross2(r, jb) / det;
+      b -= ch_cross2(ja, r) / det;
+    }
+    if (a >= -eps && a <= 1.0 + eps && b >= -eps && b <= 1.0 + eps) {
+      ab[0] = ch_clamp(a, 0.0, 1.0);
+      ab[1] = ch_clamp(b, 0.0, 1.0);
+      return 0;
+    }
+  }
+  return -1;
+}
+
+/* The patches of one face: the quad itself, or one per corner. */
+static int face_patches(const ch_surface *s, int face, patch *out) {
+  int n = ch_surface_face_size(s, face);
+  int np = n == 4 ? 1 : n;
+  for (int k = 0; k < np; k++) {
+    patch *p = &out[k];
+    p->face = face;
+    double corner[4][2];
+    if (n == 4) {
+      p->origin[0] = p->origin[1] = 0.0;
+      p->scale = 1.0;
+    } else {
+      ch_surface_corner_param(s, face, k, p->origin);
+      p->scale = 0.5;
+    }
+    static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    for (int c = 0; c < 4; c++) {
+      corner[c][0] = p->origin[0] + p->scale * local[c][0];
+      corner[c][1] = p->origin[1] + p->scale * local[c][1];
+      ch_surface_point sp;
+      if (ch_surface_eval(s, face, corner[c][0], corner[c][1], &sp) != CH_OK) return -1;
+      p->uv[c][0] = sp.uv[0];
+      p->uv[c][1] = sp.uv[1];
+    }
+    p->box[0] = p->box[1] = INFINITY;
+    p->box[2] = p->box[3] = -INFINITY;
+    for (int c = 0; c < 4; c++) {
+      p->box[0] = fmin(p->box[0], p->uv[c][0]);
+      p->box[1] = fmin(p->box[1], p->uv[c][1]);
+      p->box[2] = fmax(p->box[2], p->uv[c][0]);
+      p->box[3] = fmax(p->box[3], p->uv[c][1]);
+    }
+  }
+  return np;
+}
+
+ch_status ch_surface_locate(const ch_surface *s, int face, const double uv[2], double st[2]) {
+  int n = ch_surface_face_size(s, face);
+  if (n < 3) return CH_ERR_INPUT;
+  patch *ps = malloc((size_t)n * sizeof *ps);
+  if (!ps) return CH_ERR_NOMEM;
+  int np = face_patches(s, face, ps);
+  ch_status st_code = CH_ERR_INPUT;
+  for (int k = 0; k < np; k++) {
+    double ab[2];
+    if (inverse_bilinear(ps[k].uv, uv, 1e-9, ab) == 0) {
+      st[0] = ps[k].origin[0] + ps[k].scale * ab[0];
+      st[1] = ps[k].origin[1] + ps[k].scale * ab[1];
+      st_code = CH_OK;
+      break;
+    }
+  }
+  free(ps);
+  return st_code;
+}
+
+void ch_geomimage_free(ch_geomimage *gi) {
+  free(gi->face);
+  free(gi->st);
+  free(gi->position);
+  free(gi->normal);
+  memset(gi, 0, sizeof *gi);
+}
+
+ch_status ch_geomimage_build(const ch_surface *s, int W, int H, const double rect_in[4], ch_geomimage *gi,
+                             ch_error *err) {
+  memset(gi, 0, sizeof *gi);
+  double rect[4] = {0, 0, 1, 1};
+  if (rect_in) memcpy(rect, rect_in, sizeof rect);
+  if (W < 1 || H < 1 || W > CH_IMAGE_MAX_SIDE || H > CH_IMAGE_MAX_SIDE || !(rect[2] > rect[0]) ||
+      !(rect[3] > rect[1]))
+    return ch_error_set(err, CH_ERR_INPUT, "geometry image %dx%d over %g,%g,%g,%g is empty or too large", W, H,
+                        rect[0], rect[1], rect[2], rect[3]);
+  int nf = ch_surface_num_faces(s), total = 0;
+  for (int f = 0; f < nf; f++) {
+    int n = ch_surface_face_size(s, f);
+    total += n == 4 ? 1 : n;
+  }
+  size_t n = (size_t)W * H;
+  patch *ps = malloc((size_t)(total > 0 ? total : 1) * sizeof *ps);
+  int *first = malloc((size_t)(nf + 1) * sizeof *first);
+  gi->face = ch_alloc_large(n, sizeof *gi->face, 0);
+  gi->st = ch_alloc_large(2 * n, sizeof *gi->st, 1);
+  gi->position = ch_alloc_large(3 * n, sizeof *gi->position, 1);
+  gi->normal = ch_alloc_large(3 * n, sizeof *gi->normal, 1);
+  if (!ps || !first || !gi->face || !gi->st || !gi->position || !gi->normal) {
+    free(ps);
+    free(first);
+    ch_geomimage_free(gi);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d geometry image", W, H);
+  }
+  gi->width = W;
+  gi->height = H;
+  memcpy(gi->rect, rect, sizeof rect);
+  first[0] = 0;
+  for (int f = 0; f < nf; f++) first[f + 1] = first[f] + (ch_surface_face_size(s, f) == 4 ? 1 : ch_surface_face_size(s, f));
+  int failed = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(| : failed)
+  for (int f = 0; f < nf; f++)
+    if (face_patches(s, f, ps + first[f]) < 0) failed = 1;
+  free(first);
+  if (failed) {
+    free(ps);
+    ch_geomimage_free(gi);
+    return ch_error_set(err, CH_ERR_INTERNAL, "geometry image: a face could not be evaluated");
+  }
+  double tu = (rect[2] - rect[0]) / W, tv = (rect[3] - rect[1]) / H;
+  /* Patches by texel row, in face order, so the first hit per texel is the
+   * lowest-numbered face whatever the threads do. */
+  int *row_count = calloc((size_t)H + 1, sizeof *row_count);
+  if (!row_count) {
+    free(ps);
+    ch_geomimage_free(gi);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a geometry image");
+  }
+#define ROW_RANGE(p, y0, y1)                                                                     \
+  int y0 = (int)ceil((rect[3] - (p)->box[3]) / tv - 0.5), y1 = (int)floor((rect[3] - (p)->box[1]) / tv - 0.5); \
+  if (y0 < 0) y0 = 0;                                                                            \
+  if (y1 > H - 1) y1 = H - 1;
+  size_t entries = 0;
+  for (int k = 0; k < total; k++) {
+    ROW_RANGE(&ps[k], y0, y1)
+    for (int y = y0; y <= y1; y++) row_count[y + 1]++;
+    entries += y1 >= y0 ? (size_t)(y1 - y0 + 1) : 0;
+  }
+  for (int y = 0; y < H; y++) row_count[y + 1] += row_count[y];
+  int *row_items = malloc((entries > 0 ? entries : 1) * sizeof *row_items);
+  int *fill = malloc((size_t)H * sizeof *fill);
+  if (!row_items || !fill) {
+    free(row_items);
+    free(fill);
+    free(row_count);
+    free(ps);
+    ch_geomimage_free(gi);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a geometry image");
+  }
+  memcpy(fill, row_count, (size_t)H * sizeof *fill);
+  for (int k = 0; k < total; k++) {
+    ROW_RANGE(&ps[k], y0, y1)
+    for (int y = y0; y <= y1; y++) row_items[fill[y]++] = k;
+  }
+#undef ROW_RANGE
+  free(fill);
+  long covered = 0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : covered)
+  for (int y = 0; y < H; y++) {
+    double v = rect[3] - (y + 0.5) * tv;
+    int *row_face = gi->face + (size_t)y * W;
+    for (int x = 0; x < W; x++) row_face[x] = -1;
+    for (int it = row_count[y]; it < row_count[y + 1]; it++) {
+      const patch *p = &ps[row_items[it]];
+      int x0 = (int)ceil((p->box[0] - rect[0]) / tu - 0.5), x1 = (int)floor((p->box[2] - rect[0]) / tu - 0.5);
+      if (x0 < 0) x0 = 0;
+      if (x1 > W - 1) x1 = W - 1;
+      for (int x = x0; x <= x1; x++) {
+        if (row_face[x] >= 0) continue;
+        double q[2] = {rect[0] + (x + 0.5) * tu, v}, ab[2];
+        if (inverse_bilinear(p->uv, q, 1e-9, ab)) continue;
+        double st2[2] = {p->origin[0] + p->scale * ab[0], p->origin[1] + p->scale * ab[1]};
+        ch_surface_point sp;
+        if (ch_surface_eval(s, p->face, st2[0], st2[1], &sp) != CH_OK) continue;
+        size_t i = (size_t)y * W + x;
+        row_face[x] = p->face;
+        gi->st[2 * i] = (float)st2[0];
+        gi->st[2 * i + 1] = (float)st2[1];
+        for (int k = 0; k < 3; k++) {
+          gi->position[3 * i + k] = (float)sp.position[k];
+          gi->normal[3 * i + k] = (float)sp.normal[k];
+        }
+        covered++;
+      }
+    }
+  }
+  gi->covered = covered;
+  free(row_items);
+  free(row_count);
+  free(ps);
+  return CH_OK;
+}
+
+ch_status ch_geomimage_to_image(const ch_geomimage *gi, ch_image *out, ch_error *err) {
+  const char *names[] = {"P.x", "P.y", "P.z", "N.x", "N.y", "N.z", "face", "s", "t"};
+  ch_status st = ch_image_init(out, gi->width, gi->height, 9, names, err);
+  if (st) return st;
+  size_t n = (size_t)gi->width * gi->height;
+  for (size_t i = 0; i < n; i++) {
+    for (int k = 0; k < 3; k++) {
+      ch_image_plane(out, k)[i] = gi->position[3 * i + k];
+      ch_image_plane(out, 3 + k)[i] = gi->normal[3 * i + k];
+    }
+    ch_image_plane(out, 6)[i] = (float)gi->face[i];
+    ch_image_plane(out, 7)[i] = gi->st[2 * i];
+    ch_image_plane(out, 8)[i] = gi->st[2 * i + 1];
+  }
+  return CH_OK;
+}

@@ -1,0 +1,52 @@
+/* ch_geomimage: a geometry image of the base surface (Gu et al. 2002, as
+ * diffusion-curves-on-surfaces §3.5 uses it): for every texel centre of a
+ * W x H grid over a UV rectangle, the base face whose UV patch holds it,
+ * the point (s, t) of that face, and the surface's position and normal
+ * there, evaluated exactly through ch_surface (not interpolated).
+ *
+ * It lives in tess/ rather than mesh/ (where DESIGN.md lists geometry
+ * images) because it evaluates the OpenSubdiv surface, and mesh/ must not
+ * depend on tess/. */
+#ifndef CH_GEOMIMAGE_H
+#define CH_GEOMIMAGE_H
+
+#include "ch_error.h"
+#include "ch_image.h"
+#include "ch_surface.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ch_geomimage {
+  int width, height;
+  double rect[4];     /* u0 v0 u1 v1 */
+  int *face;          /* W*H: base face covering the texel centre, -1 if none */
+  float *st;          /* 2 per texel: its (s, t) in that face */
+  float *position;    /* 3 per texel: B */
+  float *normal;      /* 3 per texel: N */
+  long covered;       /* texels with a face */
+} ch_geomimage;
+
+/* Rasterises every face's UV patch (a quad: its bilinear patch; other
+ * faces: their quad sub-faces as ch_surface parameterises them) over the
+ * texel centres, inverts the bilinear UV map to (s, t) and evaluates B and
+ * N. Where UV patches overlap, the lowest-numbered face wins. Parallel over
+ * rows of texels; deterministic. rect NULL: the unit square. */
+ch_status ch_geomimage_build(const ch_surface *surface, int width, int height, const double rect[4],
+                             ch_geomimage *out, ch_error *err);
+
+void ch_geomimage_free(ch_geomimage *gi);
+
+/* The geometry image as EXR layers: P.x P.y P.z, N.x N.y N.z, face
+ * (-1 outside the charts), s, t. */
+ch_status ch_geomimage_to_image(const ch_geomimage *gi, ch_image *out, ch_error *err);
+
+/* Finds the (s, t) of face whose UV is uv. Returns CH_OK with st set, or
+ * CH_ERR_INPUT if uv is not inside the face's UV patch (within 1e-9). */
+ch_status ch_surface_locate(const ch_surface *surface, int face, const double uv[2], double st[2]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
