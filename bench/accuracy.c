@@ -505,6 +505,7 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
       int t = r.tri[k];
       double h = ref->h[k], d = ref->dist[k];
       double err_h = t >= 0 ? fabs(r.z[k] - h) : INFINITY;
+      if (ref->error_map) ref->error_map[k] = t >= 0 ? (float)((r.z[k] - h) / hmax) : NAN;
       if (t >= 0) {
         covered++;
         l1 += err_h;

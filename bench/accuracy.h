@@ -83,6 +83,9 @@ typedef struct ch_accuracy_reference {
   float *grad;     /* 2 * grid^2: (h_u, h_v) in the normal band, else NaN */
   const ch_height *height;   /* not owned */
   const ch_curve_set *set;   /* not owned */
+  float *error_map;          /* optional, set by the caller: grid^2 floats that
+                                measuring fills with (z - h) / max |h|, NaN
+                                where uncovered (row j major, as h) */
 } ch_accuracy_reference;
 
 ch_status ch_accuracy_reference_init(ch_accuracy_reference *ref, const ch_height *height,

@@ -16,9 +16,11 @@
 #include <time.h>
 
 #include "accuracy.h"
+#include "ch_png.h"
 
 static const char usage[] =
     "usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid G] [--dci-res R] [--json] [--verbose]\n"
+    "                       [--error-png PREFIX]\n"
     "\n"
     "Rasterises each mesh's non-vertical triangles in xy on the cell centres of a\n"
     "G x G grid over the unit square (planar base: z should be h(x, y)) and prints\n"
@@ -26,7 +28,9 @@ static const char usage[] =
     "  --grid G      sample grid, 16..16384 (default 2048)\n"
     "  --dci-res R   resolution of the step curves' DCI for the exact h (default 4096)\n"
     "  --json        one JSON object per mesh instead of a text line\n"
-    "  --verbose     timings on stderr\n";
+    "  --verbose     timings on stderr\n"
+    "  --error-png P writes P<k>.png per mesh k (from 0): the error (z - h) / max|h|\n"
+    "                in false colour (blue below, red above), uncovered samples 0\n";
 
 static void print_warning(void *user, const char *message) {
   (void)user;
@@ -198,6 +202,7 @@ static void json_string(const char *s) {
 int main(int argc, char **argv) {
   const char *paths[256];
   int npaths = 0, json = 0, verbose = 0;
+  const char *error_png = NULL;
   long grid = 2048, dci_res = 4096;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
@@ -210,6 +215,9 @@ int main(int argc, char **argv) {
                                      : parse_int(argv[i + 1], 16, 16384, &dci_res);
       if (bad) return usage_error("bad value (16..16384) for", a);
       i++;
+    } else if (!strcmp(a, "--error-png")) {
+      if (i + 1 >= argc) return usage_error("missing the value of", a);
+      error_png = argv[++i];
     } else if (!strcmp(a, "--json")) {
       json = 1;
     } else if (!strcmp(a, "--verbose") || !strcmp(a, "-v")) {
@@ -247,7 +255,11 @@ int main(int argc, char **argv) {
     fprintf(stderr, "chisel-accuracy: %s: h (DCI %ld) %.2f s, reference %ld^2 %.2f s\n", svg, dci_res, t1 - t0,
             grid, t2 - t1);
   int rc = 0;
-  for (int m = 0; m + 1 < npaths; m++) {
+  if (error_png && !(ref.error_map = malloc((size_t)grid * (size_t)grid * sizeof *ref.error_map))) {
+    fprintf(stderr, "chisel-accuracy: out of memory for the error map\n");
+    rc = 1;
+  }
+  for (int m = 0; !rc && m + 1 < npaths; m++) {
     ch_mesh mesh;
     double t3 = now();
     if (read_mesh(paths[m], &mesh, &err)) {
@@ -265,6 +277,28 @@ int main(int argc, char **argv) {
     }
     if (verbose)
       fprintf(stderr, "chisel-accuracy: %s: read %.2f s, measure %.2f s\n", paths[m], t4 - t3, t5 - t4);
+    if (error_png) {
+      /* PNG rows run down from v = 1; the map's rows up from v = 0. */
+      size_t G = (size_t)grid;
+      float *img = malloc(G * G * sizeof *img);
+      char name[4096];
+      snprintf(name, sizeof name, "%s%d.png", error_png, m);
+      if (!img) {
+        rc = 1;
+        break;
+      }
+      for (size_t j = 0; j < G; j++)
+        for (size_t i = 0; i < G; i++) {
+          float e = ref.error_map[j * G + i];
+          img[(G - 1 - j) * G + i] = e == e ? e : 0.0f;
+        }
+      st = ch_png_write_height(name, img, (int)G, (int)G, &err);
+      free(img);
+      if (st) {
+        rc = fail(&err);
+        break;
+      }
+    }
     if (json) {
       printf("{\"mesh\": ");
       json_string(paths[m]);
@@ -284,6 +318,7 @@ int main(int argc, char **argv) {
     }
     fflush(stdout);
   }
+  free(ref.error_map);
   ch_accuracy_reference_free(&ref);
   ch_height_free(&height);
   ch_curves_free(&set);

@@ -103,6 +103,7 @@ void ch_groove_field_free(ch_groove_field *f) {
 typedef struct csg_state {
   double min_carve, max_raise; /* most negative g < 0, most positive g > 0 */
   int carve_curve, raise_curve;
+  double carve_s, raise_s; /* signed distances to them */
   int owner, owner_priority;
   double owner_s, owner_t, owner_g;
   int owner_seg;
@@ -126,10 +127,12 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
   if (g < cs->min_carve) {
     cs->min_carve = g;
     cs->carve_curve = curve;
+    cs->carve_s = s;
   }
   if (g > cs->max_raise) {
     cs->max_raise = g;
     cs->raise_curve = curve;
+    cs->raise_s = s;
   }
   if (cs->owner < 0 || c->priority > cs->owner_priority ||
       (c->priority == cs->owner_priority && decides_height(g, cs->owner_g))) {
@@ -177,6 +180,8 @@ double ch_groove_field_eval(const ch_groove_field *f, double u, double v, ch_gro
     detail->signed_distance = cs.owner >= 0 ? cs.owner_s : 0.0;
     detail->segment = cs.owner >= 0 ? cs.owner_seg : -1;
     detail->t = cs.owner >= 0 ? cs.owner_t : 0.0;
+    detail->active = cs.min_carve < 0.0 ? cs.carve_curve : cs.max_raise > 0.0 ? cs.raise_curve : -1;
+    detail->active_signed_distance = cs.min_carve < 0.0 ? cs.carve_s : cs.max_raise > 0.0 ? cs.raise_s : 0.0;
   }
   return h;
 }

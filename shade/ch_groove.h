@@ -59,6 +59,9 @@ typedef struct ch_groove_sample {
   double signed_distance; /* to the owner */
   int segment;         /* owner's closest segment */
   double t;
+  int active;          /* curve whose g gives h (the deepest carve, else the
+                          highest raise), or -1 where h_groove = 0 */
+  double active_signed_distance; /* to the active curve */
 } ch_groove_sample;
 
 /* h_groove(u, v) per SPEC §3: if any g_i < 0, min g_i, else max(0, max g_i).

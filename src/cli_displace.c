@@ -7,6 +7,7 @@
 
 #include "ch_curves.h"
 #include "ch_displace.h"
+#include "ch_embed.h"
 #include "ch_exr.h"
 #include "ch_geomimage.h"
 #include "ch_height.h"
@@ -18,7 +19,8 @@
 static const char usage[] =
     "usage: chisel displace BASE.obj CURVES.svg -o OUT.obj [--target-tris N] [--res R]\n"
     "                      [--scheme bilinear|catmark] [--no-snap] [--exr MAPS.exr]\n"
-    "                      [--png P.png] [--ply OUT.ply] [--stats]\n"
+    "                      [--snap-to exact|recon5|recon3] [--png P.png] [--ply OUT.ply]\n"
+    "                      [--stats]\n"
     "\n"
     "Tessellates the base surface (OpenSubdiv) and displaces it by h = h_step +\n"
     "h_groove (SPEC §3): P = B + h N. Writes OBJ with vt (the original UVs) and vn.\n"
@@ -28,6 +30,9 @@ static const char usage[] =
     "  --res R            resolution of the step curves' diffusion image (default 1024)\n"
     "  --scheme S         base surface: bilinear (default) or catmark (Catmull-Clark)\n"
     "  --no-snap          the naive mesh: no feature embedding (for comparison)\n"
+    "  --snap-to C        where step walls go: the exact curves (default), or the\n"
+    "                     curves reconstructed from the diffusion image (recon5,\n"
+    "                     recon3), which h_step is then read through as well\n"
     "  --camera ...       view-dependent warp (not available yet)\n"
     "  --exr FILE         maps on an R x R grid over the UV square: h, and the\n"
     "                     geometry image (P.x P.y P.z N.x N.y N.z face s t) of the\n"
@@ -36,15 +41,17 @@ static const char usage[] =
     "  --ply FILE         also write binary PLY\n"
     "  --stats            stage timings on stderr\n"
     "\n"
-    "Feature embedding (vertices snapped onto walls and creases) is not\n"
-    "implemented yet: every run writes the naive mesh, with a warning unless\n"
-    "--no-snap is given.\n";
+    "With feature embedding (the default) the mesh is cut along every wall and\n"
+    "crease of h: chains of edges lie on the curves and on the break lines of\n"
+    "every groove profile, wall vertices are split in two and joined by\n"
+    "vertical triangles, and normals are split there. The count of triangles\n"
+    "includes what the cut adds.\n";
 
 static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL;
   long target = 520000, res = 1024;
-  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0;
+  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--target-tris")) {
@@ -72,6 +79,12 @@ static int run(int argc, char **argv) {
       if (!(png = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--ply")) {
       if (!(ply = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (!strcmp(a, "--snap-to")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v) return 2;
+      snap_to = ch_recon_method_parse(v);
+      if (snap_to != CH_RECON_EXACT && snap_to != CH_RECON_5X5 && snap_to != CH_RECON_3X3)
+        return cli_usage_error(cmd, "--snap-to: unknown curves '%s' (exact, recon5 or recon3)", v);
     } else if (!strcmp(a, "--no-snap")) {
       no_snap = 1;
     } else if (!strcmp(a, "--stats")) {
@@ -113,9 +126,6 @@ static int run(int argc, char **argv) {
     ch_mesh_free(&mesh);
     return cli_fail(&err);
   }
-  if (!no_snap)
-    ch_warn(&err, "feature embedding is not implemented yet: writing the naive mesh (pass --no-snap to "
-                  "silence this)");
   double t_read = omp_get_wtime();
   ch_surface *surface = NULL;
   ch_tess_result tess = {0};
@@ -123,28 +133,57 @@ static int run(int argc, char **argv) {
   ch_displace_stats dstats = {0};
   cli_outputs outs = {0};
   double t_surface = 0, t_height = 0, t_tess = 0, t_disp = 0, t_write = 0;
-  ch_height_desc hd = {.dci_resolution = (int)res, .step_method = CH_RECON_EXACT};
+  ch_height_desc hd = {.dci_resolution = (int)res, .step_method = (ch_recon_method)snap_to};
   ch_status st = ch_surface_create(&mesh, (ch_scheme)scheme, &surface, &err);
   if (!st) {
     t_surface = omp_get_wtime();
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime();
   }
-  if (!st) {
-    ch_tess_desc td = {.target_triangles = target};
+  /* The cut adds triangles: tessellate for fewer, so the output lands
+   * within 5% of the target (a second pass with the measured ratio). */
+  ch_mesh embedded = {0};
+  ch_embed_stats estats = {0};
+  const ch_mesh *result = &tess.mesh;
+  long base_target = target;
+  for (int pass = 0; !st && pass < 4; pass++) {
+    ch_tess_free(&tess);
+    ch_mesh_free(&embedded);
+    double t_pass = omp_get_wtime();
+    ch_tess_desc td = {.target_triangles = base_target};
     st = ch_tess_build(surface, &td, &tess, &err);
-    t_tess = omp_get_wtime();
+    t_tess = omp_get_wtime() - t_pass;
+    if (st) break;
+    double t_d = omp_get_wtime();
+    if (no_snap) {
+      st = ch_displace_apply(&tess, &height, &dstats, &err);
+      result = &tess.mesh;
+    } else {
+      ch_embed_desc ed = {0};
+      st = ch_embed_build(surface, &tess, &height, &ed, &embedded, &estats, &err);
+      result = &embedded;
+      dstats.min_h = estats.min_h;
+      dstats.max_h = estats.max_h;
+    }
+    t_disp = omp_get_wtime() - t_d;
+    if (st || no_snap) break;
+    double ratio = (double)embedded.num_faces / (double)tess.mesh.num_faces;
+    if (fabs((double)embedded.num_faces - (double)target) <= 0.03 * (double)target) break;
+    long next = (long)llround((double)target / ratio);
+    if (next == base_target || next < 1) break;
+    base_target = next;
   }
+  if (!st && labs((long)result->num_faces - target) > target / 20)
+    ch_warn(&err, "%d triangles: the closest to --target-tris %ld that the base mesh and the features allow",
+            result->num_faces, target);
+  double t_passes = omp_get_wtime();
+  t_write = t_passes;
   if (!st) {
-    st = ch_displace_apply(&tess, &height, &dstats, &err);
-    t_disp = omp_get_wtime();
-  }
-  if (!st) {
-    st = ch_mesh_write_obj(out, &tess.mesh, &err);
+    st = ch_mesh_write_obj(out, result, &err);
     if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && ply) {
-    st = ch_mesh_write_ply(ply, &tess.mesh, &err);
+    st = ch_mesh_write_ply(ply, result, &err);
     if (!st) cli_outputs_add(&outs, ply);
   }
   if (!st && (exr || png)) {
@@ -184,16 +223,26 @@ static int run(int argc, char **argv) {
     ch_image_free(&maps);
     ch_image_free(&hmap);
   }
-  t_write = omp_get_wtime();
-  if (!st && stats)
+  t_write = omp_get_wtime() - t_write;
+  if (!st && stats) {
     fprintf(stderr,
-            "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, tessellate %.0f ms, "
-            "displace %.0f ms (h %.0f ms), write %.0f ms; h in [%.4g, %.4g]\n",
-            tess.mesh.num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface),
-            1e3 * (t_tess - t_height), 1e3 * (t_disp - t_tess), 1e3 * dstats.seconds_height,
-            1e3 * (t_write - t_disp), dstats.min_h, dstats.max_h);
+            "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms; last pass: "
+            "tessellate %.0f ms (%d triangles), %s %.0f ms; total of %s %.0f ms, write %.0f ms; h in [%.4g, %.4g]\n",
+            result->num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface),
+            1e3 * t_tess, tess.mesh.num_faces, no_snap ? "displace" : "embed", 1e3 * t_disp,
+            no_snap ? "one pass" : "all passes", 1e3 * (t_passes - t_height), 1e3 * t_write, dstats.min_h,
+            dstats.max_h);
+    if (!no_snap)
+      fprintf(stderr,
+              "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
+              "junctions, %d wall triangles, %d unresolved; refine %.0f ms, cut %.0f ms, normals %.0f ms\n",
+              estats.refine_rounds, estats.refined_edges, estats.crossings, estats.wall_points, estats.junctions,
+              estats.wall_triangles, estats.unresolved, 1e3 * estats.seconds_refine, 1e3 * estats.seconds_cut,
+              1e3 * estats.seconds_normals);
+  }
   if (st) cli_outputs_remove_all(&outs);
   ch_tess_free(&tess);
+  ch_mesh_free(&embedded);
   ch_height_free(&height);
   ch_surface_destroy(surface);
   ch_curves_free(&set);

@@ -1,0 +1,1106 @@
+/* Feature embedding by cutting the tessellation along piece boundaries of h
+ * (see ch_embed.h for the method and why). */
+#include "ch_embed.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_alloc.h"
+#include "ch_bezier.h"
+#include "ch_geomimage.h"
+#include "ch_grid.h"
+#include "ch_math.h"
+#include "ch_samples.h"
+
+enum { MAX_CURVES_LABELLED = 1 << 20, BISECTIONS = 46, JUNCTION_BISECTIONS = 30, MAX_EDGE_SAMPLES = 32 };
+#define MIN_SPLIT_LENGTH 1e-5
+#define WALL_GROUP (UINT64_C(1) << 62)
+
+/* ---- piece labels ---------------------------------------------------------
+ * label = groove part << 32 | step part. Groove part: (active curve + 1) << 8
+ * | index of the profile segment (break points below t = s / w), 0 where no
+ * groove decides h. Step part: (nearest step curve within the radius + 1)
+ * << 1 | (side is left), 0 when none is that near. */
+typedef struct labeler {
+  const ch_height *height;
+  const ch_curve_set *set;
+  int *crease_start;   /* per curve, into crease_t */
+  double *crease_t;
+  ch_grid step_grid;   /* step segments, boxes grown by radius */
+  double (*step_boxes)[4];
+  double radius;
+  int has_steps;
+} labeler;
+
+static void labeler_free(labeler *lb) {
+  free(lb->crease_start);
+  free(lb->crease_t);
+  free(lb->step_boxes);
+  ch_grid_free(&lb->step_grid);
+  memset(lb, 0, sizeof *lb);
+}
+
+/* Largest deviation of the chord of P over [a, b] from P (sampled). */
+static double chord_error(const ch_profile *p, double a, double b) {
+  double pa = ch_profile_eval(p, a), pb = ch_profile_eval(p, b), worst = 0.0;
+  for (int i = 1; i < 32; i++) {
+    double t = a + (b - a) * i / 32.0;
+    worst = fmax(worst, fabs(pa + (pb - pa) * (t - a) / (b - a) - ch_profile_eval(p, t)));
+  }
+  return worst;
+}
+
+/* Break lines of a groove. A curved profile (u) gets extra lines, placed
+ * from the rim inwards so that the chord between two stays within
+ * `tolerance` of P (in units of depth): dense near the rims, where the
+ * slope is infinite and no isotropic mesh could follow P. They cut the mesh
+ * like creases: long edges along the groove, thin slices across it. */
+static int groove_lines(const ch_curve *c, double tolerance, double *t, int max) {
+  int n = ch_profile_creases(&c->profile, t, max);
+  if (c->profile.kind != CH_PROFILE_U || n != 2 || max < 2 * 24 + 2) return n;
+  double inner[24];
+  int m = 0;
+  double a = 0.5;
+  while (m < 24) {
+    double lo = 0.0, hi = a;
+    if (chord_error(&c->profile, 0.0, a) <= tolerance) break;
+    for (int it = 0; it < 40; it++) {
+      double mid = 0.5 * (lo + hi);
+      if (chord_error(&c->profile, mid, a) <= tolerance)
+        hi = mid;
+      else
+        lo = mid;
+    }
+    inner[m++] = a = hi;
+  }
+  n = 0;
+  t[n++] = -0.5;
+  for (int i = 0; i < m; i++) t[n++] = -inner[i];
+  for (int i = m - 1; i >= 0; i--) t[n++] = inner[i];
+  t[n++] = 0.5;
+  return n;
+}
+
+static ch_status labeler_init(labeler *lb, const ch_height *height, double radius, double curve_tolerance,
+                              ch_error *err) {
+  const ch_curve_set *set = height->set;
+  memset(lb, 0, sizeof *lb);
+  lb->height = height;
+  lb->set = set;
+  lb->radius = radius;
+  if (set->num_curves >= MAX_CURVES_LABELLED)
+    return ch_error_set(err, CH_ERR_INPUT, "%d curves: feature embedding handles at most %d", set->num_curves,
+                        MAX_CURVES_LABELLED - 1);
+  int nc = set->num_curves;
+  lb->crease_start = malloc((size_t)(nc + 1) * sizeof *lb->crease_start);
+  lb->crease_t = malloc(((size_t)nc * (CH_PROFILE_MAX_POINTS + 2) + 1) * sizeof *lb->crease_t);
+  lb->step_boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *lb->step_boxes);
+  if (!lb->crease_start || !lb->crease_t || !lb->step_boxes) {
+    labeler_free(lb);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
+  }
+  int n = 0;
+  for (int c = 0; c < nc; c++) {
+    lb->crease_start[c] = n;
+    if (set->curves[c].kind == CH_CURVE_GROOVE)
+      n += groove_lines(&set->curves[c], curve_tolerance, lb->crease_t + n, CH_PROFILE_MAX_POINTS + 2);
+  }
+  lb->crease_start[nc] = n;
+  for (int i = 0; i < set->num_segments; i++) {
+    const ch_segment *s = &set->segments[i];
+    if (set->curves[s->curve].kind == CH_CURVE_STEP) {
+      ch_segment_box(s, radius, lb->step_boxes[i]);
+      lb->has_steps = 1;
+    } else {
+      lb->step_boxes[i][0] = 1.0;
+      lb->step_boxes[i][2] = 0.0; /* empty: not in the grid */
+    }
+  }
+  ch_status st = ch_grid_build(&lb->step_grid, set->num_segments, (const double(*)[4])lb->step_boxes, err);
+  if (st) labeler_free(lb);
+  return st;
+}
+
+static uint64_t label_at(const labeler *lb, const double uv[2]) {
+  const ch_curve_set *set = lb->set;
+  ch_groove_sample gs;
+  ch_groove_field_eval(&lb->height->grooves, uv[0], uv[1], &gs);
+  uint64_t g = 0;
+  if (gs.active >= 0) {
+    double t = gs.active_signed_distance / set->curves[gs.active].width;
+    int k = 0;
+    for (int i = lb->crease_start[gs.active]; i < lb->crease_start[gs.active + 1]; i++) k += lb->crease_t[i] < t;
+    g = ((uint64_t)(gs.active + 1) << 8) | (uint64_t)k;
+  }
+  uint64_t s = 0;
+  if (lb->has_steps) {
+    const int *items;
+    int n = ch_grid_query(&lb->step_grid, uv[0], uv[1], &items);
+    double best = lb->radius * lb->radius, best_t = 0.0;
+    int best_seg = -1;
+    for (int k = 0; k < n; k++) {
+      const double *b = lb->step_boxes[items[k]];
+      if (uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]) continue;
+      double t;
+      double d2 = ch_bezier_closest(set->segments[items[k]].p, set->segments[items[k]].is_line, uv, &t);
+      if (d2 < best) {
+        best = d2;
+        best_t = t;
+        best_seg = items[k];
+      }
+    }
+    if (best_seg >= 0) {
+      int curve = set->segments[best_seg].curve;
+      int left = ch_curve_side(set, best_seg, best_t, uv) > 0;
+      if (lb->height->step_method != CH_RECON_EXACT) {
+        /* Walls follow the reconstructed curve: its side where it is this curve. */
+        ch_recon_sample rs;
+        ch_recon_eval(&lb->height->recon, lb->height->step_method, uv[0], uv[1], 0.0, &rs);
+        if (rs.curve == curve) left = rs.side == CH_SIDE_LEFT;
+      }
+      s = ((uint64_t)(curve + 1) << 1) | (uint64_t)left;
+    }
+  }
+  return g << 32 | s;
+}
+
+/* ---- the working mesh ------------------------------------------------------ */
+typedef struct wvert {
+  double uv[2];   /* UV where labels and h are read (the chart of its face) */
+  double st[2];
+  int face;
+  uint64_t label;
+  double h;
+} wvert;
+
+typedef struct wtri {
+  int v[3];
+  int face;
+  double uv[3][2]; /* corner UVs (face-varying) */
+  double st[3][2]; /* corner parameters in face */
+} wtri;
+
+/* A point where an edge passes from one piece into the next. */
+typedef struct crossing {
+  double x;           /* fraction from the edge's a to its b */
+  uint64_t la, lb;    /* the pieces on a's and on b's side */
+  double ha, hb;      /* h just inside each */
+  int copy_a, copy_b; /* output vertices (equal where h does not jump) */
+} crossing;
+
+typedef struct wedge {
+  int a, b;          /* vertices, a < b */
+  int tri, k;        /* canonical triangle (the first) and its edge k: v[k] -> v[k+1] */
+  int ncross;
+  crossing *cross;   /* ncross, by increasing x; owned */
+  int mid;           /* midpoint vertex when split, else -1 */
+} wedge;
+
+typedef struct work {
+  wvert *verts;
+  int nverts, cap_verts;
+  wtri *tris;
+  int ntris, cap_tris;
+  wedge *edges;
+  int nedges;
+  int *tri_edge; /* 3 per triangle */
+} work;
+
+static int grow(void **p, int *cap, int need, size_t size) {
+  if (need <= *cap) return 0;
+  int n = *cap ? *cap : 1024;
+  while (n < need) n = n > (1 << 29) ? need : 2 * n;
+  void *q = realloc(*p, (size_t)n * size);
+  if (!q) return -1;
+  *p = q;
+  *cap = n;
+  return 0;
+}
+
+static void lerp2(const double a[2], const double b[2], double x, double out[2]) {
+  out[0] = a[0] + x * (b[0] - a[0]);
+  out[1] = a[1] + x * (b[1] - a[1]);
+}
+
+/* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
+static void edge_point(const work *w, const wedge *e, double x, double uv[2], double st[2]) {
+  const wtri *t = &w->tris[e->tri];
+  int i = e->k, j = (e->k + 1) % 3;
+  if (t->v[i] != e->a) {
+    int tmp = i;
+    i = j;
+    j = tmp;
+  }
+  if (uv) lerp2(t->uv[i], t->uv[j], x, uv);
+  if (st) lerp2(t->st[i], t->st[j], x, st);
+}
+
+static uint64_t edge_label(const labeler *lb, const work *w, const wedge *e, double x) {
+  if (x <= 0.0) return w->verts[e->a].label;
+  if (x >= 1.0) return w->verts[e->b].label;
+  double uv[2];
+  edge_point(w, e, x, uv, NULL);
+  return label_at(lb, uv);
+}
+
+static int cmp_pair(const void *pa, const void *pb) {
+  const uint64_t *a = pa, *b = pb;
+  if (a[0] != b[0]) return a[0] < b[0] ? -1 : 1;
+  return a[1] < b[1] ? -1 : a[1] > b[1];
+}
+
+static void free_edges(wedge *edges, int n) {
+  for (int i = 0; i < n; i++) free(edges[i].cross);
+  free(edges);
+}
+
+/* Rebuilds the unique edges of the triangles, sorted by vertex pair; the
+ * canonical triangle of an edge is the lowest one holding it. An edge that
+ * was there before keeps its crossings (it is the same segment). */
+static ch_status build_edges(work *w, ch_error *err) {
+  size_t n = 3 * (size_t)w->ntris;
+  uint64_t(*keys)[2] = malloc(n * sizeof *keys);
+  wedge *old = w->edges;
+  int nold = w->nedges;
+  w->edges = malloc(n * sizeof *w->edges);
+  free(w->tri_edge);
+  w->tri_edge = malloc(n * sizeof *w->tri_edge);
+  if (!keys || !w->edges || !w->tri_edge) {
+    free(keys);
+    free_edges(old, nold);
+    w->nedges = 0;
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %zu mesh edges", n);
+  }
+  for (int t = 0; t < w->ntris; t++)
+    for (int k = 0; k < 3; k++) {
+      uint32_t a = (uint32_t)w->tris[t].v[k], b = (uint32_t)w->tris[t].v[(k + 1) % 3];
+      if (a > b) {
+        uint32_t tmp = a;
+        a = b;
+        b = tmp;
+      }
+      keys[3 * (size_t)t + k][0] = (uint64_t)a << 32 | b;
+      keys[3 * (size_t)t + k][1] = 3 * (uint64_t)t + (uint64_t)k;
+    }
+  qsort(keys, n, sizeof *keys, cmp_pair);
+  int ne = 0, io = 0;
+  for (size_t i = 0; i < n;) {
+    size_t j = i + 1;
+    while (j < n && keys[j][0] == keys[i][0]) j++;
+    wedge *e = &w->edges[ne];
+    memset(e, 0, sizeof *e);
+    e->a = (int)(keys[i][0] >> 32);
+    e->b = (int)(keys[i][0] & 0xffffffffu);
+    e->tri = (int)(keys[i][1] / 3);
+    e->k = (int)(keys[i][1] % 3);
+    e->mid = -1;
+    e->ncross = -1; /* not computed */
+    while (io < nold && ((uint64_t)old[io].a << 32 | (uint32_t)old[io].b) < keys[i][0]) io++;
+    if (io < nold && old[io].a == e->a && old[io].b == e->b) {
+      e->ncross = old[io].ncross;
+      e->cross = old[io].cross;
+      old[io].cross = NULL;
+    }
+    for (size_t p = i; p < j; p++) w->tri_edge[keys[p][1]] = ne;
+    ne++;
+    i = j;
+  }
+  w->nedges = ne;
+  free(keys);
+  free_edges(old, nold);
+  return CH_OK;
+}
+
+static double edge_length(const work *w, const wedge *e) {
+  double a[2], b[2];
+  edge_point(w, e, 0.0, a, NULL);
+  edge_point(w, e, 1.0, b, NULL);
+  return hypot(b[0] - a[0], b[1] - a[1]);
+}
+
+/* Every boundary between pieces along e. Labels are sampled about delta
+ * apart; from each sample whose label differs from the next, bisection
+ * finds the first change to about 1e-14 of the edge, and the search goes
+ * on from there, so lines closer together than the samples (the break
+ * lines near a u groove's rim) are all found. h is read on both sides. */
+static int compute_crossings(const labeler *lb, const work *w, wedge *e, double delta) {
+  double len = edge_length(w, e);
+  int n = (int)ceil(len / delta);
+  n = n < 3 ? 3 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
+  crossing *list = NULL;
+  int count = 0, cap = 0;
+  double x0 = 0.0;
+  uint64_t l0 = w->verts[e->a].label;
+  for (int i = 1; i <= n; i++) {
+    double x1 = (double)i / n;
+    uint64_t l1 = edge_label(lb, w, e, x1);
+    while (l0 != l1) {
+      double lo = x0, hi = x1;
+      uint64_t lhi = l1;
+      for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
+        double mid = 0.5 * (lo + hi);
+        uint64_t lm = edge_label(lb, w, e, mid);
+        if (lm == l0) {
+          lo = mid;
+        } else {
+          hi = mid;
+          lhi = lm;
+        }
+      }
+      if (grow((void **)&list, &cap, count + 1, sizeof *list)) {
+        free(list);
+        e->cross = NULL;
+        e->ncross = 0;
+        return -1;
+      }
+      crossing *c = &list[count++];
+      double uv[2];
+      c->x = 0.5 * (lo + hi);
+      c->la = l0;
+      c->lb = lhi;
+      edge_point(w, e, lo, uv, NULL);
+      c->ha = ch_height_eval(lb->height, uv[0], uv[1]);
+      edge_point(w, e, hi, uv, NULL);
+      c->hb = ch_height_eval(lb->height, uv[0], uv[1]);
+      c->copy_a = c->copy_b = -1;
+      x0 = hi;
+      l0 = lhi;
+      if (count > 4096) break; /* absurd: a fractal of curves; what is found is kept */
+    }
+    x0 = x1;
+    l0 = l1;
+  }
+  e->cross = list;
+  e->ncross = count;
+  return 0;
+}
+
+static void label_vertices(const labeler *lb, work *w, int from) {
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int v = from; v < w->nverts; v++) {
+    w->verts[v].label = label_at(lb, w->verts[v].uv);
+    w->verts[v].h = ch_height_eval(lb->height, w->verts[v].uv[0], w->verts[v].uv[1]);
+  }
+}
+
+/* New vertex at the midpoint of e (in its canonical triangle's chart). */
+static int add_midpoint(work *w, wedge *e) {
+  if (grow((void **)&w->verts, &w->cap_verts, w->nverts + 1, sizeof *w->verts)) return -1;
+  wvert *v = &w->verts[w->nverts];
+  edge_point(w, e, 0.5, v->uv, v->st);
+  v->face = w->tris[e->tri].face;
+  v->label = 0;
+  e->mid = w->nverts++;
+  return 0;
+}
+
+/* Triangle (corners i, j, k of t, each a corner or an edge midpoint given
+ * as -1 - local edge) appended to out. */
+typedef struct corner_ref {
+  int v;
+  double uv[2], st[2];
+} corner_ref;
+
+static int push_tri(wtri **tris, int *n, int *cap, int face, const corner_ref *a, const corner_ref *b,
+                    const corner_ref *c) {
+  if (grow((void **)tris, cap, *n + 1, sizeof **tris)) return -1;
+  wtri *t = &(*tris)[(*n)++];
+  const corner_ref *r[3] = {a, b, c};
+  t->face = face;
+  for (int i = 0; i < 3; i++) {
+    t->v[i] = r[i]->v;
+    memcpy(t->uv[i], r[i]->uv, sizeof t->uv[i]);
+    memcpy(t->st[i], r[i]->st, sizeof t->st[i]);
+  }
+  return 0;
+}
+
+/* Splits every triangle at the midpoints of its marked edges (red: three,
+ * green: one or two), so the result stays conforming. */
+static ch_status split_triangles(work *w, ch_error *err) {
+  wtri *out = NULL;
+  int n = 0, cap = 0;
+  for (int t = 0; t < w->ntris; t++) {
+    const wtri *T = &w->tris[t];
+    corner_ref c[3], m[3];
+    int mask = 0;
+    for (int k = 0; k < 3; k++) {
+      c[k].v = T->v[k];
+      memcpy(c[k].uv, T->uv[k], sizeof c[k].uv);
+      memcpy(c[k].st, T->st[k], sizeof c[k].st);
+    }
+    for (int k = 0; k < 3; k++) {
+      const wedge *e = &w->edges[w->tri_edge[3 * (size_t)t + k]];
+      if (e->mid < 0) continue;
+      mask |= 1 << k;
+      m[k].v = e->mid;
+      lerp2(T->uv[k], T->uv[(k + 1) % 3], 0.5, m[k].uv);
+      lerp2(T->st[k], T->st[(k + 1) % 3], 0.5, m[k].st);
+    }
+    int f = T->face, bad = 0;
+    int cnt = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+    if (cnt == 0) {
+      bad |= push_tri(&out, &n, &cap, f, &c[0], &c[1], &c[2]);
+    } else if (cnt == 3) {
+      bad |= push_tri(&out, &n, &cap, f, &c[0], &m[0], &m[2]);
+      bad |= push_tri(&out, &n, &cap, f, &m[0], &c[1], &m[1]);
+      bad |= push_tri(&out, &n, &cap, f, &m[2], &m[1], &c[2]);
+      bad |= push_tri(&out, &n, &cap, f, &m[0], &m[1], &m[2]);
+    } else if (cnt == 1) {
+      int k = mask == 1 ? 0 : mask == 2 ? 1 : 2;
+      const corner_ref *a = &c[k], *b = &c[(k + 1) % 3], *o = &c[(k + 2) % 3];
+      bad |= push_tri(&out, &n, &cap, f, a, &m[k], o);
+      bad |= push_tri(&out, &n, &cap, f, &m[k], b, o);
+    } else {
+      int k = (mask & 1) == 0 ? 1 : (mask & 2) == 0 ? 2 : 0; /* edges k, k+1 split; k+2 not */
+      const corner_ref *a = &c[k], *b = &c[(k + 1) % 3], *o = &c[(k + 2) % 3];
+      const corner_ref *m1 = &m[k], *m2 = &m[(k + 1) % 3];
+      bad |= push_tri(&out, &n, &cap, f, m1, b, m2);
+      bad |= push_tri(&out, &n, &cap, f, a, m1, m2);
+      bad |= push_tri(&out, &n, &cap, f, a, m2, o);
+    }
+    if (bad) {
+      free(out);
+      return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+    }
+  }
+  free(w->tris);
+  w->tris = out;
+  w->ntris = n;
+  w->cap_tris = cap;
+  return CH_OK;
+}
+
+/* ---- output ---------------------------------------------------------------- */
+typedef struct out_mesh {
+  double *pos;     /* filled after evaluation */
+  int npos, cap_pos;
+  /* what each output vertex is: face, st, h */
+  int *face;
+  double *st, *h;
+  int *tri;        /* 3 per triangle */
+  uint64_t *group; /* per triangle: piece label or WALL_GROUP */
+  double *uv;      /* 6 per triangle: corner UVs */
+  int ntri, cap_tri;
+} out_mesh;
+
+static int out_vertex(out_mesh *o, int face, const double st[2], double h) {
+  if (o->npos + 1 > o->cap_pos) {
+    int cap = o->cap_pos ? 2 * o->cap_pos : 4096;
+    int *f = realloc(o->face, (size_t)cap * sizeof *f);
+    if (f) o->face = f;
+    double *s = realloc(o->st, (size_t)cap * 2 * sizeof *s);
+    if (s) o->st = s;
+    double *hh = realloc(o->h, (size_t)cap * sizeof *hh);
+    if (hh) o->h = hh;
+    if (!f || !s || !hh) return -1;
+    o->cap_pos = cap;
+  }
+  o->face[o->npos] = face;
+  o->st[2 * (size_t)o->npos] = st[0];
+  o->st[2 * (size_t)o->npos + 1] = st[1];
+  o->h[o->npos] = h;
+  return o->npos++;
+}
+
+static int out_tri(out_mesh *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
+                   uint64_t group) {
+  if (a == b || b == c || c == a) return 0; /* collapsed: a wall of zero height */
+  if (o->ntri + 1 > o->cap_tri) {
+    int cap = o->cap_tri ? 2 * o->cap_tri : 4096;
+    int *t = realloc(o->tri, (size_t)cap * 3 * sizeof *t);
+    if (t) o->tri = t;
+    uint64_t *g = realloc(o->group, (size_t)cap * sizeof *g);
+    if (g) o->group = g;
+    double *u = realloc(o->uv, (size_t)cap * 6 * sizeof *u);
+    if (u) o->uv = u;
+    if (!t || !g || !u) return -1;
+    o->cap_tri = cap;
+  }
+  int *t = &o->tri[3 * (size_t)o->ntri];
+  t[0] = a;
+  t[1] = b;
+  t[2] = c;
+  double *u = &o->uv[6 * (size_t)o->ntri];
+  memcpy(u, ua, 2 * sizeof *u);
+  memcpy(u + 2, ub, 2 * sizeof *u);
+  memcpy(u + 4, uc, 2 * sizeof *u);
+  o->group[o->ntri++] = group;
+  return 0;
+}
+
+static int out_quad(out_mesh *o, const int v[4], const double *uv[4], uint64_t group) {
+  return out_tri(o, v[0], v[1], v[2], uv[0], uv[1], uv[2], group) |
+         out_tri(o, v[0], v[2], v[3], uv[0], uv[2], uv[3], group);
+}
+
+static void out_free(out_mesh *o) {
+  free(o->pos);
+  free(o->face);
+  free(o->st);
+  free(o->h);
+  free(o->tri);
+  free(o->group);
+  free(o->uv);
+  memset(o, 0, sizeof *o);
+}
+
+/* ---- cutting a triangle ------------------------------------------------------
+ * The boundary of a triangle as a cycle of nodes: its corners and, between
+ * them, the crossings of its edges. Each crossing joins the piece before it
+ * to the piece after it; inside the triangle it is one end of a chord to the
+ * crossing with the same two pieces. */
+enum { MAX_NODES = 192 };
+
+typedef struct bnode {
+  int corner;               /* vertex of a corner, -1 for a crossing */
+  int edge;                 /* local edge holding a crossing */
+  uint64_t lprev, lnext;    /* pieces before and after it (a corner: its own, twice) */
+  int copy_prev, copy_next; /* output vertices in those pieces */
+  double uv[2], st[2];
+  int pair;                 /* the other end of its chord, -1 */
+} bnode;
+
+typedef enum cut_kind { CUT_NONE, CUT_REGIONS, CUT_COMPLEX } cut_kind;
+
+static int gather_nodes(const work *w, int t, bnode *nodes) {
+  const wtri *T = &w->tris[t];
+  int m = 0;
+  for (int k = 0; k < 3; k++) {
+    const wvert *v = &w->verts[T->v[k]];
+    bnode *c = &nodes[m++];
+    c->corner = T->v[k];
+    c->edge = -1;
+    c->lprev = c->lnext = v->label;
+    c->copy_prev = c->copy_next = T->v[k];
+    memcpy(c->uv, T->uv[k], sizeof c->uv);
+    memcpy(c->st, T->st[k], sizeof c->st);
+    c->pair = -1;
+    const wedge *e = &w->edges[w->tri_edge[3 * (size_t)t + k]];
+    int forward = T->v[k] == e->a;
+    if (m + e->ncross > MAX_NODES) return -1;
+    for (int i = 0; i < e->ncross; i++) {
+      const crossing *x = &e->cross[forward ? i : e->ncross - 1 - i];
+      bnode *b = &nodes[m++];
+      double f = forward ? x->x : 1.0 - x->x;
+      b->corner = -1;
+      b->edge = k;
+      b->lprev = forward ? x->la : x->lb;
+      b->lnext = forward ? x->lb : x->la;
+      b->copy_prev = forward ? x->copy_a : x->copy_b;
+      b->copy_next = forward ? x->copy_b : x->copy_a;
+      lerp2(T->uv[k], T->uv[(k + 1) % 3], f, b->uv);
+      lerp2(T->st[k], T->st[(k + 1) % 3], f, b->st);
+      b->pair = -1;
+    }
+  }
+  return m;
+}
+
+/* Pairs the crossings into chords: two crossings between the same two
+ * pieces, in opposite directions. Crossings left unpaired must be where
+ * pieces meet at one point inside (a junction: three or more of them, each
+ * piece between two consecutive ones). CUT_REGIONS when that works out, no
+ * two chords cross and no chord separates the junction's crossings;
+ * CUT_COMPLEX otherwise (refined, or fanned if refinement is over). */
+static cut_kind classify(bnode *nodes, int m) {
+  int nc = 0;
+  for (int i = 0; i < m; i++) nc += nodes[i].corner < 0;
+  if (nc == 0) return CUT_NONE;
+  int unpaired[MAX_NODES], nu = 0;
+  for (int i = 0; i < m; i++) {
+    if (nodes[i].corner >= 0 || nodes[i].pair >= 0) continue;
+    int found = -1;
+    for (int j = i + 1; j < m; j++) {
+      if (nodes[j].corner >= 0 || nodes[j].lprev != nodes[i].lnext || nodes[j].lnext != nodes[i].lprev) continue;
+      if (found >= 0 || nodes[j].pair >= 0) return CUT_COMPLEX; /* ambiguous */
+      found = j;
+    }
+    if (found < 0) {
+      unpaired[nu++] = i;
+      continue;
+    }
+    nodes[i].pair = found;
+    nodes[found].pair = i;
+  }
+  if (nu == 1 || nu == 2) return CUT_COMPLEX;
+  for (int i = 0; i < nu; i++)
+    if (nodes[unpaired[i]].lnext != nodes[unpaired[(i + 1) % nu]].lprev) return CUT_COMPLEX;
+  for (int i = 0; i < m; i++) {
+    int j = nodes[i].pair;
+    if (j < i) continue;
+    for (int k = i + 1; k < j; k++) {
+      int l = nodes[k].pair;
+      if (l >= 0 && (l < i || l > j)) return CUT_COMPLEX; /* chords cross */
+    }
+    int inside = 0;
+    for (int u = 0; u < nu; u++) inside += unpaired[u] > i && unpaired[u] < j;
+    if (inside != 0 && inside != nu) return CUT_COMPLEX;
+  }
+  return CUT_REGIONS;
+}
+
+static int node_copy(const bnode *n, uint64_t piece) {
+  if (n->corner >= 0) return n->corner;
+  return piece == n->lnext ? n->copy_next : n->copy_prev;
+}
+
+/* Emits the region bounded by nodes idx[0..len) (counter-clockwise, convex)
+ * as a fan; its piece is the one after a node along the triangle's boundary. */
+static int emit_region(const bnode *nodes, int m, const int *idx, int len, out_mesh *o) {
+  uint64_t piece = nodes[idx[0]].lnext;
+  for (int i = 0; i < len; i++)
+    if ((idx[i] + 1) % m == idx[(i + 1) % len]) {
+      piece = nodes[idx[i]].lnext;
+      break;
+    }
+  int v0 = node_copy(&nodes[idx[0]], piece), bad = 0;
+  for (int i = 1; i + 1 < len; i++)
+    bad |= out_tri(o, v0, node_copy(&nodes[idx[i]], piece), node_copy(&nodes[idx[i + 1]], piece),
+                   nodes[idx[0]].uv, nodes[idx[i]].uv, nodes[idx[i + 1]].uv, piece);
+  return bad;
+}
+
+typedef struct cut_context {
+  const labeler *lb;
+  const wtri *T;
+  double tol;
+  out_mesh *o;
+  ch_embed_stats *stats;
+} cut_context;
+
+/* A region where n >= 3 pieces meet at one point: a junction vertex per
+ * piece at the centroid of the n unpaired crossings (h read just inside the
+ * piece, found by bisection from the centroid), a fan per piece from it,
+ * walls along the spokes where h jumps and a cap where the walls meet. */
+static int emit_junction(const cut_context *cx, const bnode *nodes, const int *idx, int len) {
+  int pos[MAX_NODES], n = 0;
+  for (int i = 0; i < len; i++)
+    if (nodes[idx[i]].corner < 0 && nodes[idx[i]].pair < 0) pos[n++] = i;
+  double jst[2] = {0, 0}, juv[2] = {0, 0};
+  for (int k = 0; k < n; k++)
+    for (int i = 0; i < 2; i++) {
+      jst[i] += nodes[idx[pos[k]]].st[i] / n;
+      juv[i] += nodes[idx[pos[k]]].uv[i] / n;
+    }
+  /* The junction's copy for piece k: pieces on the two sides of a spoke
+   * share it where the spoke's crossing has one copy (no wall there). */
+  int j[MAX_NODES], group[MAX_NODES];
+  double hj[MAX_NODES];
+  for (int k = 0; k < n; k++) {
+    const bnode *a = &nodes[idx[pos[k]]], *b = &nodes[idx[(pos[k] + 1) % len]];
+    uint64_t piece = a->lnext;
+    double target[2] = {(juv[0] + a->uv[0] + b->uv[0]) / 3.0, (juv[1] + a->uv[1] + b->uv[1]) / 3.0};
+    double lo = 0.0, hi = 1.0, q[2];
+    for (int it = 0; it < JUNCTION_BISECTIONS; it++) {
+      double mid = 0.5 * (lo + hi);
+      lerp2(juv, target, mid, q);
+      if (label_at(cx->lb, q) == piece)
+        hi = mid;
+      else
+        lo = mid;
+    }
+    lerp2(juv, target, hi, q);
+    hj[k] = ch_height_eval(cx->lb->height, q[0], q[1]);
+  }
+  /* Groups: runs of pieces joined across wall-free spokes (spoke k lies
+   * between pieces k-1 and k). */
+  int start = -1;
+  for (int k = 0; k < n; k++)
+    if (nodes[idx[pos[k]]].copy_prev != nodes[idx[pos[k]]].copy_next) start = k;
+  for (int s = 0, g = -1; s < n; s++) {
+    int k = start < 0 ? s : (start + s) % n;
+    const bnode *x = &nodes[idx[pos[k]]];
+    if (g < 0 || x->copy_prev != x->copy_next) g = k;
+    group[k] = g;
+  }
+  for (int k = 0; k < n; k++) {
+    if (group[k] != k) continue;
+    double sum = 0.0;
+    int count = 0;
+    for (int i = 0; i < n; i++)
+      if (group[i] == k) {
+        sum += hj[i];
+        count++;
+      }
+    if ((j[k] = out_vertex(cx->o, cx->T->face, jst, sum / count)) < 0) return -1;
+  }
+  for (int k = 0; k < n; k++) j[k] = j[group[k]];
+  cx->stats->junctions++;
+  int bad = 0;
+  for (int k = 0; k < n; k++) {
+    uint64_t piece = nodes[idx[pos[k]]].lnext;
+    int end = pos[(k + 1) % n];
+    for (int i = pos[k]; i != end; i = (i + 1) % len) {
+      const bnode *a = &nodes[idx[i]], *b = &nodes[idx[(i + 1) % len]];
+      bad |= out_tri(cx->o, j[k], node_copy(a, piece), node_copy(b, piece), juv, a->uv, b->uv, piece);
+    }
+  }
+  int before = cx->o->ntri;
+  for (int k = 0; k < n; k++) {
+    const bnode *x = &nodes[idx[pos[k]]];
+    int v[4] = {x->copy_next, j[k], j[(k + n - 1) % n], x->copy_prev};
+    const double *uv[4] = {x->uv, juv, juv, x->uv};
+    bad |= out_quad(cx->o, v, uv, WALL_GROUP);
+  }
+  for (int k = 1; k + 1 < n; k++) bad |= out_tri(cx->o, j[0], j[k], j[k + 1], juv, juv, juv, WALL_GROUP);
+  cx->stats->wall_triangles += cx->o->ntri - before;
+  return bad;
+}
+
+/* Splits the cycle idx by its first unused chord, recursively; a region
+ * left without chords is a plain piece or holds the junction. */
+static int split_regions(const cut_context *cx, const bnode *nodes, int m, unsigned char *used, const int *idx,
+                         int len) {
+  for (int a = 0; a < len; a++) {
+    int p = idx[a], q = nodes[p].pair;
+    if (q < 0 || used[p]) continue;
+    int b = -1;
+    for (int i = 0; i < len; i++)
+      if (idx[i] == q) b = i;
+    if (b < 0) continue;
+    used[p] = used[q] = 1;
+    if (b < a) {
+      int tmp = a;
+      a = b;
+      b = tmp;
+    }
+    int one[MAX_NODES], two[MAX_NODES], n1 = 0, n2 = 0;
+    for (int i = a; i <= b; i++) one[n1++] = idx[i];
+    for (int i = b; i < len; i++) two[n2++] = idx[i];
+    for (int i = 0; i <= a; i++) two[n2++] = idx[i];
+    return split_regions(cx, nodes, m, used, one, n1) | split_regions(cx, nodes, m, used, two, n2);
+  }
+  for (int i = 0; i < len; i++)
+    if (nodes[idx[i]].corner < 0 && nodes[idx[i]].pair < 0) return emit_junction(cx, nodes, idx, len);
+  return emit_region(nodes, m, idx, len, cx->o);
+}
+
+/* Walls along the chords, between the copies on their two sides. */
+static int emit_walls(const bnode *nodes, int m, out_mesh *o, ch_embed_stats *stats) {
+  int bad = 0, before = o->ntri;
+  for (int p = 0; p < m; p++) {
+    int q = nodes[p].pair;
+    if (q < p) continue;
+    uint64_t r1 = nodes[p].lnext, r2 = nodes[p].lprev;
+    int v[4] = {node_copy(&nodes[p], r1), node_copy(&nodes[q], r1), node_copy(&nodes[q], r2),
+                node_copy(&nodes[p], r2)};
+    const double *uv[4] = {nodes[p].uv, nodes[q].uv, nodes[q].uv, nodes[p].uv};
+    bad |= out_quad(o, v, uv, WALL_GROUP);
+  }
+  stats->wall_triangles += o->ntri - before;
+  return bad;
+}
+
+/* Cuts triangle t into its pieces, with walls where h jumps. */
+static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out_mesh *o, ch_embed_stats *stats) {
+  const wtri *T = &w->tris[t];
+  bnode nodes[MAX_NODES];
+  int m = gather_nodes(w, t, nodes);
+  cut_kind kind = m < 0 ? CUT_COMPLEX : classify(nodes, m);
+  if (kind == CUT_NONE)
+    return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
+  if (kind == CUT_REGIONS) {
+    int idx[MAX_NODES] = {0};
+    unsigned char used[MAX_NODES] = {0};
+    for (int i = 0; i < m; i++) idx[i] = i;
+    cut_context cx = {lb, T, tol, o, stats};
+    return split_regions(&cx, nodes, m, used, idx, m) | emit_walls(nodes, m, o, stats);
+  }
+  /* Left after refinement: a fan from a vertex at the centre over the
+   * whole boundary, in the centre's piece (may leave a crack where a wall
+   * meets it; counted). */
+  stats->unresolved++;
+  if (m < 0) return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
+  double cst[2] = {0, 0}, cuv[2] = {0, 0};
+  for (int k = 0; k < 3; k++)
+    for (int i = 0; i < 2; i++) {
+      cst[i] += T->st[k][i] / 3.0;
+      cuv[i] += T->uv[k][i] / 3.0;
+    }
+  uint64_t piece = label_at(lb, cuv);
+  int c = out_vertex(o, T->face, cst, ch_height_eval(lb->height, cuv[0], cuv[1]));
+  if (c < 0) return -1;
+  int bad = 0;
+  for (int i = 0; i < m; i++) {
+    const bnode *a = &nodes[i], *b = &nodes[(i + 1) % m];
+    bad |= out_tri(o, c, a->corner >= 0 ? a->corner : a->copy_next, b->corner >= 0 ? b->corner : b->copy_prev, cuv,
+                   a->uv, b->uv, piece);
+  }
+  return bad;
+}
+
+/* Whether triangle t needs splitting: its crossings do not make chords and
+ * one junction, or a piece that none of its boundary touches hides inside. */
+static int needs_refinement(const labeler *lb, const work *w, int t) {
+  const wtri *T = &w->tris[t];
+  bnode nodes[MAX_NODES];
+  int m = gather_nodes(w, t, nodes);
+  if (m < 0 || classify(nodes, m) == CUT_COMPLEX) return 1;
+  double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
+  uint64_t l = label_at(lb, c);
+  for (int i = 0; i < m; i++)
+    if (nodes[i].lprev == l || nodes[i].lnext == l) return 0;
+  return 1;
+}
+
+static ch_status evaluate_positions(const ch_surface *surface, out_mesh *o, ch_error *err) {
+  o->pos = malloc(3 * (size_t)(o->npos > 0 ? o->npos : 1) * sizeof *o->pos);
+  if (!o->pos) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %d vertices", o->npos);
+  int failed = 0;
+#pragma omp parallel for schedule(dynamic, 1024) reduction(| : failed)
+  for (int i = 0; i < o->npos; i++) {
+    ch_surface_point sp;
+    if (ch_surface_eval(surface, o->face[i], o->st[2 * (size_t)i], o->st[2 * (size_t)i + 1], &sp)) {
+      failed = 1;
+      continue;
+    }
+    for (int k = 0; k < 3; k++) o->pos[3 * (size_t)i + k] = sp.position[k] + o->h[i] * sp.normal[k];
+  }
+  if (failed) return ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a vertex left its base face");
+  return CH_OK;
+}
+
+/* Per-corner normals: the area-weighted mean of the face normals around a
+ * vertex among the triangles of the same group (piece, or wall), so they
+ * are smooth inside a piece and split at its boundary. */
+static ch_status build_mesh(const out_mesh *o, ch_mesh *m, ch_error *err) {
+  memset(m, 0, sizeof *m);
+  size_t nc = 3 * (size_t)o->ntri;
+  m->num_positions = o->npos;
+  m->positions = o->pos;
+  m->num_faces = o->ntri;
+  m->num_corners = (int)nc;
+  m->face_start = malloc(((size_t)o->ntri + 1) * sizeof *m->face_start);
+  m->corner_position = malloc(nc * sizeof *m->corner_position);
+  m->corner_uv = malloc(nc * sizeof *m->corner_uv);
+  m->corner_normal = malloc(nc * sizeof *m->corner_normal);
+  m->uvs = malloc(2 * nc * sizeof *m->uvs);
+  m->normals = malloc(3 * nc * sizeof *m->normals);
+  int *first_uv = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *first_uv);
+  int *head = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *head);
+  int *next = malloc(nc * sizeof *next);
+  uint64_t *slot_group = malloc(nc * sizeof *slot_group);
+  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !m->uvs || !m->normals ||
+      !first_uv || !head || !next || !slot_group) {
+    free(first_uv);
+    free(head);
+    free(next);
+    free(slot_group);
+    m->positions = NULL;
+    ch_mesh_free(m);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
+  }
+  for (int i = 0; i < o->npos; i++) first_uv[i] = head[i] = -1;
+  int nuv = 0, nslot = 0;
+  for (int t = 0; t < o->ntri; t++) {
+    m->face_start[t] = 3 * t;
+    const int *v = &o->tri[3 * (size_t)t];
+    const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
+    double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    double fn[3];
+    ch_cross3(e1, e2, fn);
+    for (int k = 0; k < 3; k++) {
+      size_t c = 3 * (size_t)t + k;
+      int p = v[k];
+      m->corner_position[c] = p;
+      const double *uv = &o->uv[6 * (size_t)t + 2 * k];
+      int u = first_uv[p];
+      if (u < 0 || m->uvs[2 * (size_t)u] != uv[0] || m->uvs[2 * (size_t)u + 1] != uv[1]) {
+        u = nuv++;
+        m->uvs[2 * (size_t)u] = uv[0];
+        m->uvs[2 * (size_t)u + 1] = uv[1];
+        if (first_uv[p] < 0) first_uv[p] = u;
+      }
+      m->corner_uv[c] = u;
+      int s = head[p];
+      while (s >= 0 && slot_group[s] != o->group[t]) s = next[s];
+      if (s < 0) {
+        s = nslot++;
+        slot_group[s] = o->group[t];
+        next[s] = head[p];
+        head[p] = s;
+        memset(&m->normals[3 * (size_t)s], 0, 3 * sizeof(double));
+      }
+      for (int i = 0; i < 3; i++) m->normals[3 * (size_t)s + i] += fn[i];
+      m->corner_normal[c] = s;
+    }
+  }
+  m->face_start[o->ntri] = (int)nc;
+  m->num_uvs = nuv;
+  m->num_normals = nslot;
+  for (int s = 0; s < nslot; s++) {
+    double *n = &m->normals[3 * (size_t)s];
+    double len = sqrt(ch_dot3(n, n));
+    if (len > 0.0) {
+      for (int i = 0; i < 3; i++) n[i] /= len;
+    } else {
+      n[0] = n[1] = 0.0;
+      n[2] = 1.0; /* only zero-area triangles here: any unit vector */
+    }
+  }
+  free(first_uv);
+  free(head);
+  free(next);
+  free(slot_group);
+  return CH_OK;
+}
+
+/* ---- the whole embedding ------------------------------------------------- */
+ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
+                         const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats_out, ch_error *err) {
+  memset(out, 0, sizeof *out);
+  ch_embed_stats stats = {0};
+  const ch_mesh *tm = &tess->mesh;
+  double t0 = omp_get_wtime();
+  work w = {0};
+  labeler lb = {0};
+  out_mesh o = {0};
+  ch_status st = CH_OK;
+
+  /* The working mesh: the tessellation, each corner with its (s,t) in its face. */
+  w.nverts = w.cap_verts = tm->num_positions;
+  w.ntris = w.cap_tris = tm->num_faces;
+  w.verts = malloc((size_t)(w.nverts > 0 ? w.nverts : 1) * sizeof *w.verts);
+  w.tris = malloc((size_t)(w.ntris > 0 ? w.ntris : 1) * sizeof *w.tris);
+  if (!w.verts || !w.tris) goto nomem;
+  double uv_area = 0.0;
+  int failed = 0;
+#pragma omp parallel for schedule(static) reduction(+ : uv_area) reduction(| : failed)
+  for (int t = 0; t < w.ntris; t++) {
+    wtri *T = &w.tris[t];
+    T->face = tess->triangle_face[t];
+    for (int k = 0; k < 3; k++) {
+      int c = tm->face_start[t] + k, v = tm->corner_position[c];
+      T->v[k] = v;
+      memcpy(T->uv[k], &tm->uvs[2 * (size_t)tm->corner_uv[c]], sizeof T->uv[k]);
+      if (tess->vertex_face[v] == T->face) {
+        memcpy(T->st[k], &tess->vertex_st[2 * (size_t)v], sizeof T->st[k]);
+      } else if (ch_surface_locate(surface, T->face, T->uv[k], T->st[k])) {
+        failed = 1;
+      }
+    }
+    uv_area += 0.5 * fabs((T->uv[1][0] - T->uv[0][0]) * (T->uv[2][1] - T->uv[0][1]) -
+                          (T->uv[2][0] - T->uv[0][0]) * (T->uv[1][1] - T->uv[0][1]));
+  }
+  if (failed) {
+    st = ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a tessellation corner is outside its face's UV");
+    goto done;
+  }
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < w.nverts; v++) {
+    ch_surface_point sp;
+    w.verts[v].face = tess->vertex_face[v];
+    memcpy(w.verts[v].st, &tess->vertex_st[2 * (size_t)v], sizeof w.verts[v].st);
+    ch_surface_eval(surface, w.verts[v].face, w.verts[v].st[0], w.verts[v].st[1], &sp);
+    memcpy(w.verts[v].uv, sp.uv, sizeof sp.uv);
+  }
+  double mean_edge = sqrt(2.0 * uv_area / (w.ntris > 0 ? w.ntris : 1));
+  double radius = desc && desc->step_radius > 0.0 ? desc->step_radius : 4.0 * mean_edge;
+  double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.01;
+  int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : 8;
+  if ((st = labeler_init(&lb, height, radius, curve_tolerance, err))) goto done;
+  /* Edge samples: a quarter of the thinnest groove, so no groove slips
+   * between two samples unseen. */
+  double delta = INFINITY, scale = 0.0;
+  for (int c = 0; c < height->set->num_curves; c++) {
+    const ch_curve *cv = &height->set->curves[c];
+    if (cv->kind == CH_CURVE_GROOVE) {
+      delta = fmin(delta, 0.25 * cv->width);
+      scale = fmax(scale, fabs(cv->depth));
+    } else {
+      scale = fmax(scale, fmax(fabs(cv->left), fabs(cv->right)));
+    }
+  }
+  double tol = 1e-5 * scale + 1e-12; /* a jump above this is a wall */
+
+  /* Local refinement until every triangle's crossings pair into chords. */
+  int labelled = 0;
+  for (int round = 0;; round++) {
+    label_vertices(&lb, &w, labelled);
+    labelled = w.nverts;
+    if ((st = build_edges(&w, err))) goto done;
+    int oom = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
+    for (int i = 0; i < w.nedges; i++) {
+      wedge *e = &w.edges[i];
+      if (e->ncross < 0) oom |= compute_crossings(&lb, &w, e, delta);
+    }
+    if (oom) goto nomem;
+    if (round >= max_rounds) break;
+    unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
+    if (!refine) goto nomem;
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int t = 0; t < w.ntris; t++) refine[t] = (unsigned char)needs_refinement(&lb, &w, t);
+    int split = 0;
+    for (int t = 0; t < w.ntris; t++)
+      for (int k = 0; k < 3; k++) {
+        wedge *e = &w.edges[w.tri_edge[3 * (size_t)t + k]];
+        if (e->mid >= 0 || !refine[t] || edge_length(&w, e) < MIN_SPLIT_LENGTH) continue;
+        if (add_midpoint(&w, e)) {
+          free(refine);
+          goto nomem;
+        }
+        split++;
+      }
+    free(refine);
+    if (!split) break;
+    stats.refine_rounds = round + 1;
+    stats.refined_edges += split;
+    if ((st = split_triangles(&w, err))) goto done;
+  }
+  double t1 = omp_get_wtime();
+
+  /* Output vertices: the working vertices, then the crossings' copies. */
+  for (int v = 0; v < w.nverts; v++)
+    if (out_vertex(&o, w.verts[v].face, w.verts[v].st, w.verts[v].h) < 0) goto nomem;
+  for (int i = 0; i < w.nedges; i++) {
+    wedge *e = &w.edges[i];
+    int face = w.tris[e->tri].face;
+    for (int c = 0; c < e->ncross; c++) {
+      crossing *x = &e->cross[c];
+      double pst[2];
+      edge_point(&w, e, x->x, NULL, pst);
+      stats.crossings++;
+      if (fabs(x->ha - x->hb) <= tol) {
+        x->copy_a = x->copy_b = out_vertex(&o, face, pst, 0.5 * (x->ha + x->hb));
+      } else {
+        stats.wall_points++;
+        x->copy_a = out_vertex(&o, face, pst, x->ha);
+        x->copy_b = out_vertex(&o, face, pst, x->hb);
+      }
+      if (x->copy_a < 0 || x->copy_b < 0) goto nomem;
+    }
+  }
+  for (int t = 0; t < w.ntris; t++)
+    if (cut_triangle(&lb, &w, t, tol, &o, &stats)) goto nomem;
+  if ((st = evaluate_positions(surface, &o, err))) goto done;
+  double t2 = omp_get_wtime();
+  stats.min_h = INFINITY;
+  stats.max_h = -INFINITY;
+  for (int i = 0; i < o.npos; i++) {
+    stats.min_h = fmin(stats.min_h, o.h[i]);
+    stats.max_h = fmax(stats.max_h, o.h[i]);
+  }
+  if ((st = build_mesh(&o, out, err))) goto done;
+  o.pos = NULL; /* now out's */
+  stats.seconds_refine = t1 - t0;
+  stats.seconds_cut = t2 - t1;
+  stats.seconds_normals = omp_get_wtime() - t2;
+  if (stats_out) *stats_out = stats;
+  goto done;
+nomem:
+  st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
+done:
+  out_free(&o);
+  labeler_free(&lb);
+  free(w.verts);
+  free(w.tris);
+  free_edges(w.edges, w.nedges);
+  free(w.tri_edge);
+  return st;
+}

@@ -1,0 +1,73 @@
+/* ch_embed: feature embedding. Cuts a tessellation of the base surface
+ * along every wall and crease of h (SPEC §3-4) so that chains of mesh edges
+ * follow them, splits the vertices of walls in two (one per side, joined by
+ * vertical wall triangles, so the mesh stays closed), displaces, and gives
+ * per-corner normals split at creases and walls.
+ *
+ * How (and why not by moving vertices, as the paper's §3.5 snapping does):
+ * h is smooth inside "pieces": regions where the same groove decides h on
+ * the same segment of its profile (between two break points), on the same
+ * side of the nearest step curve. Every wall and crease is a boundary
+ * between pieces, so the piece label of a point is all the embedding needs.
+ * Each mesh edge whose ends lie in different pieces gets one vertex exactly
+ * on the boundary (found by bisection on the exact label, to about 1e-15
+ * UV), and each triangle is cut by the chords between the boundary points
+ * of its edges (three pieces meet at a junction vertex inside). Cutting
+ * never moves a vertex, so nothing folds over; crossings, T-junctions of
+ * curves and open ends are pieces meeting like any others. Where an edge
+ * crosses more than one boundary (a feature thinner than the edges) or a
+ * piece hides inside a triangle, the edges are split at their midpoints
+ * (conforming red/green refinement) until they do not, or are shorter than
+ * 1e-5 UV. A curved profile (u) is made of pieces too: extra break lines,
+ * dense near its rims, split it where the chord would leave P by more than
+ * a tolerance, so the mesh follows it with thin slices along the groove
+ * rather than with isotropic refinement. The cut and the refinement add
+ * triangles: callers tessellate for fewer to land on a target count.
+ * Boundaries where h has neither a jump nor a kink (the medial
+ * line between two step curves, the line beyond an open end) become edges
+ * too; they cost a few triangles and change nothing else. */
+#ifndef CH_EMBED_H
+#define CH_EMBED_H
+
+#include "ch_error.h"
+#include "ch_height.h"
+#include "ch_mesh.h"
+#include "ch_surface.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ch_embed_desc {
+  int max_refine_rounds;   /* local refinement rounds; 0 -> 8 */
+  double step_radius;      /* UV distance within which the side of a step
+                              curve is part of the label; 0 -> 4 mean edges */
+  double curve_tolerance;  /* curved profiles (u) are cut along extra lines
+                              so that h between two stays within this
+                              fraction of the depth of the profile; 0 -> 0.01 */
+} ch_embed_desc;
+
+typedef struct ch_embed_stats {
+  int refine_rounds, refined_edges;
+  int crossings;           /* boundary points on edges */
+  int wall_points;         /* of them, where h jumps (split in two) */
+  int junctions;           /* triangles where three pieces meet */
+  int wall_triangles;
+  int unresolved;          /* triangles left uncut after refinement (0 expected) */
+  double min_h, max_h;
+  double seconds_refine, seconds_cut, seconds_normals;
+} ch_embed_stats;
+
+/* Embeds the features of height into tess (a ch_tess_build result over
+ * surface) and writes the displaced mesh to out: triangles counter-clockwise
+ * as the base faces are, positions B + h N, face-varying UVs in the
+ * original UV, per-corner normals. Parallel where it matters; the same bytes
+ * for any number of threads. Errors: CH_ERR_NOMEM, CH_ERR_INTERNAL. out is
+ * zeroed on failure. */
+ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
+                         const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
