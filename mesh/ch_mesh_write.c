@@ -1,12 +1,17 @@
 /* ch_mesh_write.c: OBJ and binary PLY output, atomic and deterministic
- * (same mesh, same bytes: no timestamps, "%.9g" in the C locale, which
- * round-trips every float exactly). */
+ * (same mesh, same bytes: no timestamps; numbers with 9 significant digits
+ * as "%.9g" prints them, which round-trips every float exactly). OBJ text
+ * is formatted in parallel blocks by a fast formatter (printf's exact
+ * decimal conversion was 80% of the time of writing a 2M-triangle mesh). */
 #include "ch_mesh.h"
 
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include <omp.h>
 
 #include "ch_file.h"
 
@@ -36,29 +41,190 @@ static ch_status check_writable(const ch_mesh *m, const char *path, ch_error *er
 
 /* ---- OBJ ---------------------------------------------------------------- */
 
-static void write_obj_body(FILE *fp, const ch_mesh *m) {
+static char *put_uint(char *o, unsigned long v) {
+  char tmp[24];
+  int n = 0;
+  do {
+    tmp[n++] = (char)('0' + v % 10);
+    v /= 10;
+  } while (v);
+  while (n) *o++ = tmp[--n];
+  return o;
+}
+
+/* x as "%.9g" would print it: 9 significant digits, trailing zeros dropped,
+ * exponent form below 1e-4 or from 1e9. The digits come from rounding
+ * |x| * 10^(8 - e) to an integer in double precision, so in rare ties the
+ * last digit can differ from printf's exact conversion by one; every float
+ * still reads back exactly. Values outside 1e-290..1e290 go to snprintf. */
+static char *put_g9(char *o, double x) {
+  static const double p10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                               1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  if (x == 0.0) {
+    if (signbit(x)) *o++ = '-';
+    *o++ = '0';
+    return o;
+  }
+  double ax = fabs(x);
+  if (!(ax >= 1e-290 && ax <= 1e290)) return o + snprintf(o, 32, "%.9g", x);
+  int e = (int)floor(log10(ax));
+  uint64_t m = 0;
+  for (int pass = 0; pass < 3; pass++) {
+    int k = 8 - e;
+    double scaled = k >= 0 ? (k <= 22 ? ax * p10[k] : ax * 1e22 * pow(10.0, k - 22))
+                           : (-k <= 22 ? ax / p10[-k] : ax / 1e22 / pow(10.0, -k - 22));
+    double r = nearbyint(scaled);
+    if (r >= 1e9) {
+      e++;
+      continue;
+    }
+    if (r < 1e8) {
+      e--;
+      continue;
+    }
+    m = (uint64_t)r;
+    break;
+  }
+  if (m == 0) return o + snprintf(o, 32, "%.9g", x);
+  char d[9];
+  for (int i = 8; i >= 0; i--) {
+    d[i] = (char)('0' + m % 10);
+    m /= 10;
+  }
+  int last = 8;
+  while (last > 0 && d[last] == '0') last--;
+  if (x < 0) *o++ = '-';
+  if (e >= -4 && e < 9) {
+    if (e >= 0) {
+      for (int i = 0; i <= e; i++) *o++ = d[i];
+      if (last > e) {
+        *o++ = '.';
+        for (int i = e + 1; i <= last; i++) *o++ = d[i];
+      }
+    } else {
+      *o++ = '0';
+      *o++ = '.';
+      for (int i = 0; i < -e - 1; i++) *o++ = '0';
+      for (int i = 0; i <= last; i++) *o++ = d[i];
+    }
+    return o;
+  }
+  *o++ = d[0];
+  if (last > 0) {
+    *o++ = '.';
+    for (int i = 1; i <= last; i++) *o++ = d[i];
+  }
+  *o++ = 'e';
+  *o++ = e < 0 ? '-' : '+';
+  int ae = e < 0 ? -e : e;
+  if (ae < 10) *o++ = '0';
+  return put_uint(o, (unsigned long)ae);
+}
+
+/* The OBJ's lines in order: positions, UVs, normals, faces. */
+typedef struct obj_lines {
+  const ch_mesh *m;
+  long nv, nt, nn, nf;
+} obj_lines;
+
+enum { OBJ_BLOCK = 1 << 14, OBJ_MAX_LINE = 256 };
+
+/* Formats line i into o; returns the end. Faces longer than fit in
+ * OBJ_MAX_LINE bytes are formatted by the caller. */
+static char *obj_line(const obj_lines *L, long i, char *o) {
+  const ch_mesh *m = L->m;
+  if (i < L->nv) {
+    const double *p = &m->positions[3 * (size_t)i];
+    *o++ = 'v';
+    for (int k = 0; k < 3; k++) {
+      *o++ = ' ';
+      o = put_g9(o, p[k]);
+    }
+  } else if ((i -= L->nv) < L->nt) {
+    *o++ = 'v';
+    *o++ = 't';
+    for (int k = 0; k < 2; k++) {
+      *o++ = ' ';
+      o = put_g9(o, m->uvs[2 * (size_t)i + k]);
+    }
+  } else if ((i -= L->nt) < L->nn) {
+    *o++ = 'v';
+    *o++ = 'n';
+    for (int k = 0; k < 3; k++) {
+      *o++ = ' ';
+      o = put_g9(o, m->normals[3 * (size_t)i + k]);
+    }
+  } else {
+    i -= L->nn;
+    *o++ = 'f';
+    for (int c = m->face_start[i]; c < m->face_start[i + 1]; c++) {
+      *o++ = ' ';
+      o = put_uint(o, (unsigned long)m->corner_position[c] + 1);
+      if (m->corner_uv) {
+        *o++ = '/';
+        o = put_uint(o, (unsigned long)m->corner_uv[c] + 1);
+      }
+      if (m->corner_normal) {
+        *o++ = '/';
+        if (!m->corner_uv) *o++ = '/';
+        o = put_uint(o, (unsigned long)m->corner_normal[c] + 1);
+      }
+    }
+  }
+  *o++ = '\n';
+  return o;
+}
+
+/* Bytes a face line can take: 3 indices of up to 10 digits per corner. */
+static size_t face_line_bytes(const ch_mesh *m, long f) {
+  return 4 + (size_t)(m->face_start[f + 1] - m->face_start[f]) * 36;
+}
+
+static int write_obj_body(FILE *fp, const ch_mesh *m) {
   fputs("# chisel\n", fp);
-  for (int v = 0; v < m->num_positions; v++) {
-    const double *p = &m->positions[3 * (size_t)v];
-    fprintf(fp, "v %.9g %.9g %.9g\n", p[0], p[1], p[2]);
-  }
-  if (m->corner_uv)
-    for (int t = 0; t < m->num_uvs; t++)
-      fprintf(fp, "vt %.9g %.9g\n", m->uvs[2 * (size_t)t], m->uvs[2 * (size_t)t + 1]);
-  if (m->corner_normal)
-    for (int n = 0; n < m->num_normals; n++) {
-      const double *p = &m->normals[3 * (size_t)n];
-      fprintf(fp, "vn %.9g %.9g %.9g\n", p[0], p[1], p[2]);
+  obj_lines L = {m, m->num_positions, m->corner_uv ? m->num_uvs : 0, m->corner_normal ? m->num_normals : 0,
+                 m->num_faces};
+  long total = L.nv + L.nt + L.nn + L.nf;
+  int threads = omp_get_max_threads();
+  long nblocks = (total + OBJ_BLOCK - 1) / OBJ_BLOCK;
+  char **buf = calloc((size_t)threads, sizeof *buf);
+  size_t *cap = calloc((size_t)threads, sizeof *cap), *len = calloc((size_t)threads, sizeof *len);
+  int ok = buf && cap && len;
+  /* Rounds of `threads` blocks: formatted in parallel, written in order. */
+  for (long b0 = 0; ok && b0 < nblocks; b0 += threads) {
+    int failed = 0;
+#pragma omp parallel for schedule(static, 1) reduction(| : failed)
+    for (int t = 0; t < threads; t++) {
+      long b = b0 + t;
+      len[t] = 0;
+      if (b >= nblocks) continue;
+      long i0 = b * OBJ_BLOCK, i1 = i0 + OBJ_BLOCK < total ? i0 + OBJ_BLOCK : total;
+      size_t need = 0;
+      for (long i = i0; i < i1; i++)
+        need += i >= L.nv + L.nt + L.nn ? face_line_bytes(m, i - L.nv - L.nt - L.nn) : OBJ_MAX_LINE;
+      if (need > cap[t]) {
+        char *nb = realloc(buf[t], need);
+        if (!nb) {
+          failed = 1;
+          continue;
+        }
+        buf[t] = nb;
+        cap[t] = need;
+      }
+      char *o = buf[t];
+      for (long i = i0; i < i1; i++) o = obj_line(&L, i, o);
+      len[t] = (size_t)(o - buf[t]);
     }
-  for (int f = 0; f < m->num_faces; f++) {
-    fputc('f', fp);
-    for (int c = m->face_start[f]; c < m->face_start[f + 1]; c++) {
-      fprintf(fp, " %d", m->corner_position[c] + 1);
-      if (m->corner_uv) fprintf(fp, "/%d", m->corner_uv[c] + 1);
-      if (m->corner_normal) fprintf(fp, m->corner_uv ? "/%d" : "//%d", m->corner_normal[c] + 1);
-    }
-    fputc('\n', fp);
+    if (failed) ok = 0;
+    for (int t = 0; ok && t < threads; t++)
+      if (len[t] && fwrite(buf[t], 1, len[t], fp) != len[t]) ok = 0;
   }
+  if (buf)
+    for (int t = 0; t < threads; t++) free(buf[t]);
+  free(buf);
+  free(cap);
+  free(len);
+  return ok;
 }
 
 ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err) {
@@ -67,7 +233,10 @@ ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err
   ch_atomic_file f;
   st = ch_atomic_open(&f, path, err);
   if (st != CH_OK) return st;
-  write_obj_body(f.fp, mesh);
+  if (!write_obj_body(f.fp, mesh)) {
+    ch_atomic_abort(&f);
+    return ch_error_set(err, CH_ERR_IO, "%s: out of memory or write error", path);
+  }
   return ch_atomic_commit(&f, err);
 }
 

@@ -124,15 +124,23 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
   double s = sqrt(d2) * ch_curve_side(f->set, seg, t, q);
   double g = c->depth * ch_profile_eval(&c->profile, s / c->width);
   if (g == 0.0) return;
+  /* The deciding curve changes only when another is deeper (higher) by
+   * more than rounding: mirrored grooves tie along their line of symmetry,
+   * where the closest-point noise would otherwise flip it back and forth. */
+  double tie = 1e-12 * fabs(g);
   if (g < cs->min_carve) {
+    if (cs->carve_curve < 0 || g < cs->min_carve - tie) {
+      cs->carve_curve = curve;
+      cs->carve_s = s;
+    }
     cs->min_carve = g;
-    cs->carve_curve = curve;
-    cs->carve_s = s;
   }
   if (g > cs->max_raise) {
+    if (cs->raise_curve < 0 || g > cs->max_raise + tie) {
+      cs->raise_curve = curve;
+      cs->raise_s = s;
+    }
     cs->max_raise = g;
-    cs->raise_curve = curve;
-    cs->raise_s = s;
   }
   if (cs->owner < 0 || c->priority > cs->owner_priority ||
       (c->priority == cs->owner_priority && decides_height(g, cs->owner_g))) {

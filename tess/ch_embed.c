@@ -17,6 +17,7 @@
 
 enum { MAX_CURVES_LABELLED = 1 << 20, BISECTIONS = 46, JUNCTION_BISECTIONS = 30, MAX_EDGE_SAMPLES = 32 };
 #define MIN_SPLIT_LENGTH 1e-5
+#define MIN_LINE_SPACING (8 * MIN_SPLIT_LENGTH)
 #define WALL_GROUP (UINT64_C(1) << 62)
 
 /* ---- piece labels ---------------------------------------------------------
@@ -33,9 +34,16 @@ typedef struct labeler {
   double (*step_boxes)[4];
   double radius;
   int has_steps;
+  /* Quiet cells: no point within reach of a cell's points is in a groove's
+   * support or within `radius` of a step curve, reach = the longest mesh
+   * edge; so an edge or triangle whose corners all lie in quiet cells has
+   * label 0 throughout. Cells cover [0,1]^2; outside is never quiet. */
+  unsigned char *busy;
+  int mask_res;
 } labeler;
 
 static void labeler_free(labeler *lb) {
+  free(lb->busy);
   free(lb->crease_start);
   free(lb->crease_t);
   free(lb->step_boxes);
@@ -74,7 +82,10 @@ static int groove_lines(const ch_curve *c, double tolerance, double *t, int max)
       else
         lo = mid;
     }
-    inner[m++] = a = hi;
+    /* Lines closer than this to the previous one would ask for edges
+     * below the refinement limit where they curve (around an end). */
+    if ((a - hi) * c->width >= MIN_LINE_SPACING) inner[m++] = hi;
+    a = hi;
   }
   n = 0;
   t[n++] = -0.5;
@@ -85,7 +96,7 @@ static int groove_lines(const ch_curve *c, double tolerance, double *t, int max)
 }
 
 static ch_status labeler_init(labeler *lb, const ch_height *height, double radius, double curve_tolerance,
-                              ch_error *err) {
+                              double reach, ch_error *err) {
   const ch_curve_set *set = height->set;
   memset(lb, 0, sizeof *lb);
   lb->height = height;
@@ -120,8 +131,48 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
     }
   }
   ch_status st = ch_grid_build(&lb->step_grid, set->num_segments, (const double(*)[4])lb->step_boxes, err);
-  if (st) labeler_free(lb);
-  return st;
+  if (st) {
+    labeler_free(lb);
+    return st;
+  }
+  /* The quiet-cell mask, cells about one longest edge wide. */
+  int res = (int)fmin(2048.0, fmax(16.0, ceil(1.0 / fmax(reach, 1e-9))));
+  lb->mask_res = res;
+  lb->busy = calloc((size_t)res * res, 1);
+  if (!lb->busy) {
+    labeler_free(lb);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature mask");
+  }
+  double cell = 1.0 / res;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < set->num_segments; i++) {
+    const ch_segment *sg = &set->segments[i];
+    const ch_curve *c = &set->curves[sg->curve];
+    double margin = (c->kind == CH_CURVE_STEP ? radius : 0.5 * c->width) + 0.7072 * cell + reach;
+    double box[4];
+    ch_segment_box(sg, margin, box);
+    int x0 = (int)floor(box[0] * res), x1 = (int)floor(box[2] * res);
+    int y0 = (int)floor(box[1] * res), y1 = (int)floor(box[3] * res);
+    x0 = x0 < 0 ? 0 : x0;
+    y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 >= res ? res - 1 : x1;
+    y1 = y1 >= res ? res - 1 : y1;
+    for (int y = y0; y <= y1; y++)
+      for (int x = x0; x <= x1; x++) {
+        double q[2] = {(x + 0.5) * cell, (y + 0.5) * cell}, t;
+        if (ch_bezier_closest(sg->p, sg->is_line, q, &t) <= margin * margin) {
+#pragma omp atomic write
+          lb->busy[(size_t)y * res + x] = 1;
+        }
+      }
+  }
+  return CH_OK;
+}
+
+static int quiet(const labeler *lb, const double uv[2]) {
+  double fx = uv[0] * lb->mask_res, fy = uv[1] * lb->mask_res;
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < lb->mask_res && fy < lb->mask_res)) return 0;
+  return !lb->busy[(size_t)fy * lb->mask_res + (size_t)fx];
 }
 
 static uint64_t label_at(const labeler *lb, const double uv[2]) {
@@ -132,7 +183,10 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
   if (gs.active >= 0) {
     double t = gs.active_signed_distance / set->curves[gs.active].width;
     int k = 0;
-    for (int i = lb->crease_start[gs.active]; i < lb->crease_start[gs.active + 1]; i++) k += lb->crease_t[i] < t;
+    /* Points within rounding of a line belong to the piece below it, so
+     * a path's own points do not flip sides with the noise of s. */
+    for (int i = lb->crease_start[gs.active]; i < lb->crease_start[gs.active + 1]; i++)
+      k += lb->crease_t[i] < t - 1e-12;
     g = ((uint64_t)(gs.active + 1) << 8) | (uint64_t)k;
   }
   uint64_t s = 0;
@@ -246,70 +300,81 @@ static uint64_t edge_label(const labeler *lb, const work *w, const wedge *e, dou
   return label_at(lb, uv);
 }
 
-static int cmp_pair(const void *pa, const void *pb) {
-  const uint64_t *a = pa, *b = pb;
-  if (a[0] != b[0]) return a[0] < b[0] ? -1 : 1;
-  return a[1] < b[1] ? -1 : a[1] > b[1];
-}
-
 static void free_edges(wedge *edges, int n) {
   for (int i = 0; i < n; i++) free(edges[i].cross);
   free(edges);
 }
 
-/* Rebuilds the unique edges of the triangles, sorted by vertex pair; the
- * canonical triangle of an edge is the lowest one holding it. An edge that
- * was there before keeps its crossings (it is the same segment). */
+/* Rebuilds the unique edges of the triangles, sorted by vertex pair (a
+ * counting sort by the lower vertex, then each short run by the other);
+ * the canonical triangle of an edge is the lowest one holding it. An edge
+ * that was there before keeps its crossings (it is the same segment). */
 static ch_status build_edges(work *w, ch_error *err) {
   size_t n = 3 * (size_t)w->ntris;
-  uint64_t(*keys)[2] = malloc(n * sizeof *keys);
+  int *start = calloc((size_t)w->nverts + 1, sizeof *start);
+  int(*entry)[2] = malloc(n * sizeof *entry); /* other vertex, corner */
   wedge *old = w->edges;
   int nold = w->nedges;
   w->edges = malloc(n * sizeof *w->edges);
   free(w->tri_edge);
   w->tri_edge = malloc(n * sizeof *w->tri_edge);
-  if (!keys || !w->edges || !w->tri_edge) {
-    free(keys);
+  if (!start || !entry || !w->edges || !w->tri_edge) {
+    free(start);
+    free(entry);
     free_edges(old, nold);
     w->nedges = 0;
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %zu mesh edges", n);
   }
-  for (int t = 0; t < w->ntris; t++)
-    for (int k = 0; k < 3; k++) {
-      uint32_t a = (uint32_t)w->tris[t].v[k], b = (uint32_t)w->tris[t].v[(k + 1) % 3];
-      if (a > b) {
-        uint32_t tmp = a;
-        a = b;
-        b = tmp;
-      }
-      keys[3 * (size_t)t + k][0] = (uint64_t)a << 32 | b;
-      keys[3 * (size_t)t + k][1] = 3 * (uint64_t)t + (uint64_t)k;
-    }
-  qsort(keys, n, sizeof *keys, cmp_pair);
+  for (size_t c = 0; c < n; c++) {
+    int a = w->tris[c / 3].v[c % 3], b = w->tris[c / 3].v[(c % 3 + 1) % 3];
+    start[(a < b ? a : b) + 1]++;
+  }
+  for (int v = 0; v < w->nverts; v++) start[v + 1] += start[v];
+  for (size_t c = 0; c < n; c++) { /* corners in order: runs stay in corner order */
+    int a = w->tris[c / 3].v[c % 3], b = w->tris[c / 3].v[(c % 3 + 1) % 3];
+    int lo = a < b ? a : b, hi = a < b ? b : a;
+    int *slot = entry[start[lo]++];
+    slot[0] = hi;
+    slot[1] = (int)c;
+  }
+  for (int v = w->nverts; v > 0; v--) start[v] = start[v - 1];
+  start[0] = 0;
   int ne = 0, io = 0;
-  for (size_t i = 0; i < n;) {
-    size_t j = i + 1;
-    while (j < n && keys[j][0] == keys[i][0]) j++;
-    wedge *e = &w->edges[ne];
-    memset(e, 0, sizeof *e);
-    e->a = (int)(keys[i][0] >> 32);
-    e->b = (int)(keys[i][0] & 0xffffffffu);
-    e->tri = (int)(keys[i][1] / 3);
-    e->k = (int)(keys[i][1] % 3);
-    e->mid = -1;
-    e->ncross = -1; /* not computed */
-    while (io < nold && ((uint64_t)old[io].a << 32 | (uint32_t)old[io].b) < keys[i][0]) io++;
-    if (io < nold && old[io].a == e->a && old[io].b == e->b) {
-      e->ncross = old[io].ncross;
-      e->cross = old[io].cross;
-      old[io].cross = NULL;
+  for (int a = 0; a < w->nverts; a++) {
+    int s0 = start[a], s1 = start[a + 1];
+    for (int p = s0 + 1; p < s1; p++) /* by other vertex, stable */
+      for (int q = p; q > s0 && entry[q - 1][0] > entry[q][0]; q--) {
+        int t0 = entry[q][0], t1 = entry[q][1];
+        entry[q][0] = entry[q - 1][0];
+        entry[q][1] = entry[q - 1][1];
+        entry[q - 1][0] = t0;
+        entry[q - 1][1] = t1;
+      }
+    for (int i = s0; i < s1;) {
+      int j = i + 1;
+      while (j < s1 && entry[j][0] == entry[i][0]) j++;
+      wedge *e = &w->edges[ne];
+      memset(e, 0, sizeof *e);
+      e->a = a;
+      e->b = entry[i][0];
+      e->tri = entry[i][1] / 3;
+      e->k = entry[i][1] % 3;
+      e->mid = -1;
+      e->ncross = -1; /* not computed */
+      while (io < nold && (old[io].a < a || (old[io].a == a && old[io].b < e->b))) io++;
+      if (io < nold && old[io].a == a && old[io].b == e->b) {
+        e->ncross = old[io].ncross;
+        e->cross = old[io].cross;
+        old[io].cross = NULL;
+      }
+      for (int p = i; p < j; p++) w->tri_edge[entry[p][1]] = ne;
+      ne++;
+      i = j;
     }
-    for (size_t p = i; p < j; p++) w->tri_edge[keys[p][1]] = ne;
-    ne++;
-    i = j;
   }
   w->nedges = ne;
-  free(keys);
+  free(start);
+  free(entry);
   free_edges(old, nold);
   return CH_OK;
 }
@@ -327,7 +392,15 @@ static double edge_length(const work *w, const wedge *e) {
  * on from there, so lines closer together than the samples (the break
  * lines near a u groove's rim) are all found. h is read on both sides. */
 static int compute_crossings(const labeler *lb, const work *w, wedge *e, double delta) {
-  double len = edge_length(w, e);
+  double pa[2], pb[2];
+  edge_point(w, e, 0.0, pa, NULL);
+  edge_point(w, e, 1.0, pb, NULL);
+  if (quiet(lb, pa) && quiet(lb, pb)) {
+    e->ncross = 0;
+    e->cross = NULL;
+    return 0;
+  }
+  double len = hypot(pb[0] - pa[0], pb[1] - pa[1]);
   int n = (int)ceil(len / delta);
   n = n < 3 ? 3 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
   crossing *list = NULL;
@@ -373,6 +446,20 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
     x0 = x1;
     l0 = l1;
   }
+  /* Where two pieces tie (two mirrored grooves along their line of
+   * symmetry) rounding flips the label back and forth within a hair:
+   * a crossing that returns to the piece before it within 1e-9 of the edge
+   * cancels with it. */
+  for (int changed = 1; changed;) {
+    changed = 0;
+    for (int i = 0; i + 1 < count; i++)
+      if (list[i + 1].x - list[i].x < 1e-9 && list[i + 1].lb == list[i].la) {
+        memmove(&list[i], &list[i + 2], (size_t)(count - i - 2) * sizeof *list);
+        count -= 2;
+        changed = 1;
+        break;
+      }
+  }
   e->cross = list;
   e->ncross = count;
   return 0;
@@ -381,7 +468,7 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
 static void label_vertices(const labeler *lb, work *w, int from) {
 #pragma omp parallel for schedule(dynamic, 256)
   for (int v = from; v < w->nverts; v++) {
-    w->verts[v].label = label_at(lb, w->verts[v].uv);
+    w->verts[v].label = quiet(lb, w->verts[v].uv) ? 0 : label_at(lb, w->verts[v].uv);
     w->verts[v].h = ch_height_eval(lb->height, w->verts[v].uv[0], w->verts[v].uv[1]);
   }
 }
@@ -837,6 +924,7 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
  * one junction, or a piece that none of its boundary touches hides inside. */
 static int needs_refinement(const labeler *lb, const work *w, int t) {
   const wtri *T = &w->tris[t];
+  if (quiet(lb, T->uv[0]) && quiet(lb, T->uv[1]) && quiet(lb, T->uv[2])) return 0;
   bnode nodes[MAX_NODES];
   int m = gather_nodes(w, t, nodes);
   if (m < 0 || classify(nodes, m) == CUT_COMPLEX) return 1;
@@ -968,9 +1056,9 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   w.verts = malloc((size_t)(w.nverts > 0 ? w.nverts : 1) * sizeof *w.verts);
   w.tris = malloc((size_t)(w.ntris > 0 ? w.ntris : 1) * sizeof *w.tris);
   if (!w.verts || !w.tris) goto nomem;
-  double uv_area = 0.0;
+  double uv_area = 0.0, longest_edge = 0.0;
   int failed = 0;
-#pragma omp parallel for schedule(static) reduction(+ : uv_area) reduction(| : failed)
+#pragma omp parallel for schedule(static) reduction(+ : uv_area) reduction(| : failed) reduction(max : longest_edge)
   for (int t = 0; t < w.ntris; t++) {
     wtri *T = &w.tris[t];
     T->face = tess->triangle_face[t];
@@ -984,6 +1072,8 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
         failed = 1;
       }
     }
+    for (int k = 0; k < 3; k++)
+      longest_edge = fmax(longest_edge, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
     uv_area += 0.5 * fabs((T->uv[1][0] - T->uv[0][0]) * (T->uv[2][1] - T->uv[0][1]) -
                           (T->uv[2][0] - T->uv[0][0]) * (T->uv[1][1] - T->uv[0][1]));
   }
@@ -1003,7 +1093,8 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   double radius = desc && desc->step_radius > 0.0 ? desc->step_radius : 4.0 * mean_edge;
   double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.01;
   int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : 8;
-  if ((st = labeler_init(&lb, height, radius, curve_tolerance, err))) goto done;
+  if ((st = labeler_init(&lb, height, radius, curve_tolerance, longest_edge, err))) goto done;
+  stats.seconds_setup = omp_get_wtime() - t0;
   /* Edge samples: a quarter of the thinnest groove, so no groove slips
    * between two samples unseen. */
   double delta = INFINITY, scale = 0.0;
@@ -1021,9 +1112,14 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   /* Local refinement until every triangle's crossings pair into chords. */
   int labelled = 0;
   for (int round = 0;; round++) {
+    double ta = omp_get_wtime();
     label_vertices(&lb, &w, labelled);
     labelled = w.nverts;
+    double tb = omp_get_wtime();
     if ((st = build_edges(&w, err))) goto done;
+    double tc = omp_get_wtime();
+    stats.seconds_labels += tb - ta;
+    stats.seconds_edges += tc - tb;
     int oom = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
     for (int i = 0; i < w.nedges; i++) {
@@ -1031,11 +1127,14 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
       if (e->ncross < 0) oom |= compute_crossings(&lb, &w, e, delta);
     }
     if (oom) goto nomem;
+    double td = omp_get_wtime();
+    stats.seconds_crossings += td - tc;
     if (round >= max_rounds) break;
     unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
     if (!refine) goto nomem;
 #pragma omp parallel for schedule(dynamic, 256)
     for (int t = 0; t < w.ntris; t++) refine[t] = (unsigned char)needs_refinement(&lb, &w, t);
+    stats.seconds_classify += omp_get_wtime() - td;
     int split = 0;
     for (int t = 0; t < w.ntris; t++)
       for (int k = 0; k < 3; k++) {

@@ -56,6 +56,8 @@ typedef struct ch_embed_stats {
   int unresolved;          /* triangles left uncut after refinement (0 expected) */
   double min_h, max_h;
   double seconds_refine, seconds_cut, seconds_normals;
+  /* parts of seconds_refine: */
+  double seconds_setup, seconds_labels, seconds_edges, seconds_crossings, seconds_classify;
 } ch_embed_stats;
 
 /* Embeds the features of height into tess (a ch_tess_build result over

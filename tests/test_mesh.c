@@ -669,6 +669,63 @@ static void test_obj_round_trip(void) {
   ch_mesh_free(&m);
 }
 
+/* The OBJ writer's own number formatting against printf's "%.9g": the
+ * same text, but for a last digit in rare rounding ties, and every value
+ * reads back within half a unit of its ninth digit. Positions span magnitudes and signs; the
+ * mesh is large enough to be written in several parallel blocks. */
+static void test_obj_numbers(void) {
+  enum { N = 60000 };
+  ch_mesh m = {0};
+  double *pos = malloc(sizeof(double) * 3 * N);
+  int start[2] = {0, 3}, corners[3] = {0, 1, 2};
+  REQUIRE(pos);
+  uint64_t state = 12345;
+  for (int i = 0; i < 3 * N; i++) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    double u = (double)(state >> 11) / 9007199254740992.0;       /* [0,1) */
+    int e = (int)((state >> 3) % 40) - 20;                          /* 1e-20 .. 1e19 */
+    double v = (u + 0.01) * pow(10.0, e);
+    if (i % 7 == 0) v = -v;
+    if (i % 101 == 0) v = (double)(i % 1000); /* integers */
+    if (i % 103 == 0) v = 0.0;
+    pos[i] = v;
+  }
+  m.num_positions = N;
+  m.positions = pos;
+  m.num_faces = 1;
+  m.face_start = start;
+  m.num_corners = 3;
+  m.corner_position = corners;
+  ch_error err = new_error(NULL);
+  REQUIRE(ch_mesh_write_obj(tmp_path("numbers.obj"), &m, &err) == CH_OK);
+  size_t n;
+  char *text = slurp(tmp_path("numbers.obj"), &n);
+  REQUIRE(text);
+  char *line = strchr(text, '\n') + 1; /* after "# chisel" */
+  int differ = 0, bad = 0;
+  for (int v = 0; v < N; v++) {
+    char expect[128];
+    snprintf(expect, sizeof expect, "v %.9g %.9g %.9g", pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
+    char *end = strchr(line, '\n');
+    REQUIRE(end);
+    *end = '\0';
+    if (strcmp(line, expect) != 0) differ++;
+    double x, y, z;
+    /* Nine significant digits: within half a unit of the ninth. */
+    if (sscanf(line, "v %lf %lf %lf", &x, &y, &z) != 3 || fabs(x - pos[3 * v]) > 5.000001e-9 * fabs(pos[3 * v]) ||
+        fabs(y - pos[3 * v + 1]) > 5.000001e-9 * fabs(pos[3 * v + 1]) ||
+        fabs(z - pos[3 * v + 2]) > 5.000001e-9 * fabs(pos[3 * v + 2]))
+      bad++;
+    line = end + 1;
+  }
+  CHECK_MSG(bad == 0, "%d of %d lines do not read back", bad, N);
+  CHECK_MSG(differ <= N / 1000, "%d of %d lines differ from printf", differ, N);
+  CHECK(strcmp(line, "f 1 2 3\n") == 0);
+  free(text);
+  free(pos);
+  remove(tmp_path("numbers.obj"));
+}
+
 static void test_ply_round_trip(void) {
   ch_mesh a, b;
   ch_error err = new_error(NULL);
@@ -743,6 +800,7 @@ int main(void) {
   RUN(test_validate_uv);
   RUN(test_validate_errors);
   RUN(test_obj_round_trip);
+  RUN(test_obj_numbers);
   RUN(test_ply_round_trip);
   RUN(test_write_errors);
   const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply"};
