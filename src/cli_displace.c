@@ -132,7 +132,7 @@ static int run(int argc, char **argv) {
   ch_height height = {0};
   ch_displace_stats dstats = {0};
   cli_outputs outs = {0};
-  double t_surface = 0, t_height = 0, t_tess = 0, t_disp = 0, t_write = 0;
+  double t_surface = 0, t_height = 0, t_disp = 0, t_write = 0;
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = (ch_recon_method)snap_to};
   ch_status st = ch_surface_create(&mesh, (ch_scheme)scheme, &surface, &err);
   if (!st) {
@@ -140,38 +140,27 @@ static int run(int argc, char **argv) {
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime();
   }
-  /* The cut adds triangles: tessellate for fewer, so the output lands
-   * within 5% of the target (a second pass with the measured ratio). */
+  /* Embedding adds triangles: ch_embed_to_target tessellates for fewer so
+   * that the output lands on the target. */
   ch_mesh embedded = {0};
   ch_embed_stats estats = {0};
   const ch_mesh *result = &tess.mesh;
-  long base_target = target;
-  for (int pass = 0; !st && pass < 4; pass++) {
-    ch_tess_free(&tess);
-    ch_mesh_free(&embedded);
-    double t_pass = omp_get_wtime();
-    ch_tess_desc td = {.target_triangles = base_target};
-    st = ch_tess_build(surface, &td, &tess, &err);
-    t_tess = omp_get_wtime() - t_pass;
-    if (st) break;
-    double t_d = omp_get_wtime();
+  int passes = 1;
+  if (!st) {
     if (no_snap) {
-      st = ch_displace_apply(&tess, &height, &dstats, &err);
-      result = &tess.mesh;
+      ch_tess_desc td = {.target_triangles = target};
+      st = ch_tess_build(surface, &td, &tess, &err);
+      double t_d = omp_get_wtime();
+      if (!st) st = ch_displace_apply(&tess, &height, &dstats, &err);
+      t_disp = omp_get_wtime() - t_d;
     } else {
       ch_embed_desc ed = {0};
-      st = ch_embed_build(surface, &tess, &height, &ed, &embedded, &estats, &err);
+      st = ch_embed_to_target(surface, &height, &ed, target, &tess, &embedded, &estats, &passes, &err);
       result = &embedded;
       dstats.min_h = estats.min_h;
       dstats.max_h = estats.max_h;
+      t_disp = estats.seconds_refine + estats.seconds_cut + estats.seconds_normals;
     }
-    t_disp = omp_get_wtime() - t_d;
-    if (st || no_snap) break;
-    double ratio = (double)embedded.num_faces / (double)tess.mesh.num_faces;
-    if (fabs((double)embedded.num_faces - (double)target) <= 0.03 * (double)target) break;
-    long next = (long)llround((double)target / ratio);
-    if (next == base_target || next < 1) break;
-    base_target = next;
   }
   if (!st && labs((long)result->num_faces - target) > target / 20)
     ch_warn(&err, "%d triangles: the closest to --target-tris %ld that the base mesh and the features allow",
@@ -226,12 +215,12 @@ static int run(int argc, char **argv) {
   t_write = omp_get_wtime() - t_write;
   if (!st && stats) {
     fprintf(stderr,
-            "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms; last pass: "
-            "tessellate %.0f ms (%d triangles), %s %.0f ms; total of %s %.0f ms, write %.0f ms; h in [%.4g, %.4g]\n",
+            "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, %s %.0f ms "
+            "(%d pass%s; the last from %d base triangles: %s %.0f ms), write %.0f ms; h in [%.4g, %.4g]\n",
             result->num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface),
-            1e3 * t_tess, tess.mesh.num_faces, no_snap ? "displace" : "embed", 1e3 * t_disp,
-            no_snap ? "one pass" : "all passes", 1e3 * (t_passes - t_height), 1e3 * t_write, dstats.min_h,
-            dstats.max_h);
+            no_snap ? "tessellate and displace" : "tessellate and embed", 1e3 * (t_passes - t_height), passes,
+            passes > 1 ? "es" : "", tess.mesh.num_faces, no_snap ? "displace" : "embed", 1e3 * t_disp,
+            1e3 * t_write, dstats.min_h, dstats.max_h);
     if (!no_snap)
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "

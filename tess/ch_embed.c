@@ -40,6 +40,7 @@ typedef struct labeler {
    * label 0 throughout. Cells cover [0,1]^2; outside is never quiet. */
   unsigned char *busy;
   int mask_res;
+  double junction_size; /* triangles holding a junction are refined to this */
 } labeler;
 
 static void labeler_free(labeler *lb) {
@@ -186,7 +187,13 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
     /* Points within rounding of a line belong to the piece below it, so
      * a path's own points do not flip sides with the noise of s. */
     for (int i = lb->crease_start[gs.active]; i < lb->crease_start[gs.active + 1]; i++)
-      k += lb->crease_t[i] < t - 1e-12;
+      k += lb->crease_t[i] < t - 1e-13;
+    /* An active groove is inside its support: the shift above must not
+     * make a piece of the hair between the support's edge and the shifted
+     * one. */
+    int nb = lb->crease_start[gs.active + 1] - lb->crease_start[gs.active];
+    if (k < 1) k = 1;
+    if (nb > 1 && k > nb - 1) k = nb - 1;
     g = ((uint64_t)(gs.active + 1) << 8) | (uint64_t)k;
   }
   uint64_t s = 0;
@@ -219,6 +226,41 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
     }
   }
   return g << 32 | s;
+}
+
+/* h in a given piece at a point on its boundary: h_step read at `inside`
+ * (a point of the piece within rounding of `at`), plus the groove of the
+ * label evaluated by its own profile segment, continued to `at`. Reading
+ * the groove at a point could land on the wrong side of a wall: a label
+ * sits a hair (1e-13 in t) off where h changes, and along an edge that
+ * meets the line at a grazing angle no offset is safe. */
+static double piece_height(const labeler *lb, uint64_t label, const double inside[2], const double at[2]) {
+  const ch_height *h = lb->height;
+  double value = 0.0;
+  if (h->has_steps) {
+    ch_recon_sample rs;
+    ch_recon_eval(&h->recon, h->step_method, inside[0], inside[1], 0.0, &rs);
+    value = rs.value;
+  }
+  uint64_t g = label >> 32;
+  if (!g) return value;
+  int curve = (int)(g >> 8) - 1, k = (int)(g & 0xff);
+  const ch_curve *c = &lb->set->curves[curve];
+  ch_curve_point cp;
+  ch_curve_closest(lb->set, curve, at, &cp);
+  double t = cp.signed_distance / c->width;
+  if (c->profile.kind == CH_PROFILE_U) {
+    t = fmax(-0.5, fmin(0.5, t));
+    return value - c->depth * sqrt(fmax(0.0, 1.0 - 4.0 * t * t));
+  }
+  /* Piece k lies between break points k-1 and k: a line through two
+   * points well inside it. */
+  const double *br = lb->crease_t + lb->crease_start[curve];
+  int nb = lb->crease_start[curve + 1] - lb->crease_start[curve];
+  double a = k > 0 ? br[k - 1] : br[0] - 1.0, b = k < nb ? br[k] : br[nb - 1] + 1.0;
+  double t1 = a + 0.25 * (b - a), t2 = a + 0.75 * (b - a);
+  double p1 = ch_profile_eval(&c->profile, t1), p2 = ch_profile_eval(&c->profile, t2);
+  return value + c->depth * (p1 + (p2 - p1) * (t - t1) / (t2 - t1));
 }
 
 /* ---- the working mesh ------------------------------------------------------ */
@@ -254,6 +296,7 @@ typedef struct wedge {
 } wedge;
 
 typedef struct work {
+  const ch_surface *surface;
   wvert *verts;
   int nverts, cap_verts;
   wtri *tris;
@@ -277,6 +320,15 @@ static int grow(void **p, int *cap, int need, size_t size) {
 static void lerp2(const double a[2], const double b[2], double x, double out[2]) {
   out[0] = a[0] + x * (b[0] - a[0]);
   out[1] = a[1] + x * (b[1] - a[1]);
+}
+
+/* The (s,t) in face of a new point from its UV (UV is linear in each face,
+ * its (s,t) is not: an N-gon's sub-faces tile the parameter plane, so
+ * interpolating (s,t) across a triangle can leave the domain). st holds
+ * the interpolated guess, kept if the point is not found. */
+static void locate_st(const ch_surface *surface, int face, const double uv[2], double st[2]) {
+  double found[2];
+  if (ch_surface_locate(surface, face, uv, found) == CH_OK) memcpy(st, found, sizeof found);
 }
 
 /* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
@@ -434,10 +486,12 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
       c->x = 0.5 * (lo + hi);
       c->la = l0;
       c->lb = lhi;
+      double at[2];
+      edge_point(w, e, c->x, at, NULL);
       edge_point(w, e, lo, uv, NULL);
-      c->ha = ch_height_eval(lb->height, uv[0], uv[1]);
+      c->ha = piece_height(lb, l0, uv, at);
       edge_point(w, e, hi, uv, NULL);
-      c->hb = ch_height_eval(lb->height, uv[0], uv[1]);
+      c->hb = piece_height(lb, lhi, uv, at);
       c->copy_a = c->copy_b = -1;
       x0 = hi;
       l0 = lhi;
@@ -478,6 +532,7 @@ static int add_midpoint(work *w, wedge *e) {
   if (grow((void **)&w->verts, &w->cap_verts, w->nverts + 1, sizeof *w->verts)) return -1;
   wvert *v = &w->verts[w->nverts];
   edge_point(w, e, 0.5, v->uv, v->st);
+  locate_st(w->surface, w->tris[e->tri].face, v->uv, v->st);
   v->face = w->tris[e->tri].face;
   v->label = 0;
   e->mid = w->nverts++;
@@ -752,12 +807,84 @@ static int emit_region(const bnode *nodes, int m, const int *idx, int len, out_m
 }
 
 typedef struct cut_context {
+  const ch_surface *surface;
   const labeler *lb;
   const wtri *T;
   double tol;
   out_mesh *o;
   ch_embed_stats *stats;
 } cut_context;
+
+/* Where the pieces meet: each spoke's boundary is the line through its
+ * crossing and a second boundary point, found by bisection between points
+ * inside the two pieces it separates; the junction is the least-squares
+ * meeting point of those lines (exact where they are straight), or the
+ * centroid of the crossings when that fails or falls outside the triangle.
+ * (s,t) follow from the triangle's corners. */
+static void junction_point(const cut_context *cx, const bnode *nodes, const int *idx, int len, const int *pos,
+                           int n, double juv[2], double jst[2]) {
+  const wtri *T = cx->T;
+  double c[2] = {0, 0};
+  for (int k = 0; k < n; k++)
+    for (int i = 0; i < 2; i++) c[i] += nodes[idx[pos[k]]].uv[i] / n;
+  double inner[MAX_NODES][2];
+  uint64_t piece[MAX_NODES];
+  for (int k = 0; k < n; k++) {
+    const bnode *a = &nodes[idx[pos[k]]], *b = &nodes[idx[(pos[k] + 1) % len]];
+    piece[k] = a->lnext;
+    for (int i = 0; i < 2; i++) inner[k][i] = (c[i] + a->uv[i] + b->uv[i]) / 3.0;
+  }
+  double A[3] = {0, 0, 0}, r[2] = {0, 0}; /* normal equations: sum n n^T J = sum n n^T X */
+  int lines = 0;
+  for (int k = 0; k < n; k++) {
+    int km = (k + n - 1) % n;
+    if (label_at(cx->lb, inner[km]) != piece[km] || label_at(cx->lb, inner[k]) != piece[k]) continue;
+    double lo = 0.0, hi = 1.0, q[2];
+    for (int it = 0; it < BISECTIONS; it++) {
+      double mid = 0.5 * (lo + hi);
+      lerp2(inner[km], inner[k], mid, q);
+      if (label_at(cx->lb, q) == piece[km])
+        lo = mid;
+      else
+        hi = mid;
+    }
+    lerp2(inner[km], inner[k], 0.5 * (lo + hi), q);
+    const double *x = nodes[idx[pos[k]]].uv;
+    double d[2] = {q[0] - x[0], q[1] - x[1]}, len_d = hypot(d[0], d[1]);
+    if (!(len_d > 1e-15)) continue;
+    double nx = -d[1] / len_d, ny = d[0] / len_d, dot = nx * x[0] + ny * x[1];
+    A[0] += nx * nx;
+    A[1] += nx * ny;
+    A[2] += ny * ny;
+    r[0] += nx * dot;
+    r[1] += ny * dot;
+    lines++;
+  }
+  double det = A[0] * A[2] - A[1] * A[1];
+  juv[0] = c[0];
+  juv[1] = c[1];
+  if (lines >= 2 && fabs(det) > 1e-6 * (A[0] + A[2]) * (A[0] + A[2])) {
+    double j[2] = {(A[2] * r[0] - A[1] * r[1]) / det, (A[0] * r[1] - A[1] * r[0]) / det};
+    /* Inside the triangle (barycentric coordinates in UV)? */
+    double e1[2] = {T->uv[1][0] - T->uv[0][0], T->uv[1][1] - T->uv[0][1]};
+    double e2[2] = {T->uv[2][0] - T->uv[0][0], T->uv[2][1] - T->uv[0][1]};
+    double area = e1[0] * e2[1] - e1[1] * e2[0];
+    double p[2] = {j[0] - T->uv[0][0], j[1] - T->uv[0][1]};
+    double b1 = (p[0] * e2[1] - p[1] * e2[0]) / area, b2 = (e1[0] * p[1] - e1[1] * p[0]) / area;
+    if (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
+      juv[0] = j[0];
+      juv[1] = j[1];
+    }
+  }
+  /* (s,t) by the barycentric coordinates of juv. */
+  double e1[2] = {T->uv[1][0] - T->uv[0][0], T->uv[1][1] - T->uv[0][1]};
+  double e2[2] = {T->uv[2][0] - T->uv[0][0], T->uv[2][1] - T->uv[0][1]};
+  double area = e1[0] * e2[1] - e1[1] * e2[0];
+  double p[2] = {juv[0] - T->uv[0][0], juv[1] - T->uv[0][1]};
+  double b1 = area != 0.0 ? (p[0] * e2[1] - p[1] * e2[0]) / area : 1.0 / 3.0;
+  double b2 = area != 0.0 ? (e1[0] * p[1] - e1[1] * p[0]) / area : 1.0 / 3.0;
+  for (int i = 0; i < 2; i++) jst[i] = T->st[0][i] + b1 * (T->st[1][i] - T->st[0][i]) + b2 * (T->st[2][i] - T->st[0][i]);
+}
 
 /* A region where n >= 3 pieces meet at one point: a junction vertex per
  * piece at the centroid of the n unpaired crossings (h read just inside the
@@ -767,12 +894,9 @@ static int emit_junction(const cut_context *cx, const bnode *nodes, const int *i
   int pos[MAX_NODES], n = 0;
   for (int i = 0; i < len; i++)
     if (nodes[idx[i]].corner < 0 && nodes[idx[i]].pair < 0) pos[n++] = i;
-  double jst[2] = {0, 0}, juv[2] = {0, 0};
-  for (int k = 0; k < n; k++)
-    for (int i = 0; i < 2; i++) {
-      jst[i] += nodes[idx[pos[k]]].st[i] / n;
-      juv[i] += nodes[idx[pos[k]]].uv[i] / n;
-    }
+  double jst[2], juv[2];
+  junction_point(cx, nodes, idx, len, pos, n, juv, jst);
+  locate_st(cx->surface, cx->T->face, juv, jst);
   /* The junction's copy for piece k: pieces on the two sides of a spoke
    * share it where the spoke's crossing has one copy (no wall there). */
   int j[MAX_NODES], group[MAX_NODES];
@@ -791,7 +915,7 @@ static int emit_junction(const cut_context *cx, const bnode *nodes, const int *i
         lo = mid;
     }
     lerp2(juv, target, hi, q);
-    hj[k] = ch_height_eval(cx->lb->height, q[0], q[1]);
+    hj[k] = piece_height(cx->lb, piece, q, juv);
   }
   /* Groups: runs of pieces joined across wall-free spokes (spoke k lies
    * between pieces k-1 and k). */
@@ -894,12 +1018,12 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
     int idx[MAX_NODES] = {0};
     unsigned char used[MAX_NODES] = {0};
     for (int i = 0; i < m; i++) idx[i] = i;
-    cut_context cx = {lb, T, tol, o, stats};
+    cut_context cx = {w->surface, lb, T, tol, o, stats};
     return split_regions(&cx, nodes, m, used, idx, m) | emit_walls(nodes, m, o, stats);
   }
   /* Left after refinement: a fan from a vertex at the centre over the
-   * whole boundary, in the centre's piece (may leave a crack where a wall
-   * meets it; counted). */
+   * whole boundary, in the centre's piece: closed, but not following the
+   * features inside (counted). */
   stats->unresolved++;
   if (m < 0) return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
   double cst[2] = {0, 0}, cuv[2] = {0, 0};
@@ -909,11 +1033,16 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
       cuv[i] += T->uv[k][i] / 3.0;
     }
   uint64_t piece = label_at(lb, cuv);
+  locate_st(w->surface, T->face, cuv, cst);
   int c = out_vertex(o, T->face, cst, ch_height_eval(lb->height, cuv[0], cuv[1]));
   if (c < 0) return -1;
+  /* Around the boundary, a crossing on a wall contributes both copies,
+   * so the fan stays closed (a sliver from the centre spans the wall). */
   int bad = 0;
   for (int i = 0; i < m; i++) {
     const bnode *a = &nodes[i], *b = &nodes[(i + 1) % m];
+    if (a->corner < 0 && a->copy_prev != a->copy_next)
+      bad |= out_tri(o, c, a->copy_prev, a->copy_next, cuv, a->uv, a->uv, piece);
     bad |= out_tri(o, c, a->corner >= 0 ? a->corner : a->copy_next, b->corner >= 0 ? b->corner : b->copy_prev, cuv,
                    a->uv, b->uv, piece);
   }
@@ -928,6 +1057,14 @@ static int needs_refinement(const labeler *lb, const work *w, int t) {
   bnode nodes[MAX_NODES];
   int m = gather_nodes(w, t, nodes);
   if (m < 0 || classify(nodes, m) == CUT_COMPLEX) return 1;
+  /* Junctions are placed by estimate: keep their triangles small. */
+  for (int i = 0; i < m; i++)
+    if (nodes[i].corner < 0 && nodes[i].pair < 0) {
+      double longest = 0.0;
+      for (int k = 0; k < 3; k++)
+        longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+      return longest > lb->junction_size;
+    }
   double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
   uint64_t l = label_at(lb, c);
   for (int i = 0; i < m; i++)
@@ -1045,7 +1182,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   ch_embed_stats stats = {0};
   const ch_mesh *tm = &tess->mesh;
   double t0 = omp_get_wtime();
-  work w = {0};
+  work w = {.surface = surface};
   labeler lb = {0};
   out_mesh o = {0};
   ch_status st = CH_OK;
@@ -1058,7 +1195,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   if (!w.verts || !w.tris) goto nomem;
   double uv_area = 0.0, longest_edge = 0.0;
   int failed = 0;
-#pragma omp parallel for schedule(static) reduction(+ : uv_area) reduction(| : failed) reduction(max : longest_edge)
+#pragma omp parallel for schedule(static) reduction(| : failed) reduction(max : longest_edge)
   for (int t = 0; t < w.ntris; t++) {
     wtri *T = &w.tris[t];
     T->face = tess->triangle_face[t];
@@ -1074,6 +1211,9 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     }
     for (int k = 0; k < 3; k++)
       longest_edge = fmax(longest_edge, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+  }
+  for (int t = 0; t < w.ntris; t++) { /* in order: the same sum for any thread count */
+    const wtri *T = &w.tris[t];
     uv_area += 0.5 * fabs((T->uv[1][0] - T->uv[0][0]) * (T->uv[2][1] - T->uv[0][1]) -
                           (T->uv[2][0] - T->uv[0][0]) * (T->uv[1][1] - T->uv[0][1]));
   }
@@ -1094,6 +1234,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.01;
   int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : 8;
   if ((st = labeler_init(&lb, height, radius, curve_tolerance, longest_edge, err))) goto done;
+  lb.junction_size = mean_edge / 8.0;
   stats.seconds_setup = omp_get_wtime() - t0;
   /* Edge samples: a quarter of the thinnest groove, so no groove slips
    * between two samples unseen. */
@@ -1163,7 +1304,9 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     for (int c = 0; c < e->ncross; c++) {
       crossing *x = &e->cross[c];
       double pst[2];
-      edge_point(&w, e, x->x, NULL, pst);
+      double puv[2];
+      edge_point(&w, e, x->x, puv, pst);
+      locate_st(surface, face, puv, pst);
       stats.crossings++;
       if (fabs(x->ha - x->hb) <= tol) {
         x->copy_a = x->copy_b = out_vertex(&o, face, pst, 0.5 * (x->ha + x->hb));
@@ -1201,5 +1344,37 @@ done:
   free(w.tris);
   free_edges(w.edges, w.nedges);
   free(w.tri_edge);
+  return st;
+}
+
+ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
+                             long target, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats, int *passes,
+                             ch_error *err) {
+  memset(tess, 0, sizeof *tess);
+  memset(out, 0, sizeof *out);
+  long base = target;
+  int pilot = target / 16 >= 2000, runs = 0;
+  ch_status st = CH_OK;
+  for (int pass = 0; pass < 4; pass++) {
+    ch_tess_free(tess);
+    ch_mesh_free(out);
+    int is_pilot = pass == 0 && pilot;
+    ch_tess_desc td = {.target_triangles = is_pilot ? target / 16 : base};
+    runs++;
+    if ((st = ch_tess_build(surface, &td, tess, err))) break;
+    if ((st = ch_embed_build(surface, tess, height, desc, out, stats, err))) break;
+    double nb = tess->mesh.num_faces, added = (double)out->num_faces - nb;
+    if (!is_pilot && fabs((double)out->num_faces - (double)target) <= 0.03 * (double)target) break;
+    double k = added > 0.0 ? added / sqrt(nb) : 0.0, root = 0.5 * (-k + sqrt(k * k + 4.0 * (double)target));
+    long next = (long)llround(root * root);
+    if (next < 1) next = 1;
+    if (next == base && !is_pilot) break;
+    base = next;
+  }
+  if (passes) *passes = runs;
+  if (st) {
+    ch_tess_free(tess);
+    ch_mesh_free(out);
+  }
   return st;
 }
