@@ -216,7 +216,7 @@ static int run(int argc, char **argv) {
   if (!st && stats) {
     fprintf(stderr,
             "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, %s %.0f ms "
-            "(%d pass%s; the last from %d base triangles: %s %.0f ms), write %.0f ms; h in [%.4g, %.4g]\n",
+            "(%d pass%s; kept: %d base triangles, %s %.0f ms), write %.0f ms; h in [%.4g, %.4g]\n",
             result->num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface),
             no_snap ? "tessellate and displace" : "tessellate and embed", 1e3 * (t_passes - t_height), passes,
             passes > 1 ? "es" : "", tess.mesh.num_faces, no_snap ? "displace" : "embed", 1e3 * t_disp,

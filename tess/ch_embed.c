@@ -1352,29 +1352,69 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
                              ch_error *err) {
   memset(tess, 0, sizeof *tess);
   memset(out, 0, sizeof *out);
-  long base = target;
-  int pilot = target / 16 >= 2000, runs = 0;
+  ch_tess_result best_tess = {0}, cur_tess = {0};
+  ch_mesh best = {0}, cur = {0};
+  ch_embed_stats best_stats = {0}, cur_stats = {0};
+  double best_miss = INFINITY;
+  double xs[8], ys[8]; /* base triangles, output triangles of each run */
+  int runs = 0;
   ch_status st = CH_OK;
-  for (int pass = 0; pass < 4; pass++) {
-    ch_tess_free(tess);
-    ch_mesh_free(out);
-    int is_pilot = pass == 0 && pilot;
-    ch_tess_desc td = {.target_triangles = is_pilot ? target / 16 : base};
+  /* The fewest triangles the base mesh gives (every edge at rate 1). */
+  ch_tess_desc one = {.uniform_rate = 1};
+  if ((st = ch_tess_build(surface, &one, &cur_tess, err))) return st;
+  long fewest = cur_tess.mesh.num_faces;
+  ch_tess_free(&cur_tess);
+  memset(&cur_tess, 0, sizeof cur_tess);
+  if (target < fewest) target = fewest;
+  long base = target / 16 >= 2000 && target / 16 >= fewest ? target / 16 : target; /* a cheap pilot first */
+  for (int pass = 0; pass < 6; pass++) {
+    ch_tess_desc td = {.target_triangles = base};
+    if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
+    if ((st = ch_embed_build(surface, &cur_tess, height, desc, &cur, &cur_stats, err))) break;
     runs++;
-    if ((st = ch_tess_build(surface, &td, tess, err))) break;
-    if ((st = ch_embed_build(surface, tess, height, desc, out, stats, err))) break;
-    double nb = tess->mesh.num_faces, added = (double)out->num_faces - nb;
-    if (!is_pilot && fabs((double)out->num_faces - (double)target) <= 0.03 * (double)target) break;
-    double k = added > 0.0 ? added / sqrt(nb) : 0.0, root = 0.5 * (-k + sqrt(k * k + 4.0 * (double)target));
-    long next = (long)llround(root * root);
-    if (next < 1) next = 1;
-    if (next == base && !is_pilot) break;
-    base = next;
+    double nb = cur_tess.mesh.num_faces, no = cur.num_faces, miss = fabs(no - (double)target);
+    xs[pass] = nb;
+    ys[pass] = no;
+    if (miss < best_miss) { /* keep the closest run */
+      ch_tess_free(&best_tess);
+      ch_mesh_free(&best);
+      best_tess = cur_tess;
+      best = cur;
+      best_stats = cur_stats;
+      best_miss = miss;
+    } else {
+      ch_tess_free(&cur_tess);
+      ch_mesh_free(&cur);
+    }
+    memset(&cur_tess, 0, sizeof cur_tess);
+    memset(&cur, 0, sizeof cur);
+    if (best_miss <= 0.03 * (double)target) break;
+    /* Next base count: the model out = base + k sqrt(base) through the
+     * last run, then the secant through the last two once there are two. */
+    double next;
+    if (pass == 0) {
+      double k = no > nb ? (no - nb) / sqrt(nb) : 0.0, root = 0.5 * (-k + sqrt(k * k + 4.0 * (double)target));
+      next = root * root;
+    } else {
+      double dx = xs[pass] - xs[pass - 1], dy = ys[pass] - ys[pass - 1];
+      next = dy != 0.0 ? xs[pass] + ((double)target - ys[pass]) * dx / dy : xs[pass] * (double)target / no;
+      if (!(next > 0.0)) next = xs[pass] * 0.5;
+    }
+    long nl = (long)llround(fmin(next, 4.0 * (double)target));
+    if (nl < fewest) nl = fewest;
+    if (nl == base) break;
+    base = nl;
   }
+  ch_tess_free(&cur_tess);
+  ch_mesh_free(&cur);
   if (passes) *passes = runs;
   if (st) {
-    ch_tess_free(tess);
-    ch_mesh_free(out);
+    ch_tess_free(&best_tess);
+    ch_mesh_free(&best);
+    return st;
   }
-  return st;
+  *tess = best_tess;
+  *out = best;
+  if (stats) *stats = best_stats;
+  return CH_OK;
 }

@@ -73,9 +73,10 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
  * within 3% of target_triangles where the base mesh allows: what the cut
  * adds grows like the number of edges the feature lines cross, about
  * k sqrt(base triangles); a pilot run at 1/16 of the target measures k,
- * the real run uses the base count the model predicts, and up to two more
- * runs correct k. tess receives the last tessellation (free it with
- * ch_tess_free), out the embedded mesh, passes the number of runs. */
+ * the next run uses the base count that model predicts, and up to four
+ * more follow the secant through the last two runs. The run closest to
+ * the target is kept: tess receives its tessellation (free it with
+ * ch_tess_free), out its embedded mesh; passes the number of runs. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);

@@ -181,6 +181,25 @@ expect 0 "$chisel" info "$tmp/t.obj" && grep -q "edges *0 boundary, 0 non-manifo
 expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/d2.obj" --target-tris 20000 --no-snap || true
 checks=$((checks + 1))
 cmp -s "$tmp/d.obj" "$tmp/d2.obj" || fail "displace: same input, different bytes"
+# Feature embedding (the default): the count still lands on the target,
+# the torus stays closed, the bytes are the same twice, stats are printed.
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/s.obj" --target-tris 40000 --stats || true
+checks=$((checks + 1))
+grep -q "chisel: embed: .* boundary points" "$tmp/stderr" || fail "displace --stats: no embedding line"
+expect 0 "$chisel" info "$tmp/s.obj" || true
+checks=$((checks + 1))
+tris=$(sed -n 's/^ *faces *\([0-9]*\) (\([0-9]*\) triangles.*/\2/p' "$tmp/stdout")
+[ -n "$tris" ] && [ "$tris" -ge 38000 ] && [ "$tris" -le 42000 ] || fail "snapped displace: $tris triangles for a target of 40000"
+expect 0 "$chisel" displace "$models/torus.obj" "$svg" -o "$tmp/st.obj" --target-tris 30000 --scheme catmark || true
+expect 0 "$chisel" info "$tmp/st.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" "$tmp/stdout" \
+  || fail "snapped torus not closed"
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/s2.obj" --target-tris 40000 || true
+checks=$((checks + 1))
+cmp -s "$tmp/s.obj" "$tmp/s2.obj" || fail "snapped displace: same input, different bytes"
+expect 0 "$chisel" displace "$models/plane.obj" "$models/curves/steps_simple.svg" -o "$tmp/r5.obj" --target-tris 20000 \
+  --snap-to recon5 || true
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --snap-to bilinear && one_line_with "--snap-to"
+no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$tests/data/mesh/no_uv.obj" "$svg" -o "$tmp/x.obj" --no-snap && one_line_with "no_uv.obj: mesh has no texture coordinates"
 no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$tests/data/svg/bad/negative_width.svg" -o "$tmp/x.obj" --no-snap \
