@@ -8,5 +8,8 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$(nproc)"
 mkdir -p out
 set -x
-build/chisel info models/curves/glyphs.svg
-build/chisel sample models/curves/glyphs.svg --res 1024 -o out/glyphs_h.exr --png out/glyphs_h.png
+build/chisel info models/tablet.obj models/curves/glyphs.svg
+# The main job: the glyphs carved into the tablet, walls and creases on the curves.
+build/chisel displace models/tablet.obj models/curves/glyphs.svg -o out/tablet_glyphs.obj \
+  --exr out/tablet_glyphs.exr --png out/tablet_glyphs.png --stats
+build/chisel info out/tablet_glyphs.obj

@@ -97,7 +97,7 @@ static int groove_lines(const ch_curve *c, double tolerance, double *t, int max)
 }
 
 static ch_status labeler_init(labeler *lb, const ch_height *height, double radius, double curve_tolerance,
-                              double reach, ch_error *err) {
+                              double mean_edge, double reach, ch_error *err) {
   const ch_curve_set *set = height->set;
   memset(lb, 0, sizeof *lb);
   lb->height = height;
@@ -117,8 +117,17 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
   int n = 0;
   for (int c = 0; c < nc; c++) {
     lb->crease_start[c] = n;
-    if (set->curves[c].kind == CH_CURVE_GROOVE)
-      n += groove_lines(&set->curves[c], curve_tolerance, lb->crease_t + n, CH_PROFILE_MAX_POINTS + 2);
+    if (set->curves[c].kind == CH_CURVE_GROOVE) {
+      /* By default as fine as the mesh itself would follow P across the
+       * groove's middle (chord error (e/w)^2 P''/8, P'' = 4 there), so the
+       * error keeps shrinking with density; never coarser than 1%. */
+      double tol = curve_tolerance;
+      if (!(tol > 0.0)) {
+        double r = mean_edge / set->curves[c].width;
+        tol = fmin(0.01, fmax(1e-4, 0.5 * r * r));
+      }
+      n += groove_lines(&set->curves[c], tol, lb->crease_t + n, CH_PROFILE_MAX_POINTS + 2);
+    }
   }
   lb->crease_start[nc] = n;
   for (int i = 0; i < set->num_segments; i++) {
@@ -259,6 +268,7 @@ static double piece_height(const labeler *lb, uint64_t label, const double insid
   int nb = lb->crease_start[curve + 1] - lb->crease_start[curve];
   double a = k > 0 ? br[k - 1] : br[0] - 1.0, b = k < nb ? br[k] : br[nb - 1] + 1.0;
   double t1 = a + 0.25 * (b - a), t2 = a + 0.75 * (b - a);
+  t = fmax(a, fmin(b, t)); /* a junction estimate may lie a little outside */
   double p1 = ch_profile_eval(&c->profile, t1), p2 = ch_profile_eval(&c->profile, t2);
   return value + c->depth * (p1 + (p2 - p1) * (t - t1) / (t2 - t1));
 }
@@ -443,6 +453,77 @@ static double edge_length(const work *w, const wedge *e) {
  * finds the first change to about 1e-14 of the edge, and the search goes
  * on from there, so lines closer together than the samples (the break
  * lines near a u groove's rim) are all found. h is read on both sides. */
+/* t = s / w of point x of edge e with respect to curve c. */
+static double edge_t(const labeler *lb, const work *w, const wedge *e, int c, double x) {
+  double uv[2];
+  edge_point(w, e, x, uv, NULL);
+  /* Only c's segments in the grooves' grid cell (the point is inside c's
+   * support, so its closest segment is there). */
+  const ch_groove_field *gf = &lb->height->grooves;
+  const int *items;
+  int n = ch_grid_query(&gf->grid, uv[0], uv[1], &items);
+  double best = INFINITY, best_t = 0.0;
+  int best_seg = -1;
+  for (int k = 0; k < n; k++) {
+    const ch_segment *sg = &lb->set->segments[items[k]];
+    if (sg->curve != c) continue;
+    double t, d2 = ch_bezier_closest(sg->p, sg->is_line, uv, &t);
+    if (d2 < best) {
+      best = d2;
+      best_t = t;
+      best_seg = items[k];
+    }
+  }
+  if (best_seg < 0) return NAN;
+  return sqrt(best) * ch_curve_side(lb->set, best_seg, best_t, uv) / lb->set->curves[c].width;
+}
+
+/* The fast path of the crossing search, between two pieces of one groove
+ * (its break lines, the many lines of a u profile): the line is the level
+ * set t = break, found by false position (Illinois) on t along the edge in
+ * a dozen closest-point queries instead of ~46 label evaluations, then
+ * checked by the labels on both sides. Returns 0 (caller bisects) when
+ * the labels do not allow it or the check fails. */
+static int line_crossing(const labeler *lb, const work *w, const wedge *e, uint64_t l0, uint64_t l1, double x0,
+                         double x1, double *lo, double *hi, uint64_t *lhi) {
+  uint64_t g0 = l0 >> 32, g1 = l1 >> 32;
+  if ((l0 & 0xffffffffu) != (l1 & 0xffffffffu) || !g0 || !g1 || (g0 >> 8) != (g1 >> 8)) return 0;
+  int c = (int)(g0 >> 8) - 1, k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff);
+  if (k0 == k1) return 0;
+  int d = k1 > k0 ? 1 : -1;
+  const double *br = lb->crease_t + lb->crease_start[c];
+  double target = (d > 0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
+  double a = x0, b = x1, fa = edge_t(lb, w, e, c, a) - target, fb = edge_t(lb, w, e, c, b) - target;
+  if (!(fa * fb < 0.0)) return 0;
+  int side = 0;
+  for (int it = 0; it < 80 && fabs(b - a) > 1e-14; it++) {
+    double m = (a * fb - b * fa) / (fb - fa);
+    if (!(m > fmin(a, b) && m < fmax(a, b))) m = 0.5 * (a + b);
+    double fm = edge_t(lb, w, e, c, m) - target;
+    if (fm * fb < 0.0) {
+      a = b;
+      fa = fb;
+      side = 0;
+    } else if (++side >= 2) {
+      fa *= 0.5;
+    }
+    b = m;
+    fb = fm;
+    if (fm == 0.0) break;
+  }
+  /* The end on x0's side keeps l0's sign of t - target. */
+  double f0 = edge_t(lb, w, e, c, x0) - target;
+  double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
+  if (near > far) return 0;
+  uint64_t want = (g0 & ~(uint64_t)0xff) | (uint64_t)(k0 + d);
+  uint64_t next = (want << 32) | (l0 & 0xffffffffu);
+  if (edge_label(lb, w, e, near) != l0 || edge_label(lb, w, e, far) != next) return 0;
+  *lo = near;
+  *hi = far;
+  *lhi = next;
+  return 1;
+}
+
 static int compute_crossings(const labeler *lb, const work *w, wedge *e, double delta) {
   double pa[2], pb[2];
   edge_point(w, e, 0.0, pa, NULL);
@@ -465,7 +546,8 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
     while (l0 != l1) {
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
-      for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
+      if (!line_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi))
+        for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
         double mid = 0.5 * (lo + hi);
         uint64_t lm = edge_label(lb, w, e, mid);
         if (lm == l0) {
@@ -1231,9 +1313,10 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   }
   double mean_edge = sqrt(2.0 * uv_area / (w.ntris > 0 ? w.ntris : 1));
   double radius = desc && desc->step_radius > 0.0 ? desc->step_radius : 4.0 * mean_edge;
-  double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.01;
+  double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.0;
   int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : 8;
-  if ((st = labeler_init(&lb, height, radius, curve_tolerance, longest_edge, err))) goto done;
+  if ((st = labeler_init(&lb, height, radius, curve_tolerance,
+                         desc && desc->reference_edge > 0.0 ? desc->reference_edge : mean_edge, longest_edge, err))) goto done;
   lb.junction_size = mean_edge / 8.0;
   stats.seconds_setup = omp_get_wtime() - t0;
   /* Edge samples: a quarter of the thinnest groove, so no groove slips
@@ -1367,10 +1450,23 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   memset(&cur_tess, 0, sizeof cur_tess);
   if (target < fewest) target = fewest;
   long base = target / 16 >= 2000 && target / 16 >= fewest ? target / 16 : target; /* a cheap pilot first */
+  ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
   for (int pass = 0; pass < 6; pass++) {
     ch_tess_desc td = {.target_triangles = base};
     if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
-    if ((st = ch_embed_build(surface, &cur_tess, height, desc, &cur, &cur_stats, err))) break;
+    if (pass == 0 && !(d.reference_edge > 0.0)) {
+      /* The mean UV edge at the target's density, from this run's area. */
+      const ch_mesh *m = &cur_tess.mesh;
+      double area = 0.0;
+      for (int f = 0; f < m->num_faces; f++) {
+        const double *a = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f]];
+        const double *b = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f + 1]];
+        const double *c = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f + 2]];
+        area += 0.5 * fabs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]));
+      }
+      d.reference_edge = sqrt(2.0 * area / (double)target);
+    }
+    if ((st = ch_embed_build(surface, &cur_tess, height, &d, &cur, &cur_stats, err))) break;
     runs++;
     double nb = cur_tess.mesh.num_faces, no = cur.num_faces, miss = fabs(no - (double)target);
     xs[pass] = nb;

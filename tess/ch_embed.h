@@ -44,7 +44,12 @@ typedef struct ch_embed_desc {
                               curve is part of the label; 0 -> 4 mean edges */
   double curve_tolerance;  /* curved profiles (u) are cut along extra lines
                               so that h between two stays within this
-                              fraction of the depth of the profile; 0 -> 0.01 */
+                              fraction of the depth of the profile; 0 ->
+                              0.5 (e/w)^2 within [1e-4, 0.01], e the mean
+                              edge, w the groove's width */
+  double reference_edge;   /* e for that rule; 0 -> the tessellation's mean
+                              UV edge (ch_embed_to_target sets the target's,
+                              so the lines do not change between its runs) */
 } ch_embed_desc;
 
 typedef struct ch_embed_stats {

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Issue 4's accuracy figures: for every bundled curve set over the planar
+# base, at about 130k, 520k and 2.1M triangles, the snapped mesh (chisel
+# displace), the naive mesh (--no-snap) and the uniform grid with exact
+# vertex heights (chisel-uniform-grid), measured by chisel-accuracy on a
+# 2048^2 grid (L1, band, normal error near features, holes).
+#
+# Usage: bench/accuracy.sh [BUILD_DIR] [SIZES...]   (default: build 130000 520000 2100000)
+# Prints a markdown table and writes it, with the JSON lines, under out/accuracy/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-build}
+shift || true
+sizes=("$@")
+[ ${#sizes[@]} -gt 0 ] || sizes=(130000 520000 2100000)
+res=2048 # DCI resolution for both the meshes and the reference
+dir=out/accuracy
+mkdir -p "$dir"
+json="$dir/accuracy.jsonl"
+: >"$json"
+for svg in models/curves/*.svg; do
+  name=$(basename "$svg" .svg)
+  for n in "${sizes[@]}"; do
+    "$build/chisel" displace models/plane.obj "$svg" -o "$dir/$name-$n-snap.obj" --target-tris "$n" --res $res \
+      2>/dev/null
+    "$build/chisel" displace models/plane.obj "$svg" -o "$dir/$name-$n-naive.obj" --target-tris "$n" --res $res \
+      --no-snap 2>/dev/null
+    "$build/bench/chisel-uniform-grid" "$svg" -o "$dir/$name-$n-grid.obj" --target-tris "$n" --dci-res $res \
+      2>/dev/null
+    "$build/bench/chisel-accuracy" "$dir/$name-$n-snap.obj" "$dir/$name-$n-naive.obj" "$dir/$name-$n-grid.obj" \
+      "$svg" --dci-res $res --json >>"$json"
+    rm -f "$dir/$name-$n-"*.obj
+    echo "accuracy: $name $n done" >&2
+  done
+done
+python3 - "$json" <<'EOF' | tee "$dir/accuracy.md"
+import json, sys, os
+rows = [json.loads(l) for l in open(sys.argv[1])]
+def key(r):
+    b = os.path.basename(r["mesh"])[:-4]
+    name, n, method = b.rsplit("-", 2)
+    return name, int(n), method
+table = {}
+for r in rows:
+    table[key(r)] = r
+names = sorted({k[0] for k in table})
+sizes = sorted({k[1] for k in table})
+print("| curves | size | method | triangles | L1 | L1 / grid | band | normal mean | normal p95 | holes |")
+print("|---|---|---|---|---|---|---|---|---|---|")
+for name in names:
+    for n in sizes:
+        grid = table.get((name, n, "grid"))
+        for method in ("snap", "naive", "grid"):
+            r = table.get((name, n, method))
+            if not r:
+                continue
+            ratio = r["l1"] / grid["l1"] if grid and grid["l1"] > 0 else float("nan")
+            print(f"| {name} | {n // 1000}k | {method} | {r['triangles']} | {r['l1']:.3g} | {ratio:.3f} | "
+                  f"{100 * r['band']:.2f}% | {r['normal_mean_deg']:.2f} | {r['normal_p95_deg']:.2f} | {r['holes']:.2g} |")
+EOF
