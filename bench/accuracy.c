@@ -506,6 +506,7 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
       double h = ref->h[k], d = ref->dist[k];
       double err_h = t >= 0 ? fabs(r.z[k] - h) : INFINITY;
       if (ref->error_map) ref->error_map[k] = t >= 0 ? (float)((r.z[k] - h) / hmax) : NAN;
+      if (ref->normal_map) ref->normal_map[k] = NAN;
       if (t >= 0) {
         covered++;
         l1 += err_h;
@@ -524,6 +525,7 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
         double dot = nf[0] * me[0] + nf[1] * me[1] + nf[2] * me[2];
         double a = atan2(sqrt(cx * cx + cy * cy + cz * cz), dot) * (180.0 / PI_);
         arow[nn++] = a;
+        if (ref->normal_map) ref->normal_map[k] = (float)a;
         asum += a;
       }
     }

@@ -86,6 +86,9 @@ typedef struct ch_accuracy_reference {
   float *error_map;          /* optional, set by the caller: grid^2 floats that
                                 measuring fills with (z - h) / max |h|, NaN
                                 where uncovered (row j major, as h) */
+  float *normal_map;         /* optional, likewise: the normal error in degrees
+                                on the samples the normal figures use, NaN
+                                elsewhere */
 } ch_accuracy_reference;
 
 ch_status ch_accuracy_reference_init(ch_accuracy_reference *ref, const ch_height *height,

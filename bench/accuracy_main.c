@@ -20,7 +20,7 @@
 
 static const char usage[] =
     "usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid G] [--dci-res R] [--json] [--verbose]\n"
-    "                       [--error-png PREFIX]\n"
+    "                       [--error-png PREFIX] [--normal-png PREFIX]\n"
     "\n"
     "Rasterises each mesh's non-vertical triangles in xy on the cell centres of a\n"
     "G x G grid over the unit square (planar base: z should be h(x, y)) and prints\n"
@@ -30,7 +30,9 @@ static const char usage[] =
     "  --json        one JSON object per mesh instead of a text line\n"
     "  --verbose     timings on stderr\n"
     "  --error-png P writes P<k>.png per mesh k (from 0): the error (z - h) / max|h|\n"
-    "                in false colour (blue below, red above), uncovered samples 0\n";
+    "                in false colour (blue below, red above), uncovered samples 0\n"
+    "  --normal-png P writes P<k>.png: the normal error (degrees, 10 full blue) on\n"
+    "                the samples the normal figures use\n";
 
 static void print_warning(void *user, const char *message) {
   (void)user;
@@ -202,7 +204,7 @@ static void json_string(const char *s) {
 int main(int argc, char **argv) {
   const char *paths[256];
   int npaths = 0, json = 0, verbose = 0;
-  const char *error_png = NULL;
+  const char *error_png = NULL, *normal_png = NULL;
   long grid = 2048, dci_res = 4096;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
@@ -215,6 +217,9 @@ int main(int argc, char **argv) {
                                      : parse_int(argv[i + 1], 16, 16384, &dci_res);
       if (bad) return usage_error("bad value (16..16384) for", a);
       i++;
+    } else if (!strcmp(a, "--normal-png")) {
+      if (i + 1 >= argc) return usage_error("missing the value of", a);
+      normal_png = argv[++i];
     } else if (!strcmp(a, "--error-png")) {
       if (i + 1 >= argc) return usage_error("missing the value of", a);
       error_png = argv[++i];
@@ -259,6 +264,10 @@ int main(int argc, char **argv) {
     fprintf(stderr, "chisel-accuracy: out of memory for the error map\n");
     rc = 1;
   }
+  if (normal_png && !(ref.normal_map = malloc((size_t)grid * (size_t)grid * sizeof *ref.normal_map))) {
+    fprintf(stderr, "chisel-accuracy: out of memory for the normal map\n");
+    rc = 1;
+  }
   for (int m = 0; !rc && m + 1 < npaths; m++) {
     ch_mesh mesh;
     double t3 = now();
@@ -277,6 +286,29 @@ int main(int argc, char **argv) {
     }
     if (verbose)
       fprintf(stderr, "chisel-accuracy: %s: read %.2f s, measure %.2f s\n", paths[m], t4 - t3, t5 - t4);
+    if (normal_png) {
+      /* Degrees as -h so the height preview draws them blue, 10 deg full. */
+      size_t G = (size_t)grid;
+      float *img = malloc(G * G * sizeof *img);
+      char name[4096];
+      snprintf(name, sizeof name, "%s%d.png", normal_png, m);
+      if (!img) {
+        rc = 1;
+        break;
+      }
+      for (size_t j = 0; j < G; j++)
+        for (size_t i = 0; i < G; i++) {
+          float e = ref.normal_map[j * G + i];
+          img[(G - 1 - j) * G + i] = e == e ? -fminf(e, 10.0f) : 0.0f;
+        }
+      img[0] = -10.0f; /* fixes the scale */
+      st = ch_png_write_height(name, img, (int)G, (int)G, &err);
+      free(img);
+      if (st) {
+        rc = fail(&err);
+        break;
+      }
+    }
     if (error_png) {
       /* PNG rows run down from v = 1; the map's rows up from v = 0. */
       size_t G = (size_t)grid;
@@ -319,6 +351,7 @@ int main(int argc, char **argv) {
     fflush(stdout);
   }
   free(ref.error_map);
+  free(ref.normal_map);
   ch_accuracy_reference_free(&ref);
   ch_height_free(&height);
   ch_curves_free(&set);

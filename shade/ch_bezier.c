@@ -240,3 +240,20 @@ int ch_arc_to_quads(double a0, double sweep, const double m[6], double tol,
   }
   return 0;
 }
+
+double ch_bezier_length(const double p[3][2]) {
+  /* Nodes and weights of 8 Gauss-Legendre pairs on [-1, 1]. */
+  static const double x[8] = {0.0950125098376374, 0.2816035507792589, 0.4580167776572274, 0.6178762444026438,
+                              0.7554044083550030, 0.8656312023878318, 0.9445750230732326, 0.9894009349916499};
+  static const double w[8] = {0.1894506104550685, 0.1826034150449236, 0.1691565193950025, 0.1495959888165767,
+                              0.1246289712555339, 0.0951585116824928, 0.0622535239386479, 0.0271524594117541};
+  double a[2] = {2.0 * (p[1][0] - p[0][0]), 2.0 * (p[1][1] - p[0][1])};
+  double b[2] = {2.0 * (p[2][0] - 2.0 * p[1][0] + p[0][0]), 2.0 * (p[2][1] - 2.0 * p[1][1] + p[0][1])};
+  double sum = 0.0;
+  for (int i = 0; i < 8; i++)
+    for (int sgn = -1; sgn <= 1; sgn += 2) {
+      double t = 0.5 + 0.5 * sgn * x[i];
+      sum += w[i] * hypot(a[0] + b[0] * t, a[1] + b[1] * t);
+    }
+  return 0.5 * sum;
+}

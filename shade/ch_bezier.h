@@ -17,6 +17,10 @@ void ch_bezier_eval(const double p[3][2], double t, double out[2]);
  * gives (0, 0). */
 void ch_bezier_tangent(const double p[3][2], double t, double out[2]);
 
+/* Arc length of the quadratic (16-point Gauss-Legendre on its speed:
+ * relative error below 1e-9 unless the segment folds back on itself). */
+double ch_bezier_length(const double p[3][2]);
+
 /* Closest point of the segment to q: returns the squared distance and the
  * parameter in [0, 1] (the smallest one on ties). For quadratics the
  * stationary points are the real roots of a cubic, found per monotone

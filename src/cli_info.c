@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_file.h"
 #include "ch_mesh.h"
@@ -56,7 +57,8 @@ static int info_svg(const char *path) {
       if (per_profile[k]) printf(" %s %d", profile_name(&(ch_profile){.kind = (ch_profile_kind)k}), per_profile[k]);
     printf("\n");
   }
-  printf("  %-4s %-20s %-6s %-7s %9s %9s %8s\n", "#", "id", "kind", "profile", "width(UV)", "depth/L,R", "segments");
+  printf("  %-4s %-20s %-6s %-7s %9s %9s %8s %10s\n", "#", "id", "kind", "profile", "width(UV)", "depth/L,R", "segments",
+         "length(UV)");
   for (int i = 0; i < set.num_curves; i++) {
     const ch_curve *c = &set.curves[i];
     char values[48];
@@ -64,9 +66,11 @@ static int info_svg(const char *path) {
       snprintf(values, sizeof values, "%g", c->depth);
     else
       snprintf(values, sizeof values, "%g,%g", c->left, c->right);
-    printf("  %-4d %-20.20s %-6s %-7s %9.4g %9s %8d\n", i, c->id[0] ? c->id : "-",
+    double length = 0.0;
+    for (int k = 0; k < c->num_segments; k++) length += ch_bezier_length(set.segments[c->first_segment + k].p);
+    printf("  %-4d %-20.20s %-6s %-7s %9.4g %9s %8d %10.4g\n", i, c->id[0] ? c->id : "-",
            c->kind == CH_CURVE_GROOVE ? "groove" : "step",
-           c->kind == CH_CURVE_GROOVE ? profile_name(&c->profile) : "-", c->width, values, c->num_segments);
+           c->kind == CH_CURVE_GROOVE ? profile_name(&c->profile) : "-", c->width, values, c->num_segments, length);
   }
   ch_curves_free(&set);
   return 0;

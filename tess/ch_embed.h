@@ -47,6 +47,14 @@ typedef struct ch_embed_desc {
                               fraction of the depth of the profile; 0 ->
                               0.5 (e/w)^2 within [1e-4, 0.01], e the mean
                               edge, w the groove's width */
+  double normal_tolerance_deg; /* curved profiles (u) are also cut so that the
+                              slope angle of the displaced cross-section
+                              changes by at most this between two lines
+                              (object units), and the rounded caps of other
+                              profiles are refined until an edge spans at
+                              most 4 times this around the end point; 0 ->
+                              1800 e degrees within [1, 10], e the reference
+                              edge below in UV */
   double reference_edge;   /* e for that rule; 0 -> the tessellation's mean
                               UV edge (ch_embed_to_target sets the target's,
                               so the lines do not change between its runs) */
@@ -64,6 +72,9 @@ typedef struct ch_embed_stats {
   /* parts of seconds_refine: */
   double seconds_setup, seconds_labels, seconds_edges, seconds_crossings, seconds_classify;
 } ch_embed_stats;
+
+/* The default normal_tolerance_deg for a reference edge e (UV). */
+double ch_embed_angle_deg(double reference_edge);
 
 /* Embeds the features of height into tess (a ch_tess_build result over
  * surface) and writes the displaced mesh to out: triangles counter-clockwise
