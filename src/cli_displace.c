@@ -225,11 +225,11 @@ static int run(int argc, char **argv) {
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
               "junctions, %d wall triangles, %d unresolved; refine %.0f ms (setup %.0f, labels %.0f, edges %.0f, "
-              "crossings %.0f, classify %.0f), cut %.0f ms, normals %.0f ms\n",
+              "crossings %.0f, classify %.0f, split %.0f), cut %.0f ms, normals %.0f ms\n",
               estats.refine_rounds, estats.refined_edges, estats.crossings, estats.wall_points, estats.junctions,
               estats.wall_triangles, estats.unresolved, 1e3 * estats.seconds_refine, 1e3 * estats.seconds_setup,
               1e3 * estats.seconds_labels, 1e3 * estats.seconds_edges, 1e3 * estats.seconds_crossings,
-              1e3 * estats.seconds_classify, 1e3 * estats.seconds_cut,
+              1e3 * estats.seconds_classify, 1e3 * estats.seconds_split, 1e3 * estats.seconds_cut,
               1e3 * estats.seconds_normals);
   }
   if (st) cli_outputs_remove_all(&outs);

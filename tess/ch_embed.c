@@ -335,6 +335,8 @@ typedef struct work {
   int nverts, cap_verts;
   wtri *tris;
   int ntris, cap_tris;
+  wtri *spare; /* the other buffer of the split, reused across rounds */
+  int cap_spare;
   wedge *edges;
   int nedges;
   int *tri_edge; /* 3 per triangle */
@@ -652,10 +654,10 @@ typedef struct corner_ref {
   double uv[2], st[2];
 } corner_ref;
 
-static int push_tri(wtri **tris, int *n, int *cap, int face, const corner_ref *a, const corner_ref *b,
-                    const corner_ref *c) {
-  if (grow((void **)tris, cap, *n + 1, sizeof **tris)) return -1;
-  wtri *t = &(*tris)[(*n)++];
+
+/* Splits every triangle at the midpoints of its marked edges (red: three,
+ * green: one or two), so the result stays conforming. */
+static void set_tri(wtri *t, int face, const corner_ref *a, const corner_ref *b, const corner_ref *c) {
   const corner_ref *r[3] = {a, b, c};
   t->face = face;
   for (int i = 0; i < 3; i++) {
@@ -663,62 +665,97 @@ static int push_tri(wtri **tris, int *n, int *cap, int face, const corner_ref *a
     memcpy(t->uv[i], r[i]->uv, sizeof t->uv[i]);
     memcpy(t->st[i], r[i]->st, sizeof t->st[i]);
   }
-  return 0;
 }
 
-/* Splits every triangle at the midpoints of its marked edges (red: three,
- * green: one or two), so the result stays conforming. */
-static ch_status split_triangles(work *w, ch_error *err) {
-  wtri *out = NULL;
-  int n = 0, cap = 0;
-  for (int t = 0; t < w->ntris; t++) {
+/* Which edges of t have a midpoint (bit k: edge k). */
+static int split_mask(const work *w, int t) {
+  int mask = 0;
+  for (int k = 0; k < 3; k++)
+    if (w->edges[w->tri_edge[3 * (size_t)t + k]].mid >= 0) mask |= 1 << k;
+  return mask;
+}
+
+/* Splits every triangle with midpoints on its edges (red: 4 children,
+ * green: 2 or 3), children in the parent's place, in parallel; the result
+ * does not depend on the thread count. fresh[t] (resized with the
+ * triangles) tells the children from the untouched. */
+static ch_status split_triangles(work *w, unsigned char **fresh, ch_error *err) {
+  int n0 = w->ntris;
+  int *first = malloc(((size_t)n0 + 1) * sizeof *first); /* first child's slot per parent */
+  if (!first) return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  long total = 0;
+  for (int t = 0; t < n0; t++) {
+    first[t] = (int)total;
+    int mask = split_mask(w, t), cnt = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+    total += cnt == 3 ? 4 : cnt + 1;
+    if (total >= INT32_MAX / 3) {
+      free(first);
+      return ch_error_set(err, CH_ERR_NOMEM, "refinement would make too many triangles");
+    }
+  }
+  int n = (int)total;
+  if (n > w->cap_spare) { /* grown with room, so later rounds reuse it */
+    int cap = n + n / 4;
+    free(w->spare);
+    w->spare = malloc((size_t)cap * sizeof *w->spare);
+    w->cap_spare = w->spare ? cap : 0;
+  }
+  wtri *out = w->spare;
+  unsigned char *fr = realloc(*fresh, (size_t)(n > 0 ? n : 1));
+  if (fr) *fresh = fr;
+  if (!out || !fr) {
+    free(first);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  }
+#pragma omp parallel for schedule(static)
+  for (int t = 0; t < n0; t++) {
+    int mask = split_mask(w, t);
     const wtri *T = &w->tris[t];
+    wtri *slot = &out[first[t]];
+    if (!mask) {
+      *slot = *T;
+      fr[first[t]] = 0;
+      continue;
+    }
     corner_ref c[3], m[3];
-    int mask = 0;
     for (int k = 0; k < 3; k++) {
       c[k].v = T->v[k];
       memcpy(c[k].uv, T->uv[k], sizeof c[k].uv);
       memcpy(c[k].st, T->st[k], sizeof c[k].st);
-    }
-    for (int k = 0; k < 3; k++) {
       const wedge *e = &w->edges[w->tri_edge[3 * (size_t)t + k]];
       if (e->mid < 0) continue;
-      mask |= 1 << k;
       m[k].v = e->mid;
       lerp2(T->uv[k], T->uv[(k + 1) % 3], 0.5, m[k].uv);
       lerp2(T->st[k], T->st[(k + 1) % 3], 0.5, m[k].st);
     }
-    int f = T->face, bad = 0;
-    int cnt = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
-    if (cnt == 0) {
-      bad |= push_tri(&out, &n, &cap, f, &c[0], &c[1], &c[2]);
-    } else if (cnt == 3) {
-      bad |= push_tri(&out, &n, &cap, f, &c[0], &m[0], &m[2]);
-      bad |= push_tri(&out, &n, &cap, f, &m[0], &c[1], &m[1]);
-      bad |= push_tri(&out, &n, &cap, f, &m[2], &m[1], &c[2]);
-      bad |= push_tri(&out, &n, &cap, f, &m[0], &m[1], &m[2]);
+    int f = T->face, cnt = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+    memset(fr + first[t], 1, cnt == 3 ? 4 : (size_t)cnt + 1);
+    if (cnt == 3) {
+      set_tri(&slot[0], f, &c[0], &m[0], &m[2]);
+      set_tri(&slot[1], f, &m[0], &c[1], &m[1]);
+      set_tri(&slot[2], f, &m[2], &m[1], &c[2]);
+      set_tri(&slot[3], f, &m[0], &m[1], &m[2]);
     } else if (cnt == 1) {
       int k = mask == 1 ? 0 : mask == 2 ? 1 : 2;
       const corner_ref *a = &c[k], *b = &c[(k + 1) % 3], *o = &c[(k + 2) % 3];
-      bad |= push_tri(&out, &n, &cap, f, a, &m[k], o);
-      bad |= push_tri(&out, &n, &cap, f, &m[k], b, o);
+      set_tri(&slot[0], f, a, &m[k], o);
+      set_tri(&slot[1], f, &m[k], b, o);
     } else {
       int k = (mask & 1) == 0 ? 1 : (mask & 2) == 0 ? 2 : 0; /* edges k, k+1 split; k+2 not */
       const corner_ref *a = &c[k], *b = &c[(k + 1) % 3], *o = &c[(k + 2) % 3];
       const corner_ref *m1 = &m[k], *m2 = &m[(k + 1) % 3];
-      bad |= push_tri(&out, &n, &cap, f, m1, b, m2);
-      bad |= push_tri(&out, &n, &cap, f, a, m1, m2);
-      bad |= push_tri(&out, &n, &cap, f, a, m2, o);
-    }
-    if (bad) {
-      free(out);
-      return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+      set_tri(&slot[0], f, m1, b, m2);
+      set_tri(&slot[1], f, a, m1, m2);
+      set_tri(&slot[2], f, a, m2, o);
     }
   }
-  free(w->tris);
+  free(first);
+  int out_cap = w->cap_spare;
+  w->spare = w->tris;
+  w->cap_spare = w->cap_tris;
   w->tris = out;
   w->ntris = n;
-  w->cap_tris = cap;
+  w->cap_tris = out_cap;
   return CH_OK;
 }
 
@@ -1324,6 +1361,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   const ch_mesh *tm = &tess->mesh;
   double t0 = omp_get_wtime();
   work w = {.surface = surface};
+  unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
   labeler lb = {0};
   out_mesh o = {0};
   ch_status st = CH_OK;
@@ -1437,9 +1475,13 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     if (round >= max_rounds) break;
     unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
     if (!refine) goto nomem;
+    /* Only triangles made by the last split can have changed: the others
+     * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
-    for (int t = 0; t < w.ntris; t++) refine[t] = (unsigned char)needs_refinement(&lb, &w, t);
-    stats.seconds_classify += omp_get_wtime() - td;
+    for (int t = 0; t < w.ntris; t++)
+      refine[t] = (unsigned char)((!fresh || fresh[t]) && needs_refinement(&lb, &w, t));
+    double te = omp_get_wtime();
+    stats.seconds_classify += te - td;
     int split = 0;
     for (int t = 0; t < w.ntris; t++)
       for (int k = 0; k < 3; k++) {
@@ -1455,7 +1497,8 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     if (!split) break;
     stats.refine_rounds = round + 1;
     stats.refined_edges += split;
-    if ((st = split_triangles(&w, err))) goto done;
+    if ((st = split_triangles(&w, &fresh, err))) goto done;
+    stats.seconds_split += omp_get_wtime() - te;
   }
   double t1 = omp_get_wtime();
 
@@ -1508,6 +1551,8 @@ done:
   free(w.tris);
   free_edges(w.edges, w.nedges);
   free(w.tri_edge);
+  free(w.spare);
+  free(fresh);
   return st;
 }
 
@@ -1530,10 +1575,14 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   ch_tess_free(&cur_tess);
   memset(&cur_tess, 0, sizeof cur_tess);
   if (target < fewest) target = fewest;
-  long base = target / 16 >= 2000 && target / 16 >= fewest ? target / 16 : target; /* a cheap pilot first */
+  /* Cheap pilots first: at 1/64 and 1/16 of the target (or one, or none
+   * for small targets). */
+  long pilot_a = target / 64, pilot_b = target / 16;
+  int pilots = pilot_a >= 2000 && pilot_a >= fewest ? 2 : pilot_b >= 2000 && pilot_b >= fewest ? 1 : 0;
+  long first_base = pilots == 2 ? pilot_a : pilots == 1 ? pilot_b : target, base = first_base;
   ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
   int auto_angle = !(d.normal_tolerance_deg > 0.0), coarsenings = 0;
-  for (int pass = 0; pass < 6; pass++) {
+  for (int pass = 0; pass < 7; pass++) {
     ch_tess_desc td = {.target_triangles = base};
     if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
     if (pass == 0 && !(d.reference_edge > 0.0)) {
@@ -1566,21 +1615,40 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     }
     memset(&cur_tess, 0, sizeof cur_tess);
     memset(&cur, 0, sizeof cur);
-    if (best_miss <= 0.03 * (double)target) break;
-    /* Next base count: the model out = base + k sqrt(base) through the
-     * last run, then the secant through the last two once there are two. */
+    if (best_miss <= 0.04 * (double)target) break;
+    /* Next base count: after the pilots, the model out = base + a base^p
+     * through them (p = 1/2 from one pilot: what the cut adds grows like
+     * the length of the feature lines over the edge length; in practice a
+     * little slower, as refinement near junctions and ends does not grow),
+     * then the secant through the last two runs. */
     double next;
-    if (pass == 0) {
-      double k = no > nb ? (no - nb) / sqrt(nb) : 0.0, root = 0.5 * (-k + sqrt(k * k + 4.0 * (double)target));
-      next = root * root;
-      if (next < (double)target / 8.0 && auto_angle && coarsenings < 4 && base != target) {
+    if (pass + 1 < pilots) {
+      next = (double)pilot_b;
+    } else if (pass + 1 == pilots) {
+      double pw = 0.5, a;
+      if (pilots == 2 && ys[0] > xs[0] && ys[1] > xs[1] && xs[1] > xs[0]) {
+        pw = log((ys[1] - xs[1]) / (ys[0] - xs[0])) / log(xs[1] / xs[0]);
+        pw = fmin(1.0, fmax(0.25, pw));
+      }
+      a = no > nb ? (no - nb) / pow(nb, pw) : 0.0;
+      double lo = 1.0, hi = (double)target;
+      for (int it = 0; it < 80; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (mid + a * pow(mid, pw) < (double)target)
+          lo = mid;
+        else
+          hi = mid;
+      }
+      next = lo;
+      if (next < (double)target / 8.0 && auto_angle && coarsenings < 4) {
         /* The u lines would take more than 7/8 of the triangles and starve
          * everything else (crossings, CSG seams, the flat parts): coarser
-         * angle steps, and the pilot again. */
+         * angle steps, and the pilots again. */
         d.normal_tolerance_deg = (coarsenings == 0 ? ch_embed_angle_deg(d.reference_edge) : d.normal_tolerance_deg) * 1.5;
         coarsenings++;
         pass = -1;
         runs = 0;
+        base = first_base;
         ch_tess_free(&best_tess);
         ch_mesh_free(&best);
         memset(&best_tess, 0, sizeof best_tess);
@@ -1588,6 +1656,8 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
         best_miss = INFINITY;
         continue;
       }
+    } else if (pass == 0) {
+      next = xs[0] * (double)target / no; /* no pilot (a small target) */
     } else {
       double dx = xs[pass] - xs[pass - 1], dy = ys[pass] - ys[pass - 1];
       next = dy != 0.0 ? xs[pass] + ((double)target - ys[pass]) * dx / dy : xs[pass] * (double)target / no;

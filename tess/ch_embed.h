@@ -70,7 +70,7 @@ typedef struct ch_embed_stats {
   double min_h, max_h;
   double seconds_refine, seconds_cut, seconds_normals;
   /* parts of seconds_refine: */
-  double seconds_setup, seconds_labels, seconds_edges, seconds_crossings, seconds_classify;
+  double seconds_setup, seconds_labels, seconds_edges, seconds_crossings, seconds_classify, seconds_split;
 } ch_embed_stats;
 
 /* The default normal_tolerance_deg for a reference edge e (UV). */
@@ -86,13 +86,15 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
                          const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err);
 
 /* Tessellates surface and embeds the features so that the output lands
- * within 3% of target_triangles where the base mesh allows: what the cut
+ * within 4% of target_triangles where the base mesh allows: what the cut
  * adds grows like the number of edges the feature lines cross, about
- * k sqrt(base triangles); a pilot run at 1/16 of the target measures k,
- * the next run uses the base count that model predicts, and up to four
- * more follow the secant through the last two runs. The run closest to
- * the target is kept: tess receives its tessellation (free it with
- * ch_tess_free), out its embedded mesh; passes the number of runs. */
+ * a base^p with p near 1/2; pilot runs at 1/64 and 1/16 of the target
+ * measure a and p, the next run uses the base count that model predicts,
+ * and more follow the secant through the last two runs. Where the model
+ * says the u lines would take more than 7/8 of the target, their angle
+ * step is coarsened (by 1.5, up to 4 times) and the pilots rerun. The run
+ * closest to the target is kept: tess receives its tessellation (free it
+ * with ch_tess_free), out its embedded mesh; passes the number of runs. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);
