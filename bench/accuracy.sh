@@ -2,7 +2,9 @@
 # Issue 4's accuracy figures: for every bundled curve set over the planar
 # base, at about 130k, 520k and 2.1M triangles, the snapped mesh (chisel
 # displace), the naive mesh (--no-snap) and the uniform grid with exact
-# vertex heights (chisel-uniform-grid), measured by chisel-accuracy on a
+# vertex heights (chisel-uniform-grid) and, where Debian's blender is
+# installed, Blender's Subdivision Surface + Displace with a 2048^2 raster
+# height map (bench/blender/displace.py), measured by chisel-accuracy on a
 # 2048^2 grid (L1, band, normal error near features, holes).
 #
 # Usage: bench/accuracy.sh [BUILD_DIR] [SIZES...]   (default: build 130000 520000 2100000)
@@ -18,20 +20,32 @@ dir=out/accuracy
 mkdir -p "$dir"
 json="$dir/accuracy.jsonl"
 : >"$json"
+have_blender=0
+command -v blender >/dev/null && have_blender=1
 for svg in models/curves/*.svg; do
   name=$(basename "$svg" .svg)
+  if [ $have_blender = 1 ]; then
+    "$build/chisel" sample "$svg" --res $res -o "$dir/$name-h.exr" 2>/dev/null
+    read -r strength midlevel < <(python3 bench/blender/height_to_y.py "$dir/$name-h.exr" "$dir/$name-hy.exr")
+  fi
   for n in "${sizes[@]}"; do
+    meshes=("$dir/$name-$n-snap.obj" "$dir/$name-$n-naive.obj" "$dir/$name-$n-grid.obj")
+    if [ $have_blender = 1 ]; then
+      blender -b --factory-startup --python bench/blender/displace.py -- models/plane.obj "$dir/$name-hy.exr" \
+        "$dir/$name-$n-blender.obj" "$n" "$strength" "$midlevel" >/dev/null 2>&1
+      meshes+=("$dir/$name-$n-blender.obj")
+    fi
     "$build/chisel" displace models/plane.obj "$svg" -o "$dir/$name-$n-snap.obj" --target-tris "$n" --res $res \
       2>/dev/null
     "$build/chisel" displace models/plane.obj "$svg" -o "$dir/$name-$n-naive.obj" --target-tris "$n" --res $res \
       --no-snap 2>/dev/null
     "$build/bench/chisel-uniform-grid" "$svg" -o "$dir/$name-$n-grid.obj" --target-tris "$n" --dci-res $res \
       2>/dev/null
-    "$build/bench/chisel-accuracy" "$dir/$name-$n-snap.obj" "$dir/$name-$n-naive.obj" "$dir/$name-$n-grid.obj" \
-      "$svg" --dci-res $res --json >>"$json"
+    "$build/bench/chisel-accuracy" "${meshes[@]}" "$svg" --dci-res $res --json >>"$json"
     rm -f "$dir/$name-$n-"*.obj
     echo "accuracy: $name $n done" >&2
   done
+  rm -f "$dir/$name-h.exr" "$dir/$name-hy.exr"
 done
 python3 - "$json" <<'EOF' | tee "$dir/accuracy.md"
 import json, sys, os
@@ -50,7 +64,7 @@ print("|---|---|---|---|---|---|---|---|---|---|")
 for name in names:
     for n in sizes:
         grid = table.get((name, n, "grid"))
-        for method in ("snap", "naive", "grid"):
+        for method in ("snap", "naive", "grid", "blender"):
             r = table.get((name, n, method))
             if not r:
                 continue

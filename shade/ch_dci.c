@@ -123,7 +123,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   int any_blur = 0;
   for (int c = 0; c < set->num_curves; c++)
     if (set->curves[c].kind == CH_CURVE_STEP && set->curves[c].blur > 0.0) any_blur = 1;
-  int colors = s->num_colors;
+  int colors = desc->no_colors ? 0 : s->num_colors;
   int channels = 1 + colors + any_blur;
   float *values = malloc(n * channels * sizeof *values);
   d->fixed = calloc(n, 1);

@@ -20,6 +20,8 @@ typedef struct ch_dci_desc {
   int resolution;     /* R: R x R texels (required) */
   double rect[4];     /* u0 v0 u1 v1; all zero: the unit square */
   double tolerance;   /* diffusion relative residual; 0: 1e-6 */
+  int no_colors;      /* 1: diffuse h only, even where curves have colours
+                         (displacement needs no colour; rgb stays NULL) */
 } ch_dci_desc;
 
 typedef struct ch_dci {

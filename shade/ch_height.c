@@ -10,7 +10,7 @@ ch_status ch_height_init(ch_height *h, const ch_curve_set *set, const ch_height_
   ch_status st = ch_groove_field_init(&h->grooves, set, err);
   if (st) return st;
   if (h->has_steps) {
-    ch_dci_desc dd = {.resolution = desc->dci_resolution, .tolerance = desc->tolerance};
+    ch_dci_desc dd = {.resolution = desc->dci_resolution, .tolerance = desc->tolerance, .no_colors = 1};
     st = ch_dci_build(set, &dd, &h->dci, err);
     if (!st) st = ch_recon_init(&h->recon, &h->dci, set, err);
   }

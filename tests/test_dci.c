@@ -119,6 +119,15 @@ static void test_piecewise_constant(void) {
                   "(%d iterations, residual %.2g)\n",
           max_err, counted, dci.stats.iterations, dci.stats.relative_residual[0]);
   CHECK(max_err <= 1e-6 * 0.03); /* 1e-6 of the value range */
+  /* h alone (what displacement asks for) is the same field, without rgb. */
+  ch_dci mono;
+  desc.no_colors = 1;
+  REQUIRE(ch_dci_build(&set, &desc, &mono, &err) == CH_OK);
+  CHECK(dci.rgb != NULL && mono.rgb == NULL);
+  double diff = 0.0;
+  for (size_t i = 0; i < (size_t)256 * 256; i++) diff = fmax(diff, fabs(mono.h[i] - dci.h[i]));
+  CHECK_MSG(diff <= 1e-6 * 0.03, "h with and without colours differs by %g", diff);
+  ch_dci_free(&mono);
   ch_dci_free(&dci);
   ch_curves_free(&set);
 }

@@ -51,6 +51,13 @@ static const char seam_svg[] =
     "<circle cx='2' cy='70' r='12' data-kind='step' data-left='0.03' data-right='0'/>"
     "</svg>";
 
+/* One straight u groove along v = 0.5, steep enough that its slope angle
+ * reaches 64 degrees at t = 0.45. */
+static const char u_svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<path d='M -10 50 L 110 50' data-profile='u' data-width='5' data-depth='0.03'/>"
+    "</svg>";
+
 typedef struct scene {
   ch_curve_set set;
   ch_height height;
@@ -280,10 +287,63 @@ static void test_accuracy_vs_uniform(void) {
   }
 }
 
+/* The worst angle (degrees) between a facet's normal and the exact normal
+ * (-h_u, -h_v, 1) at its centroid, over the non-wall triangles whose
+ * corners all lie within |t| <= 0.45 of the u groove (off its rims). */
+static double u_groove_worst_normal(const ch_mesh *m, const ch_height *h) {
+  double worst = 0.0;
+  for (int f = 0; f < m->num_faces; f++) {
+    int c = m->face_start[f];
+    const double *p[3] = {pos(m, c), pos(m, c + 1), pos(m, c + 2)};
+    int inside = 1;
+    for (int i = 0; i < 3; i++) inside &= fabs(p[i][1] - 0.5) <= 0.45 * 0.05;
+    if (!inside || is_wall(m, f)) continue;
+    double a[3], b[3], n[3];
+    for (int d = 0; d < 3; d++) a[d] = p[1][d] - p[0][d], b[d] = p[2][d] - p[0][d];
+    n[0] = a[1] * b[2] - a[2] * b[1];
+    n[1] = a[2] * b[0] - a[0] * b[2];
+    n[2] = a[0] * b[1] - a[1] * b[0];
+    if (n[2] < 0) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+    double x = (p[0][0] + p[1][0] + p[2][0]) / 3, y = (p[0][1] + p[1][1] + p[2][1]) / 3, e = 1e-7;
+    double hv = (ch_height_eval(h, x, y + e) - ch_height_eval(h, x, y - e)) / (2 * e);
+    double hu = (ch_height_eval(h, x + e, y) - ch_height_eval(h, x - e, y)) / (2 * e);
+    double x_[3] = {-hu, -hv, 1.0};
+    double dot = n[0] * x_[0] + n[1] * x_[1] + n[2] * x_[2];
+    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), xn = sqrt(1 + hu * hu + hv * hv);
+    worst = fmax(worst, acos(fmin(1.0, dot / (nn * xn))) * 180.0 / 3.14159265358979323846);
+  }
+  return worst;
+}
+
+/* A u groove is cut into slices uniform in its slope angle: facet normals
+ * stay within about half the angle step of the exact ones, and a coarse
+ * step is visibly worse (so the rule, not luck, keeps them close). */
+static void test_u_lines_follow_normals(void) {
+  scene s;
+  REQUIRE(scene_load(&s, "plane", u_svg, NULL, CH_SCHEME_BILINEAR, 20000));
+  double worst[2];
+  const double steps[2] = {4.0, 30.0};
+  for (int k = 0; k < 2; k++) {
+    ch_mesh out;
+    ch_embed_stats stats;
+    ch_error err = {0};
+    ch_embed_desc d = {.normal_tolerance_deg = steps[k], .curve_tolerance = 0.05}; /* the angle rule decides */
+    REQUIRE(ch_embed_build(s.surface, &s.tess, &s.height, &d, &out, &stats, &err) == CH_OK);
+    worst[k] = u_groove_worst_normal(&out, &s.height);
+    printf("  angle step %4.1f deg: %d triangles, worst facet normal error %.2f deg\n", steps[k], out.num_faces,
+           worst[k]);
+    ch_mesh_free(&out);
+  }
+  CHECK_MSG(worst[0] <= 0.6 * steps[0] + 0.1, "step %.1f deg: facet normals off by %.2f deg", steps[0], worst[0]);
+  CHECK_MSG(worst[1] > 2.0 * worst[0], "a coarse step should be worse: %.2f vs %.2f deg", worst[1], worst[0]);
+  scene_free(&s);
+}
+
 int main(void) {
   RUN(test_straight_features_are_edges);
   RUN(test_torus_closed);
   RUN(test_deterministic);
+  RUN(test_u_lines_follow_normals);
   RUN(test_accuracy_vs_uniform);
   TEST_MAIN_END();
 }

@@ -104,6 +104,19 @@ static void test_closest_vs_brute_force(void) {
   CHECK(max_err <= 1e-9);
 }
 
+/* Arc length against closed forms: a line, and the parabola y = x^2 on
+ * [0, 1] (control points (0,0) (1/2,0) (1,1)): sqrt(5)/2 + asinh(2)/4. */
+static void test_length(void) {
+  const double line[3][2] = {{0, 0}, {1.5, 2}, {3, 4}};
+  CHECK(fabs(ch_bezier_length(line) - 5.0) <= 1e-12);
+  const double parabola[3][2] = {{0, 0}, {0.5, 0}, {1, 1}};
+  double want = sqrt(5.0) / 2.0 + asinh(2.0) / 4.0;
+  CHECK_MSG(fabs(ch_bezier_length(parabola) - want) <= 1e-9 * want, "parabola length %.12g, want %.12g",
+            ch_bezier_length(parabola), want);
+  const double point[3][2] = {{0.3, 0.3}, {0.3, 0.3}, {0.3, 0.3}};
+  CHECK(ch_bezier_length(point) == 0.0);
+}
+
 static void test_line_closest(void) {
   double max_err = 0.0;
   for (int i = 0; i < 100000; i++) {
@@ -394,6 +407,7 @@ static void test_groove_values(void) {
 int main(void) {
   RUN(test_closest_vs_brute_force);
   RUN(test_line_closest);
+  RUN(test_length);
   RUN(test_signed_distance_and_caps);
   RUN(test_profiles);
   RUN(test_cubic_split);
