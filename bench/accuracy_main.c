@@ -28,7 +28,7 @@ static const char usage[] =
     "  --grid G      sample grid, 16..16384 (default 2048)\n"
     "  --dci-res R   resolution of the step curves' DCI for the exact h (default 4096)\n"
     "  --json        one JSON object per mesh instead of a text line\n"
-    "  --verbose     timings on stderr\n"
+    "  --verbose     timings, and the first uncovered samples (holes), on stderr\n"
     "  --error-png P writes P<k>.png per mesh k (from 0): the error (z - h) / max|h|\n"
     "                in false colour (blue below, red above), uncovered samples 0\n"
     "  --normal-png P writes P<k>.png: the normal error (degrees, 10 full blue) on\n"
@@ -260,7 +260,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "chisel-accuracy: %s: h (DCI %ld) %.2f s, reference %ld^2 %.2f s\n", svg, dci_res, t1 - t0,
             grid, t2 - t1);
   int rc = 0;
-  if (error_png && !(ref.error_map = malloc((size_t)grid * (size_t)grid * sizeof *ref.error_map))) {
+  if ((error_png || verbose) && !(ref.error_map = malloc((size_t)grid * (size_t)grid * sizeof *ref.error_map))) {
     fprintf(stderr, "chisel-accuracy: out of memory for the error map\n");
     rc = 1;
   }
@@ -284,8 +284,14 @@ int main(int argc, char **argv) {
       rc = fail(&err);
       break;
     }
-    if (verbose)
+    if (verbose) {
       fprintf(stderr, "chisel-accuracy: %s: read %.2f s, measure %.2f s\n", paths[m], t4 - t3, t5 - t4);
+      int shown = 0;
+      for (long k = 0; k < grid * grid && shown < 8; k++)
+        if (ref.error_map[k] != ref.error_map[k]) /* uncovered */
+          fprintf(stderr, "chisel-accuracy: %s: hole at uv (%.6f, %.6f)\n", paths[m], (k % grid + 0.5) / grid,
+                  (k / grid + 0.5) / grid), shown++;
+    }
     if (normal_png) {
       /* Degrees as -h so the height preview draws them blue, 10 deg full. */
       size_t G = (size_t)grid;

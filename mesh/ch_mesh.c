@@ -489,6 +489,8 @@ ch_status ch_mesh_validate(const ch_mesh *mesh, const char *name, ch_mesh_report
   r.num_nonmanifold_edges = t.nonmanifold;
   r.num_nonmanifold_vertices = t.nm_vertices;
   r.num_charts = t.charts;
+  r.first_degenerate_face = first_degenerate;
+  r.first_zero_uv_area_face = first_zero_uv;
   warn_all(&r, &t, first_degenerate, first_zero_uv, name, err);
   if (report) *report = r;
   return CH_OK;

@@ -65,6 +65,8 @@ typedef struct ch_mesh_report {
   int num_nonmanifold_vertices; /* vertices whose faces form several fans */
   int num_degenerate_faces;     /* zero area in 3D */
   int num_zero_uv_area_faces;   /* zero area in UV */
+  int first_degenerate_face;    /* 0-based index of the first, -1 if none */
+  int first_zero_uv_area_face;  /* likewise */
   int num_components;           /* connected components (by shared positions) */
   int num_charts;               /* UV charts (faces joined across edges with equal UVs) */
   double uv_coverage;           /* share of the unit square covered by UV faces */

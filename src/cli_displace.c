@@ -117,10 +117,25 @@ static int run(int argc, char **argv) {
   ch_mesh mesh;
   if (ch_mesh_read(base, &mesh, &err)) return cli_fail(&err);
   ch_mesh_report report;
-  if (ch_mesh_validate(&mesh, base, &report, &err)) {
+  /* Quietly first: a face without UV area has no texture to carry, one
+   * without area no normal to displace along, so either is bad input
+   * here (one line), though `chisel info` only reports them. */
+  ch_error quiet = err;
+  quiet.warn = NULL;
+  if (ch_mesh_validate(&mesh, base, &report, &quiet)) {
+    ch_mesh_free(&mesh);
+    return cli_fail(&quiet);
+  }
+  if (report.num_zero_uv_area_faces > 0 || report.num_degenerate_faces > 0) {
+    int zero_uv = report.num_zero_uv_area_faces > 0;
+    ch_error_set(&err, CH_ERR_INPUT, "%s: face %d has zero %s (%d such faces): %s", base,
+                 (zero_uv ? report.first_zero_uv_area_face : report.first_degenerate_face) + 1,
+                 zero_uv ? "UV area" : "area", zero_uv ? report.num_zero_uv_area_faces : report.num_degenerate_faces,
+                 zero_uv ? "no texture features can be placed on it" : "it has no normal to displace along");
     ch_mesh_free(&mesh);
     return cli_fail(&err);
   }
+  ch_mesh_validate(&mesh, base, &report, &err); /* now with its warnings */
   ch_curve_set set;
   if (ch_curves_read_svg(svg, &set, &err)) {
     ch_mesh_free(&mesh);

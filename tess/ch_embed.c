@@ -292,6 +292,16 @@ static double piece_height(const labeler *lb, uint64_t label, const double insid
   int nb = lb->crease_start[curve + 1] - lb->crease_start[curve];
   double a = k > 0 ? br[k - 1] : br[0] - 1.0, b = k < nb ? br[k] : br[nb - 1] + 1.0;
   double t1 = a + 0.25 * (b - a), t2 = a + 0.75 * (b - a);
+  /* Beyond an open end the side, so the sign of s, flips across the line
+   * that continues the path: on that line `at` may get either sign. The
+   * limit from inside the piece has the piece's sign. */
+  if (a >= 0.0 || b <= 0.0) {
+    t = a >= 0.0 ? fabs(t) : -fabs(t);
+  } else {
+    ch_curve_point ci;
+    ch_curve_closest(lb->set, curve, inside, &ci);
+    t = ci.signed_distance >= 0.0 ? fabs(t) : -fabs(t);
+  }
   t = fmax(a, fmin(b, t)); /* a junction estimate may lie a little outside */
   double p1 = ch_profile_eval(&c->profile, t1), p2 = ch_profile_eval(&c->profile, t2);
   return value + c->depth * (p1 + (p2 - p1) * (t - t1) / (t2 - t1));

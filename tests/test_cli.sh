@@ -202,6 +202,12 @@ expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --snap-to
 no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$tests/data/mesh/no_uv.obj" "$svg" -o "$tmp/x.obj" --no-snap && one_line_with "no_uv.obj: mesh has no texture coordinates"
 no_file "$tmp/x.obj"
+expect 2 "$chisel" displace "$tests/data/mesh/zero_uv_face.obj" "$svg" -o "$tmp/x.obj" \
+  && one_line_with "zero_uv_face.obj: face 2 has zero UV area"
+no_file "$tmp/x.obj"
+expect 2 "$chisel" displace "$tests/data/mesh/zero_area_face.obj" "$svg" -o "$tmp/x.obj" --no-snap \
+  && one_line_with "zero_area_face.obj: face 2 has zero area"
+no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$tests/data/svg/bad/negative_width.svg" -o "$tmp/x.obj" --no-snap \
   && one_line_with "negative data-width"
 no_file "$tmp/x.obj"

@@ -58,6 +58,15 @@ static const char u_svg[] =
     "<path d='M -10 50 L 110 50' data-profile='u' data-width='5' data-depth='0.03'/>"
     "</svg>";
 
+/* Open ends inside the square: around a v cap h is continuous (no wall);
+ * around a bevel cap it jumps on the line that continues the path. */
+static const char cap_v_svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<path d='M 20 50 L 80 50' data-profile='v' data-width='6' data-depth='0.01'/></svg>";
+static const char cap_bevel_svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<path d='M 20 50 L 80 50' data-profile='bevel' data-width='6' data-depth='0.01'/></svg>";
+
 typedef struct scene {
   ch_curve_set set;
   ch_height height;
@@ -339,11 +348,37 @@ static void test_u_lines_follow_normals(void) {
   scene_free(&s);
 }
 
+/* Walls only where h jumps: none around a v cap (the side flips across
+ * the line beyond the end, the value does not), some around a bevel cap;
+ * and the mesh follows h there. */
+static void test_cap_walls(void) {
+  const char *svgs[2] = {cap_v_svg, cap_bevel_svg};
+  for (int k = 0; k < 2; k++) {
+    scene s;
+    REQUIRE(scene_load(&s, "plane", svgs[k], NULL, CH_SCHEME_BILINEAR, 20000));
+    ch_mesh out;
+    ch_embed_stats stats;
+    ch_error err = {0};
+    REQUIRE(ch_embed_build(s.surface, &s.tess, &s.height, NULL, &out, &stats, &err) == CH_OK);
+    ch_accuracy a;
+    REQUIRE(ch_accuracy_measure(&out, &s.height, &s.set, 1024, &a, &err) == CH_OK);
+    printf("  %s cap: %d wall points, L1 %.3g, band %.4f\n", k ? "bevel" : "v", stats.wall_points, a.l1, a.band);
+    if (k == 0)
+      CHECK_MSG(stats.wall_points == 0, "v cap: %d wall points where h is continuous", stats.wall_points);
+    else
+      CHECK_MSG(stats.wall_points > 0, "bevel cap: no wall where h jumps");
+    CHECK_MSG(a.holes == 0.0 && a.band <= 0.002, "%s cap: holes %g band %g", k ? "bevel" : "v", a.holes, a.band);
+    ch_mesh_free(&out);
+    scene_free(&s);
+  }
+}
+
 int main(void) {
   RUN(test_straight_features_are_edges);
   RUN(test_torus_closed);
   RUN(test_deterministic);
   RUN(test_u_lines_follow_normals);
+  RUN(test_cap_walls);
   RUN(test_accuracy_vs_uniform);
   TEST_MAIN_END();
 }
