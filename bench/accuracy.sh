@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Issue 4's accuracy figures: for every bundled curve set over the planar
 # base, at about 130k, 520k and 2.1M triangles, the snapped mesh (chisel
-# displace), the naive mesh (--no-snap) and the uniform grid with exact
+# displace; for sets with step curves also --snap-to recon5, walls on the
+# curves reconstructed from the DCI), the naive mesh (--no-snap) and the
+# uniform grid with exact
 # vertex heights (chisel-uniform-grid) and, where Debian's blender is
 # installed, Blender's Subdivision Surface + Displace with a 2048^2 raster
 # height map (bench/blender/displace.py), measured by chisel-accuracy on a
@@ -30,6 +32,11 @@ for svg in models/curves/*.svg; do
   fi
   for n in "${sizes[@]}"; do
     meshes=("$dir/$name-$n-snap.obj" "$dir/$name-$n-naive.obj" "$dir/$name-$n-grid.obj")
+    if grep -q 'data-kind="step"' "$svg"; then # walls on the reconstructed curves too
+      "$build/chisel" displace models/plane.obj "$svg" -o "$dir/$name-$n-recon5.obj" --target-tris "$n" --res $res \
+        --snap-to recon5 2>/dev/null
+      meshes+=("$dir/$name-$n-recon5.obj")
+    fi
     if [ $have_blender = 1 ]; then
       blender -b --factory-startup --python bench/blender/displace.py -- models/plane.obj "$dir/$name-hy.exr" \
         "$dir/$name-$n-blender.obj" "$n" "$strength" "$midlevel" >/dev/null 2>&1
@@ -64,7 +71,7 @@ print("|---|---|---|---|---|---|---|---|---|---|")
 for name in names:
     for n in sizes:
         grid = table.get((name, n, "grid"))
-        for method in ("snap", "naive", "grid", "blender"):
+        for method in ("snap", "recon5", "naive", "grid", "blender"):
             r = table.get((name, n, method))
             if not r:
                 continue

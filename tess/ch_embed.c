@@ -1585,14 +1585,20 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   ch_tess_free(&cur_tess);
   memset(&cur_tess, 0, sizeof cur_tess);
   if (target < fewest) target = fewest;
-  /* Cheap pilots first: at 1/64 and 1/16 of the target (or one, or none
-   * for small targets). */
-  long pilot_a = target / 64, pilot_b = target / 16;
-  int pilots = pilot_a >= 2000 && pilot_a >= fewest ? 2 : pilot_b >= 2000 && pilot_b >= fewest ? 1 : 0;
-  long first_base = pilots == 2 ? pilot_a : pilots == 1 ? pilot_b : target, base = first_base;
+  /* Cheap pilots first: at 1/64 and 1/16 of the target, and 1/4 for
+   * large ones (fewer for small targets). */
+  long pilot[3];
+  int pilots = 0;
+  for (int k = 0; k < 3; k++) {
+    long b = target / (k == 0 ? 64 : k == 1 ? 16 : 4);
+    /* The 1/4 pilot only for large targets, where a full run costs more
+     * than it does and extrapolating over 16x misses. */
+    if (b >= 2000 && b >= fewest && (k < 2 || target >= 1000000)) pilot[pilots++] = b;
+  }
+  long first_base = pilots > 0 ? pilot[0] : target, base = first_base;
   ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
   int auto_angle = !(d.normal_tolerance_deg > 0.0), coarsenings = 0;
-  for (int pass = 0; pass < 7; pass++) {
+  for (int pass = 0; pass < 8; pass++) {
     ch_tess_desc td = {.target_triangles = base};
     if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
     if (pass == 0 && !(d.reference_edge > 0.0)) {
@@ -1633,11 +1639,12 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
      * then the secant through the last two runs. */
     double next;
     if (pass + 1 < pilots) {
-      next = (double)pilot_b;
+      next = (double)pilot[pass + 1];
     } else if (pass + 1 == pilots) {
       double pw = 0.5, a;
-      if (pilots == 2 && ys[0] > xs[0] && ys[1] > xs[1] && xs[1] > xs[0]) {
-        pw = log((ys[1] - xs[1]) / (ys[0] - xs[0])) / log(xs[1] / xs[0]);
+      int i0 = pass - 1, i1 = pass; /* the last two pilots */
+      if (pilots >= 2 && ys[i0] > xs[i0] && ys[i1] > xs[i1] && xs[i1] > xs[i0]) {
+        pw = log((ys[i1] - xs[i1]) / (ys[i0] - xs[i0])) / log(xs[i1] / xs[i0]);
         pw = fmin(1.0, fmax(0.25, pw));
       }
       a = no > nb ? (no - nb) / pow(nb, pw) : 0.0;
