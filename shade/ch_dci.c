@@ -43,15 +43,21 @@ static void blur_pass(int W, int H, int channels, const float *sigma, const floa
         for (int c = 0; c < channels; c++) out[i * channels + c] = in[i * channels + c];
         continue;
       }
-      double acc[4] = {0, 0, 0, 0}, wsum = 0.0, inv = 1.0 / (2.0 * (double)s * s);
-      for (int j = -k; j <= k; j++) {
-        int xx = axis == 0 ? x + j : x, yy = axis == 0 ? y : y + j;
-        xx = xx < 0 ? 0 : xx >= W ? W - 1 : xx;
-        yy = yy < 0 ? 0 : yy >= H ? H - 1 : yy;
-        double w = exp(-(double)j * j * inv);
-        size_t n = (size_t)yy * W + xx;
-        for (int c = 0; c < channels; c++) acc[c] += w * in[n * channels + c];
-        wsum += w;
+      /* Taps j = 0, +-1, ...: w_j = exp(-j^2 / 2s^2) by the recurrence
+       * w_{j+1} = w_j a_j, a_{j+1} = a_j b (b = exp(-1/s^2)): two products
+       * a tap instead of an exp. */
+      double acc[4], wsum = 1.0, w = 1.0, step = exp(-0.5 / ((double)s * s)), b = step * step;
+      for (int c = 0; c < channels; c++) acc[c] = in[i * channels + c];
+      for (int j = 1; j <= k; j++) {
+        w *= step;
+        step *= b;
+        int lo = axis == 0 ? x - j : y - j, hi = axis == 0 ? x + j : y + j, lim = axis == 0 ? W : H;
+        lo = lo < 0 ? 0 : lo;
+        hi = hi >= lim ? lim - 1 : hi;
+        size_t nl = axis == 0 ? (size_t)y * W + lo : (size_t)lo * W + x;
+        size_t nh = axis == 0 ? (size_t)y * W + hi : (size_t)hi * W + x;
+        for (int c = 0; c < channels; c++) acc[c] += w * ((double)in[nl * channels + c] + in[nh * channels + c]);
+        wsum += 2.0 * w;
       }
       for (int c = 0; c < channels; c++) out[i * channels + c] = (float)(acc[c] / wsum);
     }

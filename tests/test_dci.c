@@ -190,6 +190,46 @@ static void test_reconstruction_rates(void) {
   ch_curves_free(&set);
 }
 
+/* Reblur against the discrete Gaussian computed directly: a straight step
+ * u = 0.5 with a blur of 8 texels over a 256^2 image diffuses to the
+ * exact step (each side's region carries one value) with a constant
+ * radius field, so each row must be the step convolved with exp(-j^2/2s^2)
+ * over |j| <= 3s, normalised, borders clamped. */
+static void test_reblur_profile(void) {
+  static const char svg[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<path d='M 50 -10 V 110' data-kind='step' data-left='1' data-right='0' data-blur='3.125'/></svg>";
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(svg, sizeof svg - 1, "inline.svg", &set, &err) == CH_OK);
+  ch_dci dci;
+  ch_dci_desc desc = {.resolution = 256, .tolerance = 1e-8};
+  REQUIRE(ch_dci_build(&set, &desc, &dci, &err) == CH_OK);
+  REQUIRE(dci.blur != NULL);
+  const double sigma = 8.0;
+  const int k = 24;
+  double worst = 0.0, worst_sigma = 0.0;
+  for (int y = 0; y < 256; y += 17)
+    for (int x = 0; x < 256; x++) {
+      /* The path runs down the SVG (v decreasing): its left is +u. */
+      double acc = 0.0, wsum = 0.0;
+      for (int j = -k; j <= k; j++) {
+        int xx = x + j < 0 ? 0 : x + j > 255 ? 255 : x + j;
+        double w = exp(-(double)j * j / (2.0 * sigma * sigma));
+        acc += w * (xx >= 128 ? 1.0 : 0.0);
+        wsum += w;
+      }
+      worst = fmax(worst, fabs(dci.h[(size_t)y * 256 + x] - acc / wsum));
+      worst_sigma = fmax(worst_sigma, fabs(dci.blur[(size_t)y * 256 + x] - sigma));
+    }
+  fprintf(stderr, "  reblur of a straight step, sigma 8 texels: max error %.3g (radius field off by %.3g)\n", worst,
+          worst_sigma);
+  CHECK(worst_sigma <= 1e-4);
+  CHECK_MSG(worst <= 2e-5, "blurred step off the discrete Gaussian by %g", worst);
+  ch_dci_free(&dci);
+  ch_curves_free(&set);
+}
+
 /* Steps plus grooves through ch_height: a step disc with a v groove. */
 static void test_height_sum(void) {
   static const char svg[] =
@@ -248,6 +288,7 @@ int main(void) {
   RUN(test_piecewise_constant);
   RUN(test_reconstruction_rates);
   RUN(test_height_sum);
+  RUN(test_reblur_profile);
   RUN(test_degenerate_steps);
   TEST_MAIN_END();
 }
