@@ -773,6 +773,8 @@ static ch_status split_triangles(work *w, unsigned char **fresh, ch_error *err) 
 typedef struct out_mesh {
   double *pos;     /* filled after evaluation */
   int npos, cap_pos;
+  int first_pos;   /* index of the first vertex held here (a part of the
+                      cut numbers its own vertices after the shared ones) */
   /* what each output vertex is: face, st, h */
   int *face;
   double *st, *h;
@@ -783,7 +785,8 @@ typedef struct out_mesh {
 } out_mesh;
 
 static int out_vertex(out_mesh *o, int face, const double st[2], double h) {
-  if (o->npos + 1 > o->cap_pos) {
+  int i = o->npos - o->first_pos;
+  if (i + 1 > o->cap_pos) {
     int cap = o->cap_pos ? 2 * o->cap_pos : 4096;
     int *f = realloc(o->face, (size_t)cap * sizeof *f);
     if (f) o->face = f;
@@ -794,10 +797,10 @@ static int out_vertex(out_mesh *o, int face, const double st[2], double h) {
     if (!f || !s || !hh) return -1;
     o->cap_pos = cap;
   }
-  o->face[o->npos] = face;
-  o->st[2 * (size_t)o->npos] = st[0];
-  o->st[2 * (size_t)o->npos + 1] = st[1];
-  o->h[o->npos] = h;
+  o->face[i] = face;
+  o->st[2 * (size_t)i] = st[0];
+  o->st[2 * (size_t)i + 1] = st[1];
+  o->h[i] = h;
   return o->npos++;
 }
 
@@ -1535,8 +1538,48 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
       if (x->copy_a < 0 || x->copy_b < 0) goto nomem;
     }
   }
-  for (int t = 0; t < w.ntris; t++)
-    if (cut_triangle(&lb, &w, t, tol, &o, &stats)) goto nomem;
+  /* The cut, in parallel over fixed chunks of triangles: each part numbers
+   * its new vertices (junctions) after the shared ones; the parts are then
+   * joined in chunk order, so the bytes do not depend on the threads. */
+  {
+    enum { CUT_CHUNK = 4096 };
+    int nchunks = (w.ntris + CUT_CHUNK - 1) / CUT_CHUNK, shared = o.npos, oom = 0;
+    out_mesh *part = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *part);
+    ch_embed_stats *pstats = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *pstats);
+    if (!part || !pstats) {
+      free(part);
+      free(pstats);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 1) reduction(| : oom)
+    for (int c = 0; c < nchunks; c++) {
+      part[c].npos = part[c].first_pos = shared;
+      int t1 = (c + 1) * CUT_CHUNK < w.ntris ? (c + 1) * CUT_CHUNK : w.ntris;
+      for (int t = c * CUT_CHUNK; t < t1 && !oom; t++) oom |= cut_triangle(&lb, &w, t, tol, &part[c], &pstats[c]) != 0;
+    }
+    for (int c = 0; c < nchunks && !oom; c++) {
+      out_mesh *q = &part[c];
+      int delta = o.npos - shared; /* the part's vertex x >= shared lands at x + delta */
+      for (int i = 0; i < q->npos - shared && !oom; i++)
+        oom |= out_vertex(&o, q->face[i], &q->st[2 * (size_t)i], q->h[i]) < 0;
+      for (int t = 0; t < q->ntri && !oom; t++) {
+        int v[3];
+        for (int k = 0; k < 3; k++) {
+          int x = q->tri[3 * (size_t)t + k];
+          v[k] = x >= shared ? x + delta : x;
+        }
+        const double *u = &q->uv[6 * (size_t)t];
+        oom |= out_tri(&o, v[0], v[1], v[2], u, u + 2, u + 4, q->group[t]) != 0;
+      }
+      stats.unresolved += pstats[c].unresolved;
+      stats.junctions += pstats[c].junctions;
+      stats.wall_triangles += pstats[c].wall_triangles;
+    }
+    for (int c = 0; c < nchunks; c++) out_free(&part[c]);
+    free(part);
+    free(pstats);
+    if (oom) goto nomem;
+  }
   if ((st = evaluate_positions(surface, &o, err))) goto done;
   double t2 = omp_get_wtime();
   stats.min_h = INFINITY;
