@@ -65,12 +65,13 @@ static void blur_pass(int W, int H, int channels, const float *sigma, const floa
 }
 
 /* Blurs h (and rgb) where curves carry data-blur. values holds the diffused
- * channels interleaved: h, [r g b], sigma last. */
-static ch_status reblur(const ch_curve_set *set, ch_dci *d, float *values, int channels, ch_error *err) {
+ * channels interleaved (h, [r g b]); sigma is the diffused radius field,
+ * capped here and kept as d->blur. */
+static ch_status reblur(const ch_curve_set *set, ch_dci *d, float *values, int channels, float *sigma,
+                        ch_error *err) {
   ch_samples *s = &d->samples;
   int W = s->width, H = s->height;
   size_t n = (size_t)W * H;
-  int sigma_channel = channels - 1, data_channels = channels - 1;
   /* Distance to the nearest sharp step curve caps the radius. */
   unsigned char *sharp = calloc((size_t)(set->num_curves > 0 ? set->num_curves : 1), 1);
   if (!sharp) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
@@ -88,30 +89,25 @@ static ch_status reblur(const ch_curve_set *set, ch_dci *d, float *values, int c
     }
   }
   free(sharp);
-  d->blur = malloc(n * sizeof *d->blur);
-  float *a = malloc(n * data_channels * sizeof *a), *b = malloc(n * data_channels * sizeof *b);
-  if (!d->blur || !a || !b) {
-    free(a);
-    free(b);
+  float *tmp = malloc(n * channels * sizeof *tmp);
+  if (!tmp) {
     ch_samples_free(&sharp_samples);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
   }
+#pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; i++) {
-    float sg = values[i * channels + sigma_channel];
+    float sg = sigma[i];
     if (any_sharp && sharp_samples.curve[i] >= 0) {
       float cap = sharp_samples.distance[i] / (3.0f * 1.41421356f);
       if (sg > cap) sg = cap;
     }
-    d->blur[i] = sg > 0.0f ? sg : 0.0f;
-    for (int c = 0; c < data_channels; c++) a[i * data_channels + c] = values[i * channels + c];
+    sigma[i] = sg > 0.0f ? sg : 0.0f;
   }
   ch_samples_free(&sharp_samples);
-  blur_pass(W, H, data_channels, d->blur, a, b, 0);
-  blur_pass(W, H, data_channels, d->blur, b, a, 1);
-  for (size_t i = 0; i < n; i++)
-    for (int c = 0; c < data_channels; c++) values[i * channels + c] = a[i * data_channels + c];
-  free(a);
-  free(b);
+  d->blur = sigma;
+  blur_pass(W, H, channels, d->blur, values, tmp, 0);
+  blur_pass(W, H, channels, d->blur, tmp, values, 1);
+  free(tmp);
   return CH_OK;
 }
 
@@ -130,13 +126,15 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   for (int c = 0; c < set->num_curves; c++)
     if (set->curves[c].kind == CH_CURVE_STEP && set->curves[c].blur > 0.0) any_blur = 1;
   int colors = desc->no_colors ? 0 : s->num_colors;
-  int channels = 1 + colors + any_blur;
+  int channels = 1 + colors;
   float *values = malloc(n * channels * sizeof *values);
+  float *sigma = any_blur ? malloc(n * sizeof *sigma) : NULL;
   d->fixed = calloc(n, 1);
   d->h = malloc(n * sizeof *d->h);
   if (colors) d->rgb = malloc(3 * n * sizeof *d->rgb);
-  if (!values || !d->fixed || !d->h || (colors && !d->rgb)) {
+  if (!values || (any_blur && !sigma) || !d->fixed || !d->h || (colors && !d->rgb)) {
     free(values);
+    free(sigma);
     ch_dci_free(d);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d diffusion-curve image", R, R);
   }
@@ -149,17 +147,26 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     float *v = values + i * channels;
     v[0] = s->curve[i] >= 0 ? s->value[2 * i] : 0.0f;
     for (int c = 0; c < colors; c++) v[1 + c] = s->curve[i] >= 0 ? s->color[6 * i + c] : 0.0f;
-    if (any_blur) v[channels - 1] = s->curve[i] >= 0 ? (float)(set->curves[s->curve[i]].blur / texel) : 0.0f;
+    if (any_blur) sigma[i] = s->curve[i] >= 0 ? (float)(set->curves[s->curve[i]].blur / texel) : 0.0f;
   }
   t0 = now_seconds();
   ch_diffuse_desc dd = {.tolerance = desc->tolerance};
   st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
+  if (!st && any_blur) {
+    /* The blur radius on its own: a radius needs no 1e-6 (1e-3 is far
+     * below a texel), and a lone channel runs the solver's 1-lane path
+     * where a fifth channel would cost as much as eight. */
+    ch_diffuse_desc ds = {.tolerance = fmax(1e-3, desc->tolerance)};
+    st = ch_diffuse_solve(R, R, 1, d->fixed, sigma, &ds, NULL, err);
+  }
   d->seconds_diffuse = now_seconds() - t0;
   if (!st && any_blur) {
     t0 = now_seconds();
-    st = reblur(set, d, values, channels, err);
+    st = reblur(set, d, values, channels, sigma, err);
+    if (!st) sigma = NULL; /* now d->blur */
     d->seconds_blur = now_seconds() - t0;
   }
+  free(sigma);
   if (st) {
     free(values);
     ch_dci_free(d);
