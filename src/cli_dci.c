@@ -1,4 +1,5 @@
 /* chisel dci: the diffusion-curve image of a curve file, all its layers. */
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -100,6 +101,7 @@ static int run(int argc, char **argv) {
             "residual %.2g), reblur %.1f ms\n",
             res, res, 1e3 * dci.seconds_samples, 1e3 * dci.seconds_diffuse, dci.stats.levels,
             dci.stats.iterations, dci.stats.relative_residual[0], 1e3 * dci.seconds_blur);
+  double t_write = omp_get_wtime();
   if (!st) st = ch_dci_to_image(&dci, &img, &err);
   if (!st) {
     char rect_text[128], res_text[32];
@@ -115,6 +117,8 @@ static int run(int argc, char **argv) {
     st = write_preview(png, &dci, &err);
     if (!st) cli_outputs_add(&outs, png);
   }
+  if (!st && stats)
+    fprintf(stderr, "chisel: dci: %d layers written in %.1f ms\n", img.num_channels, 1e3 * (omp_get_wtime() - t_write));
   if (st) cli_outputs_remove_all(&outs);
   ch_image_free(&img);
   ch_dci_free(&dci);
