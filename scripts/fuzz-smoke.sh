@@ -6,16 +6,28 @@ cd "$(dirname "$0")/.."
 seconds=${1:-20}
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=Debug -DCHISEL_FUZZ=ON -DBUILD_TESTING=OFF >/dev/null
-cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_exr fuzz_dci
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl \
+  fuzz_exr fuzz_dci
 run() {
-  local target=$1 seeds=$2
+  local target=$1 seeds=$2 secs=${3:-$seconds}
   local corpus=build-fuzz/corpus/$target
   mkdir -p "$corpus"
-  echo "-- $target: ${seconds}s from $seeds"
-  build-fuzz/fuzz/$target -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=4096 \
+  echo "-- $target: ${secs}s from $seeds"
+  build-fuzz/fuzz/$target -max_total_time="$secs" -max_len=65536 -rss_limit_mb=4096 \
     -print_final_stats=1 "$corpus" "$seeds" 2>&1 | tail -n 4
+}
+# Seeds per format: the test meshes of that format (and the others: bytes
+# of another format are malformed input too).
+mesh_seeds() {
+  local dir=build-fuzz/seeds/$1
+  mkdir -p "$dir"
+  cp tests/data/mesh/*."$1" "$dir"/ 2>/dev/null || true
+  echo "$dir"
 }
 run fuzz_svg tests/data/svg
 run fuzz_mesh_obj tests/data/mesh
+for format in ply off stl; do
+  run fuzz_mesh_$format "$(mesh_seeds $format)" $(( (seconds + 1) / 2 ))
+done
 run fuzz_exr tests/data/exr
 run fuzz_dci tests/data/dci
