@@ -1519,28 +1519,62 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   }
   double t1 = omp_get_wtime();
 
-  /* Output vertices: the working vertices, then the crossings' copies. */
-  for (int v = 0; v < w.nverts; v++)
-    if (out_vertex(&o, w.verts[v].face, w.verts[v].st, w.verts[v].h) < 0) goto nomem;
-  for (int i = 0; i < w.nedges; i++) {
-    wedge *e = &w.edges[i];
-    int face = w.tris[e->tri].face;
-    for (int c = 0; c < e->ncross; c++) {
-      crossing *x = &e->cross[c];
-      double pst[2];
-      double puv[2];
-      edge_point(&w, e, x->x, puv, pst);
-      locate_st(surface, face, puv, pst);
-      stats.crossings++;
-      if (fabs(x->ha - x->hb) <= tol) {
-        x->copy_a = x->copy_b = out_vertex(&o, face, pst, 0.5 * (x->ha + x->hb));
-      } else {
-        stats.wall_points++;
-        x->copy_a = out_vertex(&o, face, pst, x->ha);
-        x->copy_b = out_vertex(&o, face, pst, x->hb);
+  /* Output vertices: the working vertices, then the crossings' copies
+   * (one, or two on a wall), numbered edge by edge and filled in parallel. */
+  {
+    int *first = malloc(((size_t)w.nedges + 1) * sizeof *first);
+    if (!first) goto nomem;
+    long total = w.nverts;
+    for (int i = 0; i < w.nedges; i++) {
+      first[i] = (int)total;
+      const wedge *e = &w.edges[i];
+      for (int c = 0; c < e->ncross; c++) total += fabs(e->cross[c].ha - e->cross[c].hb) <= tol ? 1 : 2;
+      if (total >= INT32_MAX / 3) {
+        free(first);
+        goto nomem;
       }
-      if (x->copy_a < 0 || x->copy_b < 0) goto nomem;
     }
+    int n = (int)total;
+    o.face = malloc((size_t)(n > 0 ? n : 1) * sizeof *o.face);
+    o.st = malloc(2 * (size_t)(n > 0 ? n : 1) * sizeof *o.st);
+    o.h = malloc((size_t)(n > 0 ? n : 1) * sizeof *o.h);
+    if (!o.face || !o.st || !o.h) {
+      free(first);
+      goto nomem;
+    }
+    o.npos = o.cap_pos = n;
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < w.nverts; v++) {
+      o.face[v] = w.verts[v].face;
+      memcpy(&o.st[2 * (size_t)v], w.verts[v].st, sizeof w.verts[v].st);
+      o.h[v] = w.verts[v].h;
+    }
+    long crossings = 0, walls = 0;
+#pragma omp parallel for schedule(dynamic, 1024) reduction(+ : crossings, walls)
+    for (int i = 0; i < w.nedges; i++) {
+      wedge *e = &w.edges[i];
+      int face = w.tris[e->tri].face, k = first[i];
+      for (int c = 0; c < e->ncross; c++) {
+        crossing *x = &e->cross[c];
+        double pst[2], puv[2];
+        edge_point(&w, e, x->x, puv, pst);
+        locate_st(surface, face, puv, pst);
+        crossings++;
+        int wall = !(fabs(x->ha - x->hb) <= tol);
+        walls += wall;
+        for (int j = 0; j <= wall; j++) {
+          o.face[k + j] = face;
+          memcpy(&o.st[2 * (size_t)(k + j)], pst, sizeof pst);
+          o.h[k + j] = wall ? (j ? x->hb : x->ha) : 0.5 * (x->ha + x->hb);
+        }
+        x->copy_a = k;
+        x->copy_b = k + wall;
+        k += 1 + wall;
+      }
+    }
+    stats.crossings += (int)crossings;
+    stats.wall_points += (int)walls;
+    free(first);
   }
   /* The cut, in parallel over fixed chunks of triangles: each part numbers
    * its new vertices (junctions) after the shared ones; the parts are then
