@@ -1322,6 +1322,19 @@ static ch_status build_mesh(const out_mesh *o, ch_mesh *m, ch_error *err) {
     double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
     double fn[3];
     ch_cross3(e1, e2, fn);
+    /* Weighted by the corner's angle (Thurmer and Wuthrich), not by area:
+     * a vertex between slices of unequal width gets the mean of its two
+     * sides, not the wider one's normal. */
+    double fl = sqrt(ch_dot3(fn, fn)), corner_angle[3] = {0, 0, 0};
+    if (fl > 0.0) {
+      const double *q[3] = {p0, p1, p2};
+      for (int k = 0; k < 3; k++) {
+        const double *a = q[k], *b = q[(k + 1) % 3], *c = q[(k + 2) % 3];
+        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
+        ch_cross3(u, v, x);
+        corner_angle[k] = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, v)) / fl;
+      }
+    }
     for (int k = 0; k < 3; k++) {
       size_t c = 3 * (size_t)t + k;
       int p = v[k];
@@ -1344,7 +1357,7 @@ static ch_status build_mesh(const out_mesh *o, ch_mesh *m, ch_error *err) {
         head[p] = s;
         memset(&m->normals[3 * (size_t)s], 0, 3 * sizeof(double));
       }
-      for (int i = 0; i < 3; i++) m->normals[3 * (size_t)s + i] += fn[i];
+      for (int i = 0; i < 3; i++) m->normals[3 * (size_t)s + i] += fn[i] * corner_angle[k];
       m->corner_normal[c] = s;
     }
   }
@@ -1625,6 +1638,17 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   for (int i = 0; i < o.npos; i++) {
     stats.min_h = fmin(stats.min_h, o.h[i]);
     stats.max_h = fmax(stats.max_h, o.h[i]);
+  }
+  /* Normals are shared within a group. The pieces of a u groove between
+   * its rims meet at lines where the surface is smooth (its slices exist
+   * only so that facets follow P): one group for them all, so shading is
+   * smooth across them and split only at its rims. */
+#pragma omp parallel for schedule(static)
+  for (int t = 0; t < o.ntri; t++) {
+    uint64_t gr = o.group[t], g = gr >> 32;
+    if (gr == WALL_GROUP || !g) continue;
+    const ch_curve *cv = &lb.set->curves[(g >> 8) - 1];
+    if (cv->profile.kind == CH_PROFILE_U) o.group[t] = (gr & ~(UINT64_C(0xff) << 32)) | (UINT64_C(1) << 32);
   }
   if ((st = build_mesh(&o, out, err))) goto done;
   o.pos = NULL; /* now out's */
