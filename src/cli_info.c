@@ -6,6 +6,7 @@
 
 #include "ch_bezier.h"
 #include "ch_curves.h"
+#include "ch_exr.h"
 #include "ch_file.h"
 #include "ch_mesh.h"
 #include "cli.h"
@@ -14,9 +15,11 @@ static const char usage[] =
     "usage: chisel info FILE...\n"
     "\n"
     "Describes each FILE: a base mesh (.obj .ply .off .stl: counts, bounds, UV\n"
-    "range and coverage, charts, boundary and manifoldness) or a curve file (.svg:\n"
-    "curves by kind and profile, segments, bounding box in UV). Problems that stop\n"
-    "chisel from using the file are errors (exit status 2).\n";
+    "range and coverage, charts, boundary and manifoldness), a curve file (.svg:\n"
+    "curves by kind and profile, segments, lengths, bounding box in UV) or an\n"
+    "image (.exr: size, and per channel its range and how many values are not\n"
+    "finite). Problems that stop chisel from using the file are errors (exit\n"
+    "status 2).\n";
 
 static const char *profile_name(const ch_profile *p) {
   static const char *names[] = {"v", "u", "box", "ridge", "bevel", "custom"};
@@ -114,6 +117,36 @@ static int info_mesh(const char *path, const char *ext) {
   return 0;
 }
 
+static int info_exr(const char *path) {
+  ch_error err = cli_error();
+  ch_image img;
+  if (ch_exr_read(path, &img, &err)) return cli_fail(&err);
+  printf("%s: EXR image\n", path);
+  printf("  size            %d x %d\n", img.width, img.height);
+  printf("  channels        %d\n", img.num_channels);
+  size_t n = (size_t)img.width * img.height;
+  for (int c = 0; c < img.num_channels; c++) {
+    const float *p = img.pixels + (size_t)c * n;
+    double lo = INFINITY, hi = -INFINITY;
+    size_t bad = 0;
+    for (size_t i = 0; i < n; i++) {
+      if (!isfinite(p[i])) {
+        bad++;
+        continue;
+      }
+      lo = fmin(lo, p[i]);
+      hi = fmax(hi, p[i]);
+    }
+    if (bad == n)
+      printf("  %-15s no finite values\n", img.names[c]);
+    else
+      printf("  %-15s %.6g .. %.6g\n", img.names[c], lo, hi);
+    if (bad && bad != n) printf("  %-15s %zu values not finite\n", "", bad);
+  }
+  ch_image_free(&img);
+  return 0;
+}
+
 static int run(int argc, char **argv) {
   if (argc < 2) return cli_usage_error("info", "missing FILE");
   int rc = 0;
@@ -126,6 +159,8 @@ static int run(int argc, char **argv) {
     int r;
     if (!strcmp(ext, "svg"))
       r = info_svg(argv[i]);
+    else if (!strcmp(ext, "exr"))
+      r = info_exr(argv[i]);
     else
       r = info_mesh(argv[i], ext[0] ? ext : "unknown");
     if (r && !rc) rc = r;
@@ -134,4 +169,4 @@ static int run(int argc, char **argv) {
   return rc;
 }
 
-const cli_command cli_info_command = {"info", "describe a mesh or a curve file", usage, run};
+const cli_command cli_info_command = {"info", "describe a mesh, a curve file or an EXR image", usage, run};

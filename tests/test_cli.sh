@@ -90,6 +90,23 @@ cmp -s "$out" "$tmp/h2.exr" && cmp -s "$tmp/h.png" "$tmp/h2.png" || fail "same i
 expect 0 env OMP_NUM_THREADS=1 "$chisel" sample "$svg" --res 64 -o "$tmp/h1.exr" || true
 checks=$((checks + 1))
 cmp -s "$out" "$tmp/h1.exr" || fail "one thread and two threads differ"
+# chisel info on the EXR: its size, and the range of h as the independent reader sees it.
+expect 0 "$chisel" info "$out" && grep -q "size *64 x 64" "$tmp/stdout" || fail "info on an EXR: size"
+if command -v python3 >/dev/null; then
+  checks=$((checks + 1))
+  python3 - "$out" "$tests/tools" "$tmp/stdout" <<'EOF' || fail "info on an EXR: range of h"
+import sys
+sys.path.insert(0, sys.argv[2])
+from exr_read import read_exr
+rows = read_exr(sys.argv[1])["h"]
+lo, hi = min(min(r) for r in rows), max(max(r) for r in rows)
+line = [l for l in open(sys.argv[3]) if l.split()[:1] == ["h"]][0].split()
+got = float(line[1]), float(line[3])
+assert abs(got[0] - lo) <= 1e-5 * abs(lo) + 1e-12 and abs(got[1] - hi) <= 1e-5 * abs(hi) + 1e-12, (got, lo, hi)  # %.6g
+EOF
+fi
+printf 'not an EXR file\n' >"$tmp/bad.exr"
+expect 2 "$chisel" info "$tmp/bad.exr" && one_line_with "bad.exr: not an OpenEXR file"
 if command -v python3 >/dev/null; then
   checks=$((checks + 1))
   python3 - "$out" "$tests/tools" <<'EOF' || fail "EXR content"
