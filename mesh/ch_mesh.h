@@ -80,6 +80,15 @@ typedef struct ch_mesh_report {
 ch_status ch_mesh_validate(const ch_mesh *mesh, const char *name,
                            ch_mesh_report *report, ch_error *err);
 
+/* Collapses every edge of a triangle mesh no longer than eps (in each
+ * coordinate) whose collapse keeps the mesh manifold (the link condition:
+ * its endpoints share no neighbour but the vertices opposite the edge),
+ * removing the triangles on it and the merged positions; the rest keeps
+ * its order, UV and normal indices. Deterministic (edges in index order).
+ * Returns the number collapsed, or -1 when out of memory (the mesh is
+ * then unchanged in its counts but may have merged corners; discard it). */
+int ch_mesh_collapse_short_edges(ch_mesh *mesh, double eps);
+
 /* Writes OBJ (v, vt, vn, f with the indices the mesh has) atomically with
  * deterministic bytes (%.9g coordinates). */
 ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err);

@@ -1652,6 +1652,23 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   }
   if ((st = build_mesh(&o, out, err))) goto done;
   o.pos = NULL; /* now out's */
+  {
+    /* A line through a vertex of the tessellation puts its boundary point
+     * within rounding of that vertex: collapse those zero-length edges
+     * (where the mesh stays manifold) rather than keep zero-area slivers. */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int v = 0; v < out->num_positions; v++)
+      for (int k = 0; k < 3; k++) {
+        lo[k] = fmin(lo[k], out->positions[3 * (size_t)v + k]);
+        hi[k] = fmax(hi[k], out->positions[3 * (size_t)v + k]);
+      }
+    double span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+    double diag = out->num_positions ? sqrt(ch_dot3(span, span)) : 0.0;
+    if (ch_mesh_collapse_short_edges(out, 1e-12 * diag) < 0) {
+      ch_mesh_free(out);
+      goto nomem;
+    }
+  }
   stats.seconds_refine = t1 - t0;
   stats.seconds_cut = t2 - t1;
   stats.seconds_normals = omp_get_wtime() - t2;

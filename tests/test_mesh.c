@@ -519,6 +519,33 @@ static void make_mesh(small_mesh *s, int npos, const double *pos, const double *
   s->m.corner_uv = s->cuv;
 }
 
+/* Zero-length edges: a sliver between two coincident vertices collapses
+ * away and leaves the clean quad; where the endpoints share a neighbour
+ * off the edge (the collapse would pinch the mesh) nothing changes. */
+static void test_collapse_short_edges(void) {
+  /* 0 (0,0) 1 (1,0) 2 (1,1) 3 (0,1), 4 = 1 again; the sliver 1-4-3. */
+  static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 0};
+  static const double uv[] = {0, 0, 1, 0, 1, 1, 0, 1, 1, 0};
+  static const int faces[][4] = {{0, 1, 3, -1}, {1, 4, 3, -1}, {4, 2, 3, -1}};
+  small_mesh s;
+  make_mesh(&s, 5, pos, uv, 3, faces);
+  CHECK(ch_mesh_collapse_short_edges(&s.m, 1e-12) == 1);
+  CHECK(s.m.num_faces == 2 && s.m.num_positions == 4 && s.m.num_corners == 6);
+  int want[6] = {0, 1, 3, 1, 2, 3}, same = 1;
+  for (int c = 0; c < 6; c++) same &= s.m.corner_position[c] == want[c];
+  CHECK_MSG(same, "collapsed faces %d %d %d / %d %d %d", s.m.corner_position[0], s.m.corner_position[1],
+            s.m.corner_position[2], s.m.corner_position[3], s.m.corner_position[4], s.m.corner_position[5]);
+  CHECK(s.m.corner_uv[3] == 4 && s.m.corner_uv[4] == 2); /* corners keep their UVs */
+  /* 1 and 4 coincide and share the edge 1-4 (opposite 3) but also the
+   * neighbour 5, off the edge: collapsing would join two sheets at 5. */
+  static const double pos2[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 0, 2, 0, 0, 2, -1, 0, 1, -1, 0};
+  static const double uv2[] = {0, 0, 1, 0, 1, 1, 0, 1, 1, 0, 1, 0, 1, 0, 1, 0};
+  static const int faces2[][4] = {{0, 1, 3, -1}, {1, 4, 3, -1}, {4, 2, 3, -1}, {1, 6, 5, -1}, {4, 5, 7, -1}};
+  make_mesh(&s, 8, pos2, uv2, 5, faces2);
+  CHECK(ch_mesh_collapse_short_edges(&s.m, 1e-12) == 0);
+  CHECK(s.m.num_faces == 5 && s.m.num_positions == 8);
+}
+
 static void test_nonmanifold(void) {
   ch_mesh m;
   REQUIRE(read_data("nonmanifold.obj", &m, NULL) == CH_OK); /* reported, not fatal */
@@ -797,6 +824,7 @@ int main(void) {
   RUN(test_silence);
   RUN(test_truncations);
   RUN(test_nonmanifold);
+  RUN(test_collapse_short_edges);
   RUN(test_validate_uv);
   RUN(test_validate_errors);
   RUN(test_obj_round_trip);

@@ -1,0 +1,241 @@
+/* Collapsing edges shorter than a tolerance, where doing so keeps the mesh
+ * manifold (see ch_mesh.h). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_mesh.h"
+
+typedef struct vlist {
+  int *f; /* incident faces (may hold dead ones) */
+  int n, cap;
+} vlist;
+
+static int vlist_push(vlist *l, int f) {
+  if (l->n == l->cap) {
+    int cap = l->cap ? 2 * l->cap : 8;
+    int *p = realloc(l->f, (size_t)cap * sizeof *p);
+    if (!p) return -1;
+    l->f = p;
+    l->cap = cap;
+  }
+  l->f[l->n++] = f;
+  return 0;
+}
+
+static int cmp_pair(const void *x, const void *y) {
+  const int *a = x, *b = y;
+  return a[0] != b[0] ? (a[0] < b[0] ? -1 : 1) : a[1] != b[1] ? (a[1] < b[1] ? -1 : 1) : 0;
+}
+
+static int cmp_int(const void *x, const void *y) {
+  int a = *(const int *)x, b = *(const int *)y;
+  return a < b ? -1 : a > b;
+}
+
+/* The distinct live neighbours of v, sorted, into out (grown as needed). */
+static int neighbours(const ch_mesh *m, const vlist *inc, const unsigned char *dead, int v, int **out, int *cap) {
+  int n = 0;
+  for (int i = 0; i < inc[v].n; i++) {
+    int f = inc[v].f[i];
+    if (dead[f]) continue;
+    for (int k = 0; k < 3; k++) {
+      int w = m->corner_position[3 * (size_t)f + k];
+      if (w == v) continue;
+      if (n + 1 > *cap) {
+        int c = *cap ? 2 * *cap : 32;
+        int *p = realloc(*out, (size_t)c * sizeof *p);
+        if (!p) return -1;
+        *out = p;
+        *cap = c;
+      }
+      (*out)[n++] = w;
+    }
+  }
+  qsort(*out, (size_t)n, sizeof **out, cmp_int);
+  int u = 0;
+  for (int i = 0; i < n; i++)
+    if (u == 0 || (*out)[u - 1] != (*out)[i]) (*out)[u++] = (*out)[i];
+  return u;
+}
+
+int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
+  if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces || !(eps > 0.0)) return 0;
+  int np = m->num_positions, nf = m->num_faces;
+  const double *P = m->positions;
+  /* Candidates: edges no longer than eps in every coordinate. */
+  int (*cand)[2] = NULL;
+  size_t nc = 0, cc = 0;
+  for (int f = 0; f < nf; f++)
+    for (int k = 0; k < 3; k++) {
+      int a = m->corner_position[3 * (size_t)f + k], b = m->corner_position[3 * (size_t)f + (k + 1) % 3];
+      const double *pa = &P[3 * (size_t)a], *pb = &P[3 * (size_t)b];
+      if (a == b || fabs(pa[0] - pb[0]) > eps || fabs(pa[1] - pb[1]) > eps || fabs(pa[2] - pb[2]) > eps) continue;
+      if (nc == cc) {
+        size_t c = cc ? 2 * cc : 1024;
+        void *p = realloc(cand, c * sizeof *cand);
+        if (!p) {
+          free(cand);
+          return -1;
+        }
+        cand = p;
+        cc = c;
+      }
+      cand[nc][0] = a < b ? a : b;
+      cand[nc][1] = a < b ? b : a;
+      nc++;
+    }
+  if (nc == 0) return 0;
+  qsort(cand, nc, sizeof *cand, cmp_pair);
+  vlist *inc = calloc((size_t)np, sizeof *inc);
+  unsigned char *dead = calloc((size_t)nf, 1);
+  int *map = malloc((size_t)np * sizeof *map);
+  int *na = NULL, *nb = NULL, capa = 0, capb = 0, collapsed = 0, oom = !inc || !dead || !map;
+  for (int f = 0; f < nf && !oom; f++)
+    for (int k = 0; k < 3 && !oom; k++) oom |= vlist_push(&inc[m->corner_position[3 * (size_t)f + k]], f);
+  for (int v = 0; v < np && !oom; v++) map[v] = v;
+  for (size_t i = 0; i < nc && !oom; i++) {
+    if (i > 0 && cand[i][0] == cand[i - 1][0] && cand[i][1] == cand[i - 1][1]) continue;
+    int a = cand[i][0], b = cand[i][1];
+    if (map[a] != a || map[b] != b) continue; /* already merged away */
+    /* Still an edge? And its opposite vertices. */
+    int opp[4], nopp = 0, edge = 0;
+    for (int j = 0; j < inc[b].n; j++) {
+      int f = inc[b].f[j];
+      if (dead[f]) continue;
+      const int *c = &m->corner_position[3 * (size_t)f];
+      if (c[0] != a && c[1] != a && c[2] != a) continue;
+      edge = 1;
+      int w = c[0] != a && c[0] != b ? c[0] : c[1] != a && c[1] != b ? c[1] : c[2];
+      if (nopp < 4) opp[nopp] = w;
+      nopp++;
+    }
+    if (!edge || nopp > 2) continue;
+    /* Link condition: the common neighbours of a and b are exactly the
+     * vertices opposite their edge, else the collapse pinches the mesh. */
+    int ka = neighbours(m, inc, dead, a, &na, &capa), kb = neighbours(m, inc, dead, b, &nb, &capb);
+    if (ka < 0 || kb < 0) {
+      oom = 1;
+      break;
+    }
+    int common = 0, ok = 1;
+    for (int x = 0, y = 0; x < ka && y < kb;) {
+      if (na[x] < nb[y]) {
+        x++;
+      } else if (na[x] > nb[y]) {
+        y++;
+      } else {
+        int w = na[x];
+        common++;
+        if (!(w == opp[0] || (nopp > 1 && w == opp[1]))) ok = 0;
+        x++;
+        y++;
+      }
+    }
+    if (!ok || common != nopp) continue;
+    /* Nor may the two opposite vertices be joined in a's or b's link (a
+     * face a-w-x or b-w-x): the collapse would double that face. */
+    if (nopp == 2) {
+      int joined = 0;
+      for (int e = 0; e < 2 && !joined; e++) {
+        const vlist *l = &inc[e ? b : a];
+        for (int j = 0; j < l->n && !joined; j++) {
+          int f = l->f[j];
+          if (dead[f]) continue;
+          const int *c = &m->corner_position[3 * (size_t)f];
+          int hw = c[0] == opp[0] || c[1] == opp[0] || c[2] == opp[0];
+          int hx = c[0] == opp[1] || c[1] == opp[1] || c[2] == opp[1];
+          joined = hw && hx;
+        }
+      }
+      if (joined) continue;
+    }
+    /* And no face of b may become a copy of a face of a, or be one of
+     * another face of b already (a fin: the embedding leaves a few such
+     * pairs where features cross a UV seam; collapsing into one would make
+     * its edges non-manifold). */
+    int fin = 0;
+    for (int j = 0; j < inc[b].n && !fin; j++)
+      for (int j2 = j + 1; j2 < inc[b].n && !fin; j2++) {
+        int f = inc[b].f[j], g = inc[b].f[j2];
+        if (dead[f] || dead[g] || f == g) continue;
+        const int *c = &m->corner_position[3 * (size_t)f], *d = &m->corner_position[3 * (size_t)g];
+        int same = 1;
+        for (int k = 0; k < 3; k++) same &= d[0] == c[k] || d[1] == c[k] || d[2] == c[k];
+        fin = same;
+      }
+    for (int j = 0; j < inc[b].n && !fin; j++) {
+      int f = inc[b].f[j];
+      if (dead[f]) continue;
+      const int *c = &m->corner_position[3 * (size_t)f];
+      if (c[0] == a || c[1] == a || c[2] == a) continue;
+      int u[3];
+      for (int k = 0; k < 3; k++) u[k] = c[k] == b ? a : c[k];
+      for (int i2 = 0; i2 < inc[a].n && !fin; i2++) {
+        int g = inc[a].f[i2];
+        if (dead[g]) continue;
+        const int *d = &m->corner_position[3 * (size_t)g];
+        int same = 1;
+        for (int k = 0; k < 3; k++) same &= d[0] == u[k] || d[1] == u[k] || d[2] == u[k];
+        fin = same;
+      }
+    }
+    if (fin) continue;
+    /* Collapse b into a: its faces take a, those on the edge die. */
+    for (int j = 0; j < inc[b].n && !oom; j++) {
+      int f = inc[b].f[j];
+      if (dead[f]) continue;
+      int *c = &m->corner_position[3 * (size_t)f];
+      int has_a = c[0] == a || c[1] == a || c[2] == a;
+      if (has_a) {
+        dead[f] = 1;
+        continue;
+      }
+      for (int k = 0; k < 3; k++)
+        if (c[k] == b) c[k] = a;
+      oom |= vlist_push(&inc[a], f);
+    }
+    map[b] = a;
+    collapsed++;
+  }
+  free(na);
+  free(nb);
+  free(cand);
+  if (inc)
+    for (int v = 0; v < np; v++) free(inc[v].f);
+  free(inc);
+  if (oom) {
+    free(dead);
+    free(map);
+    return -1;
+  }
+  if (collapsed) {
+    /* Drop the dead faces (their corners with them) and the unused
+     * positions, keeping the order of everything else. */
+    int f2 = 0;
+    for (int f = 0; f < nf; f++) {
+      if (dead[f]) continue;
+      for (int k = 0; k < 3; k++) {
+        size_t from = 3 * (size_t)f + k, to = 3 * (size_t)f2 + k;
+        m->corner_position[to] = m->corner_position[from];
+        if (m->corner_uv) m->corner_uv[to] = m->corner_uv[from];
+        if (m->corner_normal) m->corner_normal[to] = m->corner_normal[from];
+      }
+      f2++;
+    }
+    m->num_faces = f2;
+    m->num_corners = 3 * f2;
+    for (int f = 0; f <= f2; f++) m->face_start[f] = 3 * f;
+    int p2 = 0;
+    for (int v = 0; v < np; v++) {
+      if (map[v] != v) continue;
+      memmove(&m->positions[3 * (size_t)p2], &m->positions[3 * (size_t)v], 3 * sizeof *m->positions);
+      map[v] = p2++;
+    }
+    for (size_t c = 0; c < 3 * (size_t)f2; c++) m->corner_position[c] = map[m->corner_position[c]];
+    m->num_positions = p2;
+  }
+  free(dead);
+  free(map);
+  return collapsed;
+}
