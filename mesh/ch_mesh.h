@@ -89,6 +89,13 @@ ch_status ch_mesh_validate(const ch_mesh *mesh, const char *name,
  * then unchanged in its counts but may have merged corners; discard it). */
 int ch_mesh_collapse_short_edges(ch_mesh *mesh, double eps);
 
+/* Removes pillows: pairs of triangles on the same three corners with
+ * opposite orientations (they enclose nothing, and where they hang off the
+ * surface they make its edge non-manifold), unless that would leave an
+ * edge with one face. Positions are kept (some may be left unused).
+ * Returns the number of triangles removed, or -1 when out of memory. */
+int ch_mesh_remove_pillows(ch_mesh *mesh);
+
 /* Writes OBJ (v, vt, vn, f with the indices the mesh has) atomically with
  * deterministic bytes (%.9g coordinates). */
 ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err);

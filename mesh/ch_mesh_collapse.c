@@ -1,6 +1,7 @@
 /* Collapsing edges shorter than a tolerance, where doing so keeps the mesh
  * manifold (see ch_mesh.h). */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -238,4 +239,110 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
   free(dead);
   free(map);
   return collapsed;
+}
+
+/* A face's corners sorted, and the face, for finding pairs. */
+typedef struct face_key {
+  int v[3];
+  int face;
+} face_key;
+
+static int cmp_face_key(const void *x, const void *y) {
+  const face_key *a = x, *b = y;
+  for (int k = 0; k < 3; k++)
+    if (a->v[k] != b->v[k]) return a->v[k] < b->v[k] ? -1 : 1;
+  return a->face < b->face ? -1 : a->face > b->face;
+}
+
+static int cmp_u64(const void *x, const void *y) {
+  uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
+  return a < b ? -1 : a > b;
+}
+
+/* How many faces use the edge u-v: a count in the sorted list of edges. */
+static long edge_uses(const uint64_t *keys, size_t n, int u, int v) {
+  uint64_t key = u < v ? (uint64_t)u << 32 | (uint64_t)v : (uint64_t)v << 32 | (uint64_t)u;
+  size_t lo = 0, hi = n;
+  while (lo < hi) {
+    size_t mid = (lo + hi) / 2;
+    if (keys[mid] < key)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  size_t end = lo;
+  while (end < n && keys[end] == key) end++;
+  return (long)(end - lo);
+}
+
+int ch_mesh_remove_pillows(ch_mesh *m) {
+  if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
+  int nf = m->num_faces;
+  size_t ne = 3 * (size_t)nf;
+  face_key *k = malloc((size_t)nf * sizeof *k);
+  unsigned char *drop = calloc((size_t)nf, 1);
+  uint64_t *keys = malloc(ne * sizeof *keys);
+  if (!k || !drop || !keys) {
+    free(k);
+    free(drop);
+    free(keys);
+    return -1;
+  }
+  for (size_t c = 0; c < ne; c++) {
+    uint64_t u = (uint64_t)m->corner_position[c], v = (uint64_t)m->corner_position[c / 3 * 3 + (c % 3 + 1) % 3];
+    keys[c] = u < v ? u << 32 | v : v << 32 | u;
+  }
+  qsort(keys, ne, sizeof *keys, cmp_u64);
+  for (int f = 0; f < nf; f++) {
+    int *v = k[f].v;
+    for (int i = 0; i < 3; i++) v[i] = m->corner_position[3 * (size_t)f + i];
+    if (v[0] > v[1]) { int t = v[0]; v[0] = v[1]; v[1] = t; }
+    if (v[1] > v[2]) { int t = v[1]; v[1] = v[2]; v[2] = t; }
+    if (v[0] > v[1]) { int t = v[0]; v[0] = v[1]; v[1] = t; }
+    k[f].face = f;
+  }
+  qsort(k, (size_t)nf, sizeof *k, cmp_face_key);
+  int removed = 0;
+  for (int i = 0; i + 1 < nf;) {
+    int j = i + 1;
+    while (j < nf && !memcmp(k[j].v, k[i].v, sizeof k[i].v)) j++;
+    if (j - i == 2) { /* exactly two faces on the same corners */
+      const int *a = &m->corner_position[3 * (size_t)k[i].face], *b = &m->corner_position[3 * (size_t)k[i + 1].face];
+      /* Opposite orientation: b runs a backwards. */
+      int r = 0;
+      while (r < 3 && b[r] != a[0]) r++;
+      /* Removing the pair takes two uses from each of its edges: only if
+       * none is left with one (a hole). */
+      int safe = 1;
+      for (int e = 0; e < 3; e++) {
+        long u = edge_uses(keys, ne, a[e], a[(e + 1) % 3]);
+        safe &= u == 2 || u >= 4;
+      }
+      if (r < 3 && b[(r + 1) % 3] == a[2] && safe) {
+        drop[k[i].face] = drop[k[i + 1].face] = 1;
+        removed += 2;
+      }
+    }
+    i = j;
+  }
+  free(k);
+  free(keys);
+  if (removed) {
+    int f2 = 0;
+    for (int f = 0; f < nf; f++) {
+      if (drop[f]) continue;
+      for (int i = 0; i < 3; i++) {
+        size_t from = 3 * (size_t)f + i, to = 3 * (size_t)f2 + i;
+        m->corner_position[to] = m->corner_position[from];
+        if (m->corner_uv) m->corner_uv[to] = m->corner_uv[from];
+        if (m->corner_normal) m->corner_normal[to] = m->corner_normal[from];
+      }
+      f2++;
+    }
+    m->num_faces = f2;
+    m->num_corners = 3 * f2;
+    for (int f = 0; f <= f2; f++) m->face_start[f] = 3 * f;
+  }
+  free(drop);
+  return removed;
 }

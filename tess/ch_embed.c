@@ -1664,7 +1664,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
       }
     double span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
     double diag = out->num_positions ? sqrt(ch_dot3(span, span)) : 0.0;
-    if (ch_mesh_collapse_short_edges(out, 1e-12 * diag) < 0) {
+    if (ch_mesh_collapse_short_edges(out, 1e-12 * diag) < 0 || ch_mesh_remove_pillows(out) < 0) {
       ch_mesh_free(out);
       goto nomem;
     }

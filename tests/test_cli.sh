@@ -210,6 +210,12 @@ tris=$(sed -n 's/^ *faces *\([0-9]*\) (\([0-9]*\) triangles.*/\2/p' "$tmp/stdout
 expect 0 "$chisel" displace "$models/torus.obj" "$svg" -o "$tmp/st.obj" --target-tris 30000 --scheme catmark || true
 expect 0 "$chisel" info "$tmp/st.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" "$tmp/stdout" \
   || fail "snapped torus not closed"
+# The README's scene: glyphs on the tablet, whose UV charts meet at its edges, where the glyphs come close.
+for n in 130000 520000; do
+  expect 0 "$chisel" displace "$models/tablet.obj" "$models/curves/glyphs.svg" -o "$tmp/tab.obj" --target-tris $n || true
+  expect 0 "$chisel" info "$tmp/tab.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" \
+    "$tmp/stdout" || fail "snapped tablet at $n not closed and manifold"
+done
 expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/s2.obj" --target-tris 40000 || true
 checks=$((checks + 1))
 cmp -s "$tmp/s.obj" "$tmp/s2.obj" || fail "snapped displace: same input, different bytes"

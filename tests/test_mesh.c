@@ -546,6 +546,23 @@ static void test_collapse_short_edges(void) {
   CHECK(s.m.num_faces == 5 && s.m.num_positions == 8);
 }
 
+/* A flap (a triangle and its reverse) hanging off the diagonal of a quad
+ * goes, leaving the quad; a reversed copy of one of the quad's own
+ * triangles stays (removing both would open a hole). */
+static void test_remove_pillows(void) {
+  static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5, 0.5, 1};
+  static const double uv[] = {0, 0, 1, 0, 1, 1, 0, 1, 0.5, 0.5};
+  static const int faces[][4] = {{0, 1, 2, -1}, {0, 2, 4, -1}, {0, 2, 3, -1}, {2, 0, 4, -1}};
+  small_mesh s;
+  make_mesh(&s, 5, pos, uv, 4, faces);
+  CHECK(ch_mesh_remove_pillows(&s.m) == 2);
+  CHECK(s.m.num_faces == 2 && s.m.corner_position[3] == 0 && s.m.corner_position[4] == 2 &&
+        s.m.corner_position[5] == 3);
+  static const int faces2[][4] = {{0, 1, 2, -1}, {0, 2, 3, -1}, {2, 1, 0, -1}};
+  make_mesh(&s, 5, pos, uv, 3, faces2);
+  CHECK(ch_mesh_remove_pillows(&s.m) == 0 && s.m.num_faces == 3);
+}
+
 static void test_nonmanifold(void) {
   ch_mesh m;
   REQUIRE(read_data("nonmanifold.obj", &m, NULL) == CH_OK); /* reported, not fatal */
@@ -825,6 +842,7 @@ int main(void) {
   RUN(test_truncations);
   RUN(test_nonmanifold);
   RUN(test_collapse_short_edges);
+  RUN(test_remove_pillows);
   RUN(test_validate_uv);
   RUN(test_validate_errors);
   RUN(test_obj_round_trip);
