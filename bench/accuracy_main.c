@@ -191,6 +191,26 @@ static ch_status read_mesh(const char *path, ch_mesh *m, ch_error *err) {
 }
 
 /* JSON string body: paths with quotes or backslashes are escaped. */
+/* Writes PREFIX<k>.png: a G x G sample map (rows up from v = 0; PNG rows
+ * run down from v = 1) as a height preview of sign * value, capped at
+ * `full` with the scale fixed there when full > 0; uncovered (NaN) is 0. */
+static ch_status write_map_png(const char *prefix, int k, const float *map, size_t G, float sign, float full,
+                               ch_error *err) {
+  float *img = malloc(G * G * sizeof *img);
+  if (!img) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %zux%zu map", G, G);
+  char name[4096];
+  snprintf(name, sizeof name, "%s%d.png", prefix, k);
+  for (size_t j = 0; j < G; j++)
+    for (size_t i = 0; i < G; i++) {
+      float e = map[j * G + i];
+      img[(G - 1 - j) * G + i] = e == e ? sign * (full > 0.0f ? fminf(e, full) : e) : 0.0f;
+    }
+  if (full > 0.0f) img[0] = sign * full; /* fixes the scale */
+  ch_status st = ch_png_write_height(name, img, (int)G, (int)G, err);
+  free(img);
+  return st;
+}
+
 static void json_string(const char *s) {
   putchar('"');
   for (; *s; s++) {
@@ -292,50 +312,14 @@ int main(int argc, char **argv) {
           fprintf(stderr, "chisel-accuracy: %s: hole at uv (%.6f, %.6f)\n", paths[m], (k % grid + 0.5) / grid,
                   (k / grid + 0.5) / grid), shown++;
     }
-    if (normal_png) {
-      /* Degrees as -h so the height preview draws them blue, 10 deg full. */
-      size_t G = (size_t)grid;
-      float *img = malloc(G * G * sizeof *img);
-      char name[4096];
-      snprintf(name, sizeof name, "%s%d.png", normal_png, m);
-      if (!img) {
-        rc = 1;
-        break;
-      }
-      for (size_t j = 0; j < G; j++)
-        for (size_t i = 0; i < G; i++) {
-          float e = ref.normal_map[j * G + i];
-          img[(G - 1 - j) * G + i] = e == e ? -fminf(e, 10.0f) : 0.0f;
-        }
-      img[0] = -10.0f; /* fixes the scale */
-      st = ch_png_write_height(name, img, (int)G, (int)G, &err);
-      free(img);
-      if (st) {
-        rc = fail(&err);
-        break;
-      }
+    /* Normal error as -h so the height preview draws it blue, 10 deg full. */
+    if (normal_png && (st = write_map_png(normal_png, m, ref.normal_map, (size_t)grid, -1.0f, 10.0f, &err))) {
+      rc = fail(&err);
+      break;
     }
-    if (error_png) {
-      /* PNG rows run down from v = 1; the map's rows up from v = 0. */
-      size_t G = (size_t)grid;
-      float *img = malloc(G * G * sizeof *img);
-      char name[4096];
-      snprintf(name, sizeof name, "%s%d.png", error_png, m);
-      if (!img) {
-        rc = 1;
-        break;
-      }
-      for (size_t j = 0; j < G; j++)
-        for (size_t i = 0; i < G; i++) {
-          float e = ref.error_map[j * G + i];
-          img[(G - 1 - j) * G + i] = e == e ? e : 0.0f;
-        }
-      st = ch_png_write_height(name, img, (int)G, (int)G, &err);
-      free(img);
-      if (st) {
-        rc = fail(&err);
-        break;
-      }
+    if (error_png && (st = write_map_png(error_png, m, ref.error_map, (size_t)grid, 1.0f, 0.0f, &err))) {
+      rc = fail(&err);
+      break;
     }
     if (json) {
       printf("{\"mesh\": ");

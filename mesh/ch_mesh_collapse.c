@@ -34,6 +34,32 @@ static int cmp_int(const void *x, const void *y) {
   return a < b ? -1 : a > b;
 }
 
+/* Whether two triangles have the same three corners (in any order). */
+static int same_corners(const int *c, const int *d) {
+  int same = 1;
+  for (int k = 0; k < 3; k++) same &= d[0] == c[k] || d[1] == c[k] || d[2] == c[k];
+  return same;
+}
+
+/* Drops the faces marked in drop, their corners with them, keeping the
+ * order of the others. */
+static void drop_faces(ch_mesh *m, const unsigned char *drop) {
+  int f2 = 0;
+  for (int f = 0; f < m->num_faces; f++) {
+    if (drop[f]) continue;
+    for (int k = 0; k < 3; k++) {
+      size_t from = 3 * (size_t)f + k, to = 3 * (size_t)f2 + k;
+      m->corner_position[to] = m->corner_position[from];
+      if (m->corner_uv) m->corner_uv[to] = m->corner_uv[from];
+      if (m->corner_normal) m->corner_normal[to] = m->corner_normal[from];
+    }
+    f2++;
+  }
+  m->num_faces = f2;
+  m->num_corners = 3 * f2;
+  for (int f = 0; f <= f2; f++) m->face_start[f] = 3 * f;
+}
+
 /* The distinct live neighbours of v, sorted, into out (grown as needed). */
 static int neighbours(const ch_mesh *m, const vlist *inc, const unsigned char *dead, int v, int **out, int *cap) {
   int n = 0;
@@ -160,10 +186,7 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
       for (int j2 = j + 1; j2 < inc[b].n && !fin; j2++) {
         int f = inc[b].f[j], g = inc[b].f[j2];
         if (dead[f] || dead[g] || f == g) continue;
-        const int *c = &m->corner_position[3 * (size_t)f], *d = &m->corner_position[3 * (size_t)g];
-        int same = 1;
-        for (int k = 0; k < 3; k++) same &= d[0] == c[k] || d[1] == c[k] || d[2] == c[k];
-        fin = same;
+        fin = same_corners(&m->corner_position[3 * (size_t)f], &m->corner_position[3 * (size_t)g]);
       }
     for (int j = 0; j < inc[b].n && !fin; j++) {
       int f = inc[b].f[j];
@@ -175,10 +198,7 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
       for (int i2 = 0; i2 < inc[a].n && !fin; i2++) {
         int g = inc[a].f[i2];
         if (dead[g]) continue;
-        const int *d = &m->corner_position[3 * (size_t)g];
-        int same = 1;
-        for (int k = 0; k < 3; k++) same &= d[0] == u[k] || d[1] == u[k] || d[2] == u[k];
-        fin = same;
+        fin = same_corners(u, &m->corner_position[3 * (size_t)g]);
       }
     }
     if (fin) continue;
@@ -211,29 +231,16 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
     return -1;
   }
   if (collapsed) {
-    /* Drop the dead faces (their corners with them) and the unused
-     * positions, keeping the order of everything else. */
-    int f2 = 0;
-    for (int f = 0; f < nf; f++) {
-      if (dead[f]) continue;
-      for (int k = 0; k < 3; k++) {
-        size_t from = 3 * (size_t)f + k, to = 3 * (size_t)f2 + k;
-        m->corner_position[to] = m->corner_position[from];
-        if (m->corner_uv) m->corner_uv[to] = m->corner_uv[from];
-        if (m->corner_normal) m->corner_normal[to] = m->corner_normal[from];
-      }
-      f2++;
-    }
-    m->num_faces = f2;
-    m->num_corners = 3 * f2;
-    for (int f = 0; f <= f2; f++) m->face_start[f] = 3 * f;
+    /* Drop the dead faces and the unused positions, keeping the order of
+     * everything else. */
+    drop_faces(m, dead);
     int p2 = 0;
     for (int v = 0; v < np; v++) {
       if (map[v] != v) continue;
       memmove(&m->positions[3 * (size_t)p2], &m->positions[3 * (size_t)v], 3 * sizeof *m->positions);
       map[v] = p2++;
     }
-    for (size_t c = 0; c < 3 * (size_t)f2; c++) m->corner_position[c] = map[m->corner_position[c]];
+    for (size_t c = 0; c < (size_t)m->num_corners; c++) m->corner_position[c] = map[m->corner_position[c]];
     m->num_positions = p2;
   }
   free(dead);
@@ -327,22 +334,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   }
   free(k);
   free(keys);
-  if (removed) {
-    int f2 = 0;
-    for (int f = 0; f < nf; f++) {
-      if (drop[f]) continue;
-      for (int i = 0; i < 3; i++) {
-        size_t from = 3 * (size_t)f + i, to = 3 * (size_t)f2 + i;
-        m->corner_position[to] = m->corner_position[from];
-        if (m->corner_uv) m->corner_uv[to] = m->corner_uv[from];
-        if (m->corner_normal) m->corner_normal[to] = m->corner_normal[from];
-      }
-      f2++;
-    }
-    m->num_faces = f2;
-    m->num_corners = 3 * f2;
-    for (int f = 0; f <= f2; f++) m->face_start[f] = 3 * f;
-  }
+  if (removed) drop_faces(m, drop);
   free(drop);
   return removed;
 }

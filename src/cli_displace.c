@@ -47,6 +47,24 @@ static const char usage[] =
     "vertical triangles, and normals are split there. The count of triangles\n"
     "includes what the cut adds.\n";
 
+/* Warnings kept back (one per line) until the input has passed. */
+typedef struct held_warnings {
+  char *text;
+  size_t len;
+} held_warnings;
+
+static void hold_warning(void *user, const char *message) {
+  held_warnings *h = user;
+  size_t n = strlen(message);
+  char *t = realloc(h->text, h->len + n + 2);
+  if (!t) return; /* a warning lost, not the run */
+  memcpy(t + h->len, message, n);
+  t[h->len + n] = '\n';
+  t[h->len + n + 1] = '\0';
+  h->text = t;
+  h->len += n + 1;
+}
+
 static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL;
@@ -117,25 +135,35 @@ static int run(int argc, char **argv) {
   ch_mesh mesh;
   if (ch_mesh_read(base, &mesh, &err)) return cli_fail(&err);
   ch_mesh_report report;
-  /* Quietly first: a face without UV area has no texture to carry, one
-   * without area no normal to displace along, so either is bad input
-   * here (one line), though `chisel info` only reports them. */
-  ch_error quiet = err;
-  quiet.warn = NULL;
-  if (ch_mesh_validate(&mesh, base, &report, &quiet)) {
-    ch_mesh_free(&mesh);
-    return cli_fail(&quiet);
-  }
-  if (report.num_zero_uv_area_faces > 0 || report.num_degenerate_faces > 0) {
+  /* A face without UV area has no texture to carry, one without area no
+   * normal to displace along, so either is bad input here (one line),
+   * though `chisel info` only reports them: the validation's warnings are
+   * held until the mesh has passed. */
+  held_warnings held = {0};
+  ch_error hold = err;
+  hold.warn = hold_warning;
+  hold.warn_user = &held;
+  ch_status vst = ch_mesh_validate(&mesh, base, &report, &hold);
+  if (!vst && (report.num_zero_uv_area_faces > 0 || report.num_degenerate_faces > 0)) {
     int zero_uv = report.num_zero_uv_area_faces > 0;
-    ch_error_set(&err, CH_ERR_INPUT, "%s: face %d has zero %s (%d such faces): %s", base,
-                 (zero_uv ? report.first_zero_uv_area_face : report.first_degenerate_face) + 1,
-                 zero_uv ? "UV area" : "area", zero_uv ? report.num_zero_uv_area_faces : report.num_degenerate_faces,
-                 zero_uv ? "no texture features can be placed on it" : "it has no normal to displace along");
-    ch_mesh_free(&mesh);
-    return cli_fail(&err);
+    vst = ch_error_set(&hold, CH_ERR_INPUT, "%s: face %d has zero %s (%d such faces): %s", base,
+                       (zero_uv ? report.first_zero_uv_area_face : report.first_degenerate_face) + 1,
+                       zero_uv ? "UV area" : "area",
+                       zero_uv ? report.num_zero_uv_area_faces : report.num_degenerate_faces,
+                       zero_uv ? "no texture features can be placed on it" : "it has no normal to displace along");
   }
-  ch_mesh_validate(&mesh, base, &report, &err); /* now with its warnings */
+  if (vst) {
+    free(held.text);
+    ch_mesh_free(&mesh);
+    return cli_fail(&hold);
+  }
+  for (char *line = held.text; line && *line;) { /* the warnings, now */
+    char *end = strchr(line, '\n');
+    *end = '\0';
+    ch_warn(&err, "%s", line);
+    line = end + 1;
+  }
+  free(held.text);
   ch_curve_set set;
   if (ch_curves_read_svg(svg, &set, &err)) {
     ch_mesh_free(&mesh);

@@ -296,6 +296,18 @@ static void test_accuracy_vs_uniform(void) {
   }
 }
 
+/* The exact normal (-h_u, -h_v, 1) / |.| of the planar base's S at (x, y),
+ * by central differences (the points tested are off every crease). */
+static void exact_normal(const ch_height *h, double x, double y, double n[3]) {
+  const double e = 1e-7;
+  double hu = (ch_height_eval(h, x + e, y) - ch_height_eval(h, x - e, y)) / (2 * e);
+  double hv = (ch_height_eval(h, x, y + e) - ch_height_eval(h, x, y - e)) / (2 * e);
+  double len = sqrt(1 + hu * hu + hv * hv);
+  n[0] = -hu / len;
+  n[1] = -hv / len;
+  n[2] = 1 / len;
+}
+
 /* The worst angle (degrees) between a facet's normal and the exact normal
  * (-h_u, -h_v, 1) at its centroid, over the non-wall triangles whose
  * corners all lie within |t| <= 0.45 of the u groove (off its rims). */
@@ -313,13 +325,10 @@ static double u_groove_worst_normal(const ch_mesh *m, const ch_height *h) {
     n[1] = a[2] * b[0] - a[0] * b[2];
     n[2] = a[0] * b[1] - a[1] * b[0];
     if (n[2] < 0) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-    double x = (p[0][0] + p[1][0] + p[2][0]) / 3, y = (p[0][1] + p[1][1] + p[2][1]) / 3, e = 1e-7;
-    double hv = (ch_height_eval(h, x, y + e) - ch_height_eval(h, x, y - e)) / (2 * e);
-    double hu = (ch_height_eval(h, x + e, y) - ch_height_eval(h, x - e, y)) / (2 * e);
-    double x_[3] = {-hu, -hv, 1.0};
-    double dot = n[0] * x_[0] + n[1] * x_[1] + n[2] * x_[2];
-    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), xn = sqrt(1 + hu * hu + hv * hv);
-    worst = fmax(worst, acos(fmin(1.0, dot / (nn * xn))) * 180.0 / 3.14159265358979323846);
+    double x_[3];
+    exact_normal(h, (p[0][0] + p[1][0] + p[2][0]) / 3, (p[0][1] + p[1][1] + p[2][1]) / 3, x_);
+    double dot = n[0] * x_[0] + n[1] * x_[1] + n[2] * x_[2], nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    worst = fmax(worst, acos(fmin(1.0, dot / nn)) * 180.0 / 3.14159265358979323846);
   }
   return worst;
 }
@@ -346,10 +355,9 @@ static void test_u_lines_follow_normals(void) {
     for (int c = 0; c < out.num_corners; c++) {
       const double *p = pos(&out, c), *vn = &out.normals[3 * (size_t)out.corner_normal[c]];
       if (fabs(p[1] - 0.5) > 0.45 * 0.05 || fabs(p[0] - 0.5) > 0.4) continue;
-      double e = 1e-7;
-      double hv = (ch_height_eval(&s.height, p[0], p[1] + e) - ch_height_eval(&s.height, p[0], p[1] - e)) / (2 * e);
-      double hu = (ch_height_eval(&s.height, p[0] + e, p[1]) - ch_height_eval(&s.height, p[0] - e, p[1])) / (2 * e);
-      double dot = (-hu * vn[0] - hv * vn[1] + vn[2]) / sqrt(1 + hu * hu + hv * hv);
+      double x_[3];
+      exact_normal(&s.height, p[0], p[1], x_);
+      double dot = x_[0] * vn[0] + x_[1] * vn[1] + x_[2] * vn[2];
       worst_vn = fmax(worst_vn, acos(fmin(1.0, dot)) * 180.0 / 3.14159265358979323846);
     }
     printf("  angle step %4.1f deg: worst corner normal error %.2f deg\n", steps[k], worst_vn);
