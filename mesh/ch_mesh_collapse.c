@@ -248,27 +248,17 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
   return collapsed;
 }
 
-/* A face's corners sorted, and the face, for finding pairs. */
-typedef struct face_key {
-  int v[3];
-  int face;
-} face_key;
-
-static int cmp_face_key(const void *x, const void *y) {
-  const face_key *a = x, *b = y;
-  for (int k = 0; k < 3; k++)
-    if (a->v[k] != b->v[k]) return a->v[k] < b->v[k] ? -1 : 1;
-  return a->face < b->face ? -1 : a->face > b->face;
-}
-
 static int cmp_u64(const void *x, const void *y) {
   uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
   return a < b ? -1 : a > b;
 }
 
-/* How many faces use the edge u-v: a count in the sorted list of edges. */
-static long edge_uses(const uint64_t *keys, size_t n, int u, int v) {
-  uint64_t key = u < v ? (uint64_t)u << 32 | (uint64_t)v : (uint64_t)v << 32 | (uint64_t)u;
+static uint64_t edge_key(int u, int v) {
+  return u < v ? (uint64_t)u << 32 | (uint64_t)v : (uint64_t)v << 32 | (uint64_t)u;
+}
+
+/* Index of key in the sorted list, or -1. */
+static long find_key(const uint64_t *keys, size_t n, uint64_t key) {
   size_t lo = 0, hi = n;
   while (lo < hi) {
     size_t mid = (lo + hi) / 2;
@@ -277,64 +267,99 @@ static long edge_uses(const uint64_t *keys, size_t n, int u, int v) {
     else
       hi = mid;
   }
-  size_t end = lo;
-  while (end < n && keys[end] == key) end++;
-  return (long)(end - lo);
+  return lo < n && keys[lo] == key ? (long)lo : -1;
+}
+
+/* Whether face b runs the corners of face a backwards. */
+static int reversed(const int *a, const int *b) {
+  int r = 0;
+  while (r < 3 && b[r] != a[0]) r++;
+  return r < 3 && b[(r + 1) % 3] == a[2] && b[(r + 2) % 3] == a[1];
 }
 
 int ch_mesh_remove_pillows(ch_mesh *m) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
-  int nf = m->num_faces;
-  size_t ne = 3 * (size_t)nf;
-  face_key *k = malloc((size_t)nf * sizeof *k);
-  unsigned char *drop = calloc((size_t)nf, 1);
-  uint64_t *keys = malloc(ne * sizeof *keys);
-  if (!k || !drop || !keys) {
-    free(k);
-    free(drop);
-    free(keys);
-    return -1;
-  }
-  for (size_t c = 0; c < ne; c++) {
-    uint64_t u = (uint64_t)m->corner_position[c], v = (uint64_t)m->corner_position[c / 3 * 3 + (c % 3 + 1) % 3];
-    keys[c] = u < v ? u << 32 | v : v << 32 | u;
-  }
-  qsort(keys, ne, sizeof *keys, cmp_u64);
+  int nf = m->num_faces, np = m->num_positions;
+  const int *cp = m->corner_position;
+  /* Faces by their lowest corner (a counting sort): the two faces of a
+   * pillow share it, and few faces do, so pairs are found in linear time. */
+  int *start = calloc((size_t)np + 2, sizeof *start), *order = malloc((size_t)nf * sizeof *order);
+  int(*pairs)[2] = NULL;
+  size_t npairs = 0, cap_pairs = 0;
+  uint64_t *keys = NULL;
+  long *uses = NULL;
+  unsigned char *drop = NULL;
+  int removed = -1;
+  if (!start || !order) goto done;
   for (int f = 0; f < nf; f++) {
-    int *v = k[f].v;
-    for (int i = 0; i < 3; i++) v[i] = m->corner_position[3 * (size_t)f + i];
-    if (v[0] > v[1]) { int t = v[0]; v[0] = v[1]; v[1] = t; }
-    if (v[1] > v[2]) { int t = v[1]; v[1] = v[2]; v[2] = t; }
-    if (v[0] > v[1]) { int t = v[0]; v[0] = v[1]; v[1] = t; }
-    k[f].face = f;
+    const int *c = &cp[3 * (size_t)f];
+    start[(c[0] < c[1] ? (c[0] < c[2] ? c[0] : c[2]) : (c[1] < c[2] ? c[1] : c[2])) + 2]++;
   }
-  qsort(k, (size_t)nf, sizeof *k, cmp_face_key);
-  int removed = 0;
-  for (int i = 0; i + 1 < nf;) {
-    int j = i + 1;
-    while (j < nf && !memcmp(k[j].v, k[i].v, sizeof k[i].v)) j++;
-    if (j - i == 2) { /* exactly two faces on the same corners */
-      const int *a = &m->corner_position[3 * (size_t)k[i].face], *b = &m->corner_position[3 * (size_t)k[i + 1].face];
-      /* Opposite orientation: b runs a backwards. */
-      int r = 0;
-      while (r < 3 && b[r] != a[0]) r++;
-      /* Removing the pair takes two uses from each of its edges: only if
-       * none is left with one (a hole). */
-      int safe = 1;
-      for (int e = 0; e < 3; e++) {
-        long u = edge_uses(keys, ne, a[e], a[(e + 1) % 3]);
-        safe &= u == 2 || u >= 4;
+  for (int v = 0; v < np; v++) start[v + 2] += start[v + 1];
+  for (int f = 0; f < nf; f++) { /* faces in order within a bucket */
+    const int *c = &cp[3 * (size_t)f];
+    order[start[(c[0] < c[1] ? (c[0] < c[2] ? c[0] : c[2]) : (c[1] < c[2] ? c[1] : c[2])) + 1]++] = f;
+  }
+  for (int v = 0; v < np; v++)
+    for (int i = start[v]; i < start[v + 1]; i++) {
+      int f = order[i], twins = 0, g = -1;
+      for (int j = start[v]; j < start[v + 1]; j++)
+        if (j != i && same_corners(&cp[3 * (size_t)f], &cp[3 * (size_t)order[j]])) {
+          twins++;
+          g = order[j];
+        }
+      /* exactly two faces on the same corners, opposite: a pillow (each pair once) */
+      if (twins != 1 || g < f || !reversed(&cp[3 * (size_t)f], &cp[3 * (size_t)g])) continue;
+      if (npairs == cap_pairs) {
+        size_t c = cap_pairs ? 2 * cap_pairs : 64;
+        void *p = realloc(pairs, c * sizeof *pairs);
+        if (!p) goto done;
+        pairs = p;
+        cap_pairs = c;
       }
-      if (r < 3 && b[(r + 1) % 3] == a[2] && safe) {
-        drop[k[i].face] = drop[k[i + 1].face] = 1;
-        removed += 2;
-      }
+      pairs[npairs][0] = f;
+      pairs[npairs][1] = g;
+      npairs++;
     }
-    i = j;
+  removed = 0;
+  if (!npairs) goto done;
+  /* Removing a pair takes two uses from each of its edges: only if none is
+   * left with one (a hole). Count the uses of just those edges. */
+  removed = -1;
+  size_t nk = 3 * npairs;
+  keys = malloc(nk * sizeof *keys);
+  uses = calloc(nk, sizeof *uses);
+  drop = calloc((size_t)nf, 1);
+  if (!keys || !uses || !drop) goto done;
+  for (size_t i = 0; i < npairs; i++)
+    for (int e = 0; e < 3; e++) {
+      const int *a = &cp[3 * (size_t)pairs[i][0]];
+      keys[3 * i + e] = edge_key(a[e], a[(e + 1) % 3]);
+    }
+  qsort(keys, nk, sizeof *keys, cmp_u64);
+  for (size_t c = 0; c < 3 * (size_t)nf; c++) {
+    long at = find_key(keys, nk, edge_key(cp[c], cp[c / 3 * 3 + (c % 3 + 1) % 3]));
+    if (at >= 0) uses[at]++;
   }
-  free(k);
-  free(keys);
+  removed = 0;
+  for (size_t i = 0; i < npairs; i++) {
+    const int *a = &cp[3 * (size_t)pairs[i][0]];
+    int safe = 1;
+    for (int e = 0; e < 3; e++) {
+      long u = uses[find_key(keys, nk, edge_key(a[e], a[(e + 1) % 3]))];
+      safe &= u == 2 || u >= 4;
+    }
+    if (!safe) continue;
+    drop[pairs[i][0]] = drop[pairs[i][1]] = 1;
+    removed += 2;
+  }
   if (removed) drop_faces(m, drop);
+done:
+  free(start);
+  free(order);
+  free(pairs);
+  free(keys);
+  free(uses);
   free(drop);
   return removed;
 }
