@@ -87,14 +87,16 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
 
 /* Tessellates surface and embeds the features so that the output lands
  * within 4% of target_triangles where the base mesh allows: what the cut
- * adds grows like the number of edges the feature lines cross, about
- * a base^p with p near 1/2; pilot runs at 1/64 and 1/16 of the target
- * measure a and p, the next run uses the base count that model predicts,
- * and more follow the secant through the last two runs. Where the model
- * says the u lines would take more than 7/8 of the target, their angle
- * step is coarsened (by 1.5, up to 4 times) and the pilots rerun. The run
- * closest to the target is kept: tess receives its tessellation (free it
- * with ch_tess_free), out its embedded mesh; passes the number of runs. */
+ * adds grows like the number of edges the feature lines cross, so like
+ * sqrt(base), plus what does not grow with the base (refinement at
+ * junctions and ends, the rims' slices); pilot runs at 1/64 and 1/16 of
+ * the target measure both terms, the next run uses the base count that
+ * model predicts, and more follow the secant through the last two runs.
+ * Where the model says the u lines would take more than 7/8 of the
+ * target, their angle step is coarsened (by 1.5, up to 4 times) and the
+ * pilots rerun. The run closest to the target is kept: tess receives its
+ * tessellation (free it with ch_tess_free), out its embedded mesh; passes
+ * the number of runs. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);
