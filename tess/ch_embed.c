@@ -39,6 +39,9 @@ typedef struct labeler {
    * label 0 throughout. Cells cover [0,1]^2; outside is never quiet. */
   unsigned char *busy;
   int mask_res;
+  double *chord_tol;   /* per curve: how far h along a chord may leave the
+                          mesh's (a groove's line curves away from its chords) */
+  double wall_tol;     /* a jump of h above this is a wall */
   double junction_size; /* triangles holding a junction are refined to this */
   double cap_angle;     /* around an open end, edges span at most this angle */
 } labeler;
@@ -47,6 +50,7 @@ static void labeler_free(labeler *lb) {
   free(lb->busy);
   free(lb->crease_start);
   free(lb->crease_t);
+  free(lb->chord_tol);
   free(lb->step_boxes);
   ch_grid_free(&lb->step_grid);
   memset(lb, 0, sizeof *lb);
@@ -132,8 +136,9 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
   int nc = set->num_curves;
   lb->crease_start = malloc((size_t)(nc + 1) * sizeof *lb->crease_start);
   lb->crease_t = malloc(((size_t)nc * MAX_LINES + 1) * sizeof *lb->crease_t);
+  lb->chord_tol = calloc((size_t)(nc > 0 ? nc : 1), sizeof *lb->chord_tol);
   lb->step_boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *lb->step_boxes);
-  if (!lb->crease_start || !lb->crease_t || !lb->step_boxes) {
+  if (!lb->crease_start || !lb->crease_t || !lb->chord_tol || !lb->step_boxes) {
     labeler_free(lb);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
   }
@@ -150,6 +155,15 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
         tol = fmin(0.01, fmax(1e-4, 0.5 * r * r));
       }
       const ch_curve *cv = &set->curves[c];
+      {
+        /* Along the lines: chords within 1% of the depth where edges are
+         * under a quarter of the groove's width (130k triangles over the
+         * bundled sets), fast coarser beyond (like (e/w)^4): at low
+         * densities refining every curved line to 1% would take more
+         * triangles than a small target holds. */
+        double r = mean_edge / cv->width / 0.25;
+        lb->chord_tol[c] = 0.01 * fmax(1.0, r * r * r * r) * fabs(cv->depth);
+      }
       double slope = fabs(cv->depth) / (cv->width * object_scale);
       /* Near the rim the lines crowd where P is vertical: down to 1/50 of
        * the mean edge (about 8e-5 UV at 130k triangles, 2e-5 at 2.1M). */
@@ -935,6 +949,7 @@ typedef struct bnode {
   int edge;                 /* local edge holding a crossing */
   uint64_t lprev, lnext;    /* pieces before and after it (a corner: its own, twice) */
   int copy_prev, copy_next; /* output vertices in those pieces */
+  double hprev, hnext;      /* h just inside each */
   double uv[2], st[2];
   int pair;                 /* the other end of its chord, -1 */
 } bnode;
@@ -951,6 +966,7 @@ static int gather_nodes(const work *w, int t, bnode *nodes) {
     c->edge = -1;
     c->lprev = c->lnext = v->label;
     c->copy_prev = c->copy_next = T->v[k];
+    c->hprev = c->hnext = v->h;
     memcpy(c->uv, T->uv[k], sizeof c->uv);
     memcpy(c->st, T->st[k], sizeof c->st);
     c->pair = -1;
@@ -967,6 +983,8 @@ static int gather_nodes(const work *w, int t, bnode *nodes) {
       b->lnext = forward ? x->lb : x->la;
       b->copy_prev = forward ? x->copy_a : x->copy_b;
       b->copy_next = forward ? x->copy_b : x->copy_a;
+      b->hprev = forward ? x->ha : x->hb;
+      b->hnext = forward ? x->hb : x->ha;
       lerp2(T->uv[k], T->uv[(k + 1) % 3], f, b->uv);
       lerp2(T->st[k], T->st[(k + 1) % 3], f, b->st);
       b->pair = -1;
@@ -1331,6 +1349,36 @@ static int needs_refinement(const labeler *lb, const work *w, int t) {
         longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
       return longest > lb->junction_size;
     }
+  /* A groove's lines curve away from the chords that follow them (by
+   * len^2 / 8r): where h at a chord's middle leaves the mesh's h there
+   * (the mean of its ends) by more than the groove's tolerance, the chords
+   * are too long for the curve (tight circles, the curls of a scroll).
+   * Walls are not measured so: h jumps across them. */
+  for (int i = 0; i < m; i++) {
+    const bnode *p = &nodes[i];
+    if (p->corner >= 0 || p->pair <= i) continue;
+    const bnode *q = &nodes[p->pair];
+    if (!(fabs(p->hprev - p->hnext) <= lb->wall_tol && fabs(q->hprev - q->hnext) <= lb->wall_tol)) continue;
+    uint64_t g = (p->lprev >> 32) ? p->lprev >> 32 : p->lnext >> 32;
+    if (!g) continue; /* between step pieces: h is smooth across */
+    int c = (int)(g >> 8) - 1;
+    const ch_curve *cv = &lb->set->curves[c];
+    double mid[2] = {0.5 * (p->uv[0] + q->uv[0]), 0.5 * (p->uv[1] + q->uv[1])}, err;
+    if (cv->profile.kind == CH_PROFILE_U) {
+      /* A u profile is vertical at its rims, where the least sagitta
+       * would count as a large error of h over a sliver of no area: there
+       * the chords keep within the tolerance (in units of the width) of
+       * the curved line they follow, measured by t at the chord's middle
+       * against t at its ends. */
+      double tp = groove_distance(lb, c, p->uv) / cv->width, tq = groove_distance(lb, c, q->uv) / cv->width;
+      double tm = groove_distance(lb, c, mid) / cv->width;
+      err = fabs(tm - 0.5 * (tp + tq)) * fabs(cv->depth);
+    } else {
+      double mesh_h = 0.25 * (p->hprev + p->hnext + q->hprev + q->hnext);
+      err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) - mesh_h);
+    }
+    if (err > lb->chord_tol[c]) return 1;
+  }
   double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
   uint64_t l = label_at(lb, c);
   for (int i = 0; i < m; i++)
@@ -1554,6 +1602,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     }
   }
   double tol = 1e-5 * scale + 1e-12; /* a jump above this is a wall */
+  lb.wall_tol = tol;
 
   /* Local refinement until every triangle's crossings pair into chords. */
   int labelled = 0;
