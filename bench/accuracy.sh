@@ -11,6 +11,7 @@
 #
 # Usage: bench/accuracy.sh [BUILD_DIR] [SIZES...]   (default: build 130000 520000 2100000)
 # Prints a markdown table and writes it, with the JSON lines, under out/accuracy/.
+# CHISEL_NO_BLENDER=1 leaves Blender out even where it is installed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -23,7 +24,7 @@ mkdir -p "$dir"
 json="$dir/accuracy.jsonl"
 : >"$json"
 have_blender=0
-command -v blender >/dev/null && have_blender=1
+[ -z "${CHISEL_NO_BLENDER:-}" ] && command -v blender >/dev/null && have_blender=1
 for svg in models/curves/*.svg; do
   name=$(basename "$svg" .svg)
   if [ $have_blender = 1 ]; then

@@ -24,7 +24,7 @@ dir=out/speed
 mkdir -p "$dir"
 now() { date +%s.%N; }
 have_blender=0
-command -v blender >/dev/null && have_blender=1
+[ -z "${CHISEL_NO_BLENDER:-}" ] && command -v blender >/dev/null && have_blender=1
 if [ $have_blender = 1 ]; then
   "$build/chisel" sample "$svg" --res 2048 -o "$dir/h.exr" 2>/dev/null
   read -r strength midlevel < <(python3 bench/blender/height_to_y.py "$dir/h.exr" "$dir/h_y.exr")
