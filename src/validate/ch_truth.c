@@ -1,0 +1,710 @@
+/* The true surface of SPEC §3 over the planar base, intersected exactly
+ * (see ch_truth.h for the method and why). The cell walk and bisection
+ * follow the path-based-grooves paper §5.1 (Algorithm 1: skip texels whose
+ * maximum height the ray passes over), with conservative bounds instead of
+ * stored per-texel maxima, and bisection instead of per-profile facets so
+ * that any profile, crossing and step is handled by the same code. */
+#include "ch_truth.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_bezier.h"
+#include "ch_grid.h"
+#include "ch_math.h"
+
+/* A min/max pyramid of the step texels' values (each texel: its own value
+ * and, next to a curve, the value across it, which the blend may use). */
+typedef struct step_pyramid {
+  int levels;
+  int w[24], h[24];
+  float *lo[24], *hi[24];
+} step_pyramid;
+
+struct ch_truth {
+  const ch_height *height;
+  const ch_curve_set *set;
+  int grid, tiles;
+  double tol, cell, radius; /* cell size, half its diagonal */
+  double *lo, *hi;          /* per cell, row-major (row = v index) */
+  double *tile_lo, *tile_hi;
+  double zmin, zmax;
+  ch_grid seg_grid;         /* groove segments grown by w/2 + 2 radius */
+  double (*seg_boxes)[4];
+  unsigned char *symmetric; /* per curve: P(t) = P(-t) */
+  step_pyramid steps;
+};
+
+/* ---- profiles ---- */
+
+static double profile_slope(const ch_profile *pr, double t) {
+  double a = fabs(t);
+  switch (pr->kind) {
+  case CH_PROFILE_V: return a < 0.5 ? (t < 0.0 ? -2.0 : 2.0) : 0.0;
+  case CH_PROFILE_U: return a < 0.5 ? 4.0 * t / sqrt(1.0 - 4.0 * t * t) : 0.0;
+  case CH_PROFILE_BOX: return 0.0;
+  case CH_PROFILE_RIDGE: return a < 0.5 ? (t < 0.0 ? 2.0 : -2.0) : 0.0;
+  case CH_PROFILE_BEVEL: return t > 0.0 && t < 0.5 ? 2.0 : 0.0;
+  case CH_PROFILE_CUSTOM:
+    /* The piece holding t (the one to the right at a point). */
+    for (int i = 0; i + 1 < pr->num_points; i++)
+      if (t >= pr->t[i] && t < pr->t[i + 1]) return (pr->h[i + 1] - pr->h[i]) / (pr->t[i + 1] - pr->t[i]);
+    return 0.0;
+  }
+  return 0.0;
+}
+
+/* The range of P over [a, b]: its ends, 0 (the extremum of u), and every
+ * break point inside with both one-sided values (walls jump there). */
+static void profile_range(const ch_profile *pr, double a, double b, double *lo, double *hi) {
+  double creases[CH_PROFILE_MAX_POINTS + 4];
+  int n = ch_profile_creases(pr, creases, CH_PROFILE_MAX_POINTS + 2);
+  creases[n++] = 0.0;
+  double pa = ch_profile_eval(pr, a), pb = ch_profile_eval(pr, b);
+  double l = fmin(pa, pb), h = fmax(pa, pb);
+  const double eps = 1e-12;
+  for (int k = 0; k < n; k++) {
+    double c = creases[k];
+    if (!(c >= a && c <= b)) continue;
+    double ts[3] = {c, fmax(a, c - eps), fmin(b, c + eps)};
+    for (int j = 0; j < 3; j++) {
+      double p = ch_profile_eval(pr, ts[j]);
+      l = fmin(l, p);
+      h = fmax(h, p);
+    }
+  }
+  *lo = l;
+  *hi = h;
+}
+
+static int profile_is_symmetric(const ch_profile *pr) {
+  if (pr->kind != CH_PROFILE_CUSTOM) return pr->kind != CH_PROFILE_BEVEL;
+  for (int k = 0; k <= 1000; k++) {
+    double t = 0.5 * k / 1000.0;
+    if (fabs(ch_profile_eval(pr, t) - ch_profile_eval(pr, -t)) > 1e-12) return 0;
+  }
+  for (int i = 0; i < pr->num_points; i++)
+    if (fabs(ch_profile_eval(pr, pr->t[i]) - ch_profile_eval(pr, -pr->t[i])) > 1e-12) return 0;
+  return 1;
+}
+
+/* ---- step bounds ---- */
+
+static void pyramid_free(step_pyramid *p) {
+  for (int l = 0; l < p->levels; l++) {
+    free(p->lo[l]);
+    free(p->hi[l]);
+  }
+  memset(p, 0, sizeof *p);
+}
+
+static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) {
+  const ch_samples *s = &d->samples;
+  int W = s->width, H = s->height;
+  memset(p, 0, sizeof *p);
+  p->w[0] = W;
+  p->h[0] = H;
+  p->lo[0] = malloc((size_t)W * H * sizeof(float));
+  p->hi[0] = malloc((size_t)W * H * sizeof(float));
+  p->levels = 1;
+  if (!p->lo[0] || !p->hi[0]) goto nomem;
+  for (size_t i = 0; i < (size_t)W * H; i++) {
+    float a = d->h[i], b = s->curve[i] >= 0 ? s->value[2 * i + 1] : a;
+    p->lo[0][i] = fminf(a, b);
+    p->hi[0][i] = fmaxf(a, b);
+  }
+  while (p->w[p->levels - 1] > 1 || p->h[p->levels - 1] > 1) {
+    int l = p->levels, pw = p->w[l - 1], ph = p->h[l - 1];
+    int w = (pw + 1) / 2, h = (ph + 1) / 2;
+    p->w[l] = w;
+    p->h[l] = h;
+    p->lo[l] = malloc((size_t)w * h * sizeof(float));
+    p->hi[l] = malloc((size_t)w * h * sizeof(float));
+    p->levels++;
+    if (!p->lo[l] || !p->hi[l]) goto nomem;
+    for (int y = 0; y < h; y++)
+      for (int x = 0; x < w; x++) {
+        float lo = INFINITY, hi = -INFINITY;
+        for (int j = 0; j < 2; j++)
+          for (int i = 0; i < 2; i++) {
+            int xx = 2 * x + i < pw ? 2 * x + i : pw - 1, yy = 2 * y + j < ph ? 2 * y + j : ph - 1;
+            lo = fminf(lo, p->lo[l - 1][(size_t)yy * pw + xx]);
+            hi = fmaxf(hi, p->hi[l - 1][(size_t)yy * pw + xx]);
+          }
+        p->lo[l][(size_t)y * w + x] = lo;
+        p->hi[l][(size_t)y * w + x] = hi;
+      }
+  }
+  return CH_OK;
+nomem:
+  pyramid_free(p);
+  return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the truth's step bounds");
+}
+
+static int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x; }
+
+/* Bounds of h_step over the UV box: the texels any point of it blends
+ * (ch_recon_eval's bilinear cell, clamped the same way). */
+static void step_bounds(const ch_truth *T, const double box[4], double *lo, double *hi) {
+  const ch_samples *s = &T->height->dci.samples;
+  const step_pyramid *p = &T->steps;
+  int W = s->width, H = s->height;
+  double gx0 = (box[0] - s->rect[0]) / s->texel[0] - 0.5, gx1 = (box[2] - s->rect[0]) / s->texel[0] - 0.5;
+  double gy0 = (s->rect[3] - box[3]) / s->texel[1] - 0.5, gy1 = (s->rect[3] - box[1]) / s->texel[1] - 0.5;
+  int xa = clampi((int)floor(ch_clamp(gx0, 0, W - 1)), 0, W > 1 ? W - 2 : 0);
+  int xb = clampi((int)floor(ch_clamp(gx1, 0, W - 1)) + 1, 0, W - 1);
+  int ya = clampi((int)floor(ch_clamp(gy0, 0, H - 1)), 0, H > 1 ? H - 2 : 0);
+  int yb = clampi((int)floor(ch_clamp(gy1, 0, H - 1)) + 1, 0, H - 1);
+  int l = 0;
+  while (l + 1 < p->levels && ((xb >> l) - (xa >> l) > 1 || (yb >> l) - (ya >> l) > 1)) l++;
+  float a = INFINITY, b = -INFINITY;
+  for (int y = ya >> l; y <= yb >> l; y++)
+    for (int x = xa >> l; x <= xb >> l; x++) {
+      a = fminf(a, p->lo[l][(size_t)y * p->w[l] + x]);
+      b = fmaxf(b, p->hi[l][(size_t)y * p->w[l] + x]);
+    }
+  *lo = a;
+  *hi = b;
+}
+
+/* ---- bounds of h over a disk ---- */
+
+typedef struct disk_bound {
+  double lo, hi;
+  int constant; /* no groove reaches the disk and h_step is one value */
+} disk_bound;
+
+/* items: the groove segments listed for the disk's cell. */
+static void bound_disk(const ch_truth *T, const int *items, int n, const double c[2], double r, disk_bound *out) {
+  const ch_curve_set *set = T->set;
+  double glo = 0.0, ghi = 0.0;
+  double min_lo = INFINITY, max_lo = -INFINITY, min_hi = INFINITY, max_hi = -INFINITY;
+  int touched = 0;
+  for (int k = 0; k < n;) {
+    int curve = set->segments[items[k]].curve;
+    double best = INFINITY, best_t = 0.0;
+    int best_seg = -1, first = k;
+    for (; k < n && set->segments[items[k]].curve == curve; k++) {
+      const double *b = T->seg_boxes[items[k]];
+      if (c[0] < b[0] || c[0] > b[2] || c[1] < b[1] || c[1] > b[3]) continue;
+      double t, d2 = ch_bezier_closest(set->segments[items[k]].p, set->segments[items[k]].is_line, c, &t);
+      if (d2 < best) best = d2, best_t = t, best_seg = items[k];
+    }
+    if (best_seg < 0) continue;
+    const ch_curve *cv = &set->curves[curve];
+    double D = sqrt(best), w = cv->width, rr = r + 1e-12;
+    if (D - rr >= 0.5 * w) continue; /* the profile is 0 on the whole disk */
+    touched = 1;
+    int both = D <= rr;
+    double plo, phi;
+    if (!both && !T->symmetric[curve]) {
+      /* Beyond an open end the side flips off the curve (SPEC §3's cap). */
+      for (int j = first; j < k && !both; j++) {
+        const ch_segment *sg = &set->segments[items[j]];
+        for (int e = 0; e < 2; e++) {
+          if ((e == 0 ? sg->prev : sg->next) >= 0) continue;
+          const double *E = sg->p[e == 0 ? 0 : 2];
+          if (hypot(c[0] - E[0], c[1] - E[1]) <= D + 2.0 * rr) both = 1;
+        }
+      }
+    }
+    if (D <= rr) {
+      profile_range(&cv->profile, -(D + rr) / w, (D + rr) / w, &plo, &phi);
+    } else if (both) {
+      double l1, h1, l2, h2;
+      profile_range(&cv->profile, (D - rr) / w, (D + rr) / w, &l1, &h1);
+      profile_range(&cv->profile, -(D + rr) / w, -(D - rr) / w, &l2, &h2);
+      plo = fmin(l1, l2);
+      phi = fmax(h1, h2);
+    } else {
+      int side = ch_curve_side(set, best_seg, best_t, c);
+      if (side > 0)
+        profile_range(&cv->profile, (D - rr) / w, (D + rr) / w, &plo, &phi);
+      else
+        profile_range(&cv->profile, -(D + rr) / w, -(D - rr) / w, &plo, &phi);
+    }
+    double g0 = cv->depth * plo, g1 = cv->depth * phi, slack = 1e-9 * fabs(cv->depth);
+    double l = fmin(g0, g1) - slack, h = fmax(g0, g1) + slack;
+    min_lo = fmin(min_lo, l), max_lo = fmax(max_lo, l);
+    min_hi = fmin(min_hi, h), max_hi = fmax(max_hi, h);
+  }
+  /* The CSG rule F(g) = min g if some g < 0, else max(0, max g) is
+   * non-decreasing in every g_i, so over the box of ranges it lies in
+   * [F(lows), F(highs)]. */
+  if (touched) {
+    glo = min_lo < 0.0 ? min_lo : fmax(0.0, max_lo);
+    ghi = min_hi < 0.0 ? min_hi : fmax(0.0, max_hi);
+  }
+  double slo = 0.0, shi = 0.0;
+  if (T->height->has_steps) {
+    double box[4] = {c[0] - r, c[1] - r, c[0] + r, c[1] + r};
+    step_bounds(T, box, &slo, &shi);
+  }
+  out->constant = !touched && slo == shi;
+  out->lo = glo + slo - (out->constant ? 0.0 : 1e-12);
+  out->hi = ghi + shi + (out->constant ? 0.0 : 1e-12);
+}
+
+/* The groove segments that may reach cell (i, j) (see bound_disk). */
+static int cell_items(const ch_truth *T, int i, int j, const int **items, double centre[2]) {
+  centre[0] = (i + 0.5) * T->cell;
+  centre[1] = (j + 0.5) * T->cell;
+  return ch_grid_query(&T->seg_grid, centre[0], centre[1], items);
+}
+
+/* ---- creation ---- */
+
+ch_status ch_truth_create(const ch_height *height, const ch_truth_desc *desc, ch_truth **out, ch_error *err) {
+  *out = NULL;
+  int G = desc && desc->grid > 0 ? desc->grid : 512;
+  if (G > 16384 || G % CH_TRUTH_TILE)
+    return ch_error_set(err, CH_ERR_INPUT, "truth grid %d: must be a multiple of %d up to 16384", G, CH_TRUTH_TILE);
+  ch_truth *T = calloc(1, sizeof *T);
+  if (!T) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the truth");
+  const ch_curve_set *set = height->set;
+  T->height = height;
+  T->set = set;
+  T->grid = G;
+  T->tiles = G / CH_TRUTH_TILE;
+  T->tol = desc && desc->tolerance > 0.0 ? desc->tolerance : 1e-9;
+  T->cell = 1.0 / G;
+  T->radius = 0.5 * sqrt(2.0) * T->cell;
+  ch_status st = CH_OK;
+  T->lo = malloc((size_t)G * G * sizeof *T->lo);
+  T->hi = malloc((size_t)G * G * sizeof *T->hi);
+  T->tile_lo = malloc((size_t)T->tiles * T->tiles * sizeof *T->tile_lo);
+  T->tile_hi = malloc((size_t)T->tiles * T->tiles * sizeof *T->tile_hi);
+  T->seg_boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *T->seg_boxes);
+  T->symmetric = calloc((size_t)(set->num_curves > 0 ? set->num_curves : 1), 1);
+  if (!T->lo || !T->hi || !T->tile_lo || !T->tile_hi || !T->seg_boxes || !T->symmetric) {
+    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the truth's %d x %d grid", G, G);
+    goto fail;
+  }
+  for (int c = 0; c < set->num_curves; c++) T->symmetric[c] = (unsigned char)profile_is_symmetric(&set->curves[c].profile);
+  for (int i = 0; i < set->num_segments; i++) {
+    const ch_segment *s = &set->segments[i];
+    const ch_curve *c = &set->curves[s->curve];
+    if (c->kind != CH_CURVE_GROOVE) {
+      T->seg_boxes[i][0] = T->seg_boxes[i][1] = 1.0; /* empty */
+      T->seg_boxes[i][2] = T->seg_boxes[i][3] = 0.0;
+    } else {
+      ch_segment_box(s, 0.5 * c->width + 2.0 * T->radius, T->seg_boxes[i]);
+    }
+  }
+  st = ch_grid_build(&T->seg_grid, set->num_segments, (const double(*)[4])T->seg_boxes, err);
+  if (st) goto fail;
+  if (height->has_steps && (st = pyramid_build(&T->steps, &height->dci, err))) goto fail;
+#pragma omp parallel for schedule(dynamic, 8)
+  for (int j = 0; j < G; j++)
+    for (int i = 0; i < G; i++) {
+      const int *items = NULL;
+      double c[2];
+      int n = cell_items(T, i, j, &items, c);
+      disk_bound b;
+      bound_disk(T, items, n, c, T->radius, &b);
+      T->lo[(size_t)j * G + i] = b.lo;
+      T->hi[(size_t)j * G + i] = b.hi;
+    }
+  T->zmin = INFINITY;
+  T->zmax = -INFINITY;
+  for (int tj = 0; tj < T->tiles; tj++)
+    for (int ti = 0; ti < T->tiles; ti++) {
+      double lo = INFINITY, hi = -INFINITY;
+      for (int j = tj * CH_TRUTH_TILE; j < (tj + 1) * CH_TRUTH_TILE; j++)
+        for (int i = ti * CH_TRUTH_TILE; i < (ti + 1) * CH_TRUTH_TILE; i++) {
+          lo = fmin(lo, T->lo[(size_t)j * G + i]);
+          hi = fmax(hi, T->hi[(size_t)j * G + i]);
+        }
+      T->tile_lo[tj * T->tiles + ti] = lo;
+      T->tile_hi[tj * T->tiles + ti] = hi;
+      T->zmin = fmin(T->zmin, lo);
+      T->zmax = fmax(T->zmax, hi);
+    }
+  *out = T;
+  return CH_OK;
+fail:
+  ch_truth_destroy(T);
+  return st;
+}
+
+void ch_truth_destroy(ch_truth *T) {
+  if (!T) return;
+  free(T->lo);
+  free(T->hi);
+  free(T->tile_lo);
+  free(T->tile_hi);
+  free(T->seg_boxes);
+  free(T->symmetric);
+  ch_grid_free(&T->seg_grid);
+  pyramid_free(&T->steps);
+  free(T);
+}
+
+int ch_truth_grid(const ch_truth *T) { return T->grid; }
+int ch_truth_tiles(const ch_truth *T) { return T->tiles; }
+
+void ch_truth_tile_bounds(const ch_truth *T, int tile, double box[6]) {
+  if (tile < 0) {
+    double b[6] = {0.0, 0.0, T->zmin, 1.0, 1.0, T->zmax};
+    memcpy(box, b, sizeof b);
+    return;
+  }
+  int ti = tile % T->tiles, tj = tile / T->tiles;
+  double s = (double)CH_TRUTH_TILE / T->grid;
+  box[0] = ti * s;
+  box[1] = tj * s;
+  box[2] = T->tile_lo[tile];
+  box[3] = (ti + 1) * s;
+  box[4] = (tj + 1) * s;
+  box[5] = T->tile_hi[tile];
+}
+
+double ch_truth_height(const ch_truth *T, double u, double v) { return ch_height_eval(T->height, u, v); }
+
+/* ---- structure at a point ---- */
+
+static double step_value(const ch_truth *T, double u, double v, int *curve) {
+  if (!T->height->has_steps) {
+    if (curve) *curve = -1;
+    return 0.0;
+  }
+  ch_recon_sample rs;
+  ch_recon_eval(&T->height->recon, T->height->step_method, u, v, 0.0, &rs);
+  if (curve) *curve = rs.distance < 1e-4 ? rs.curve : -1;
+  return rs.value;
+}
+
+/* The closest point of groove `curve` to q among the segments the groove
+ * field lists at q (q is within its half width, so the closest is there). */
+static int groove_closest(const ch_truth *T, int curve, const double q[2], int *seg, double *t, double cp[2]) {
+  const ch_groove_field *f = &T->height->grooves;
+  const int *items;
+  int n = ch_grid_query(&f->grid, q[0], q[1], &items);
+  double best = INFINITY;
+  *seg = -1;
+  for (int k = 0; k < n; k++) {
+    const ch_segment *s = &T->set->segments[items[k]];
+    if (s->curve != curve) continue;
+    double tt, d2 = ch_bezier_closest(s->p, s->is_line, q, &tt);
+    if (d2 < best) best = d2, *seg = items[k], *t = tt;
+  }
+  if (*seg < 0) {
+    ch_curve_point p;
+    ch_curve_closest(T->set, curve, q, &p);
+    *seg = p.segment;
+    *t = p.t;
+  }
+  ch_segment_point(&T->set->segments[*seg], *t, cp);
+  return *seg;
+}
+
+/* The unit UV direction across curve `curve` at q (away from it): radial
+ * from the closest point, or the left normal where q is on the curve. */
+static void across_curve(const ch_truth *T, int curve, const double q[2], double n[2]) {
+  int seg;
+  double t, cp[2];
+  if (T->set->curves[curve].kind == CH_CURVE_GROOVE) {
+    groove_closest(T, curve, q, &seg, &t, cp);
+  } else {
+    ch_curve_point p;
+    ch_curve_closest(T->set, curve, q, &p);
+    seg = p.segment, t = p.t, cp[0] = p.point[0], cp[1] = p.point[1];
+  }
+  double d[2] = {q[0] - cp[0], q[1] - cp[1]}, len = hypot(d[0], d[1]);
+  if (len > 1e-7) {
+    n[0] = d[0] / len;
+    n[1] = d[1] / len;
+  } else {
+    double tg[2];
+    ch_bezier_tangent(T->set->segments[seg].p, t, tg);
+    n[0] = -tg[1];
+    n[1] = tg[0];
+  }
+}
+
+void ch_truth_classify(const ch_truth *T, const double uv[2], ch_vis_class *cls, int *curve) {
+  ch_groove_sample gs;
+  ch_groove_field_eval(&T->height->grooves, uv[0], uv[1], &gs);
+  if (gs.active < 0) {
+    *cls = CH_VIS_TOP;
+    *curve = -1;
+    return;
+  }
+  const ch_curve *c = &T->set->curves[gs.active];
+  double slope = profile_slope(&c->profile, gs.active_signed_distance / c->width);
+  *cls = slope != 0.0 ? CH_VIS_GROOVE_WALL : CH_VIS_GROOVE_FLOOR;
+  *curve = gs.active;
+}
+
+/* The difference of the groove part and of the step part between a and b. */
+static void jumps(const ch_truth *T, const double a[2], const double b[2], double *dg, double *ds, ch_groove_sample *ga,
+                  ch_groove_sample *gb) {
+  ch_groove_field_eval(&T->height->grooves, a[0], a[1], ga);
+  ch_groove_field_eval(&T->height->grooves, b[0], b[1], gb);
+  *dg = fabs(ga->h - gb->h);
+  *ds = fabs(step_value(T, a[0], a[1], NULL) - step_value(T, b[0], b[1], NULL));
+}
+
+void ch_truth_classify_wall(const ch_truth *T, const double uv[2], const double n_uv[2], ch_vis_class *cls, int *curve) {
+  double a[2] = {uv[0] - 1e-7 * n_uv[0], uv[1] - 1e-7 * n_uv[1]}, b[2] = {uv[0] + 1e-7 * n_uv[0], uv[1] + 1e-7 * n_uv[1]};
+  double a2[2] = {uv[0] - 1e-8 * n_uv[0], uv[1] - 1e-8 * n_uv[1]}, b2[2] = {uv[0] + 1e-8 * n_uv[0], uv[1] + 1e-8 * n_uv[1]};
+  ch_groove_sample ga, gb, ga2, gb2;
+  double dg, ds, dg2, ds2;
+  jumps(T, a, b, &dg, &ds, &ga, &gb);
+  jumps(T, a2, b2, &dg2, &ds2, &ga2, &gb2);
+  /* A jump keeps its size as the probes close in; a slope shrinks. */
+  int jump_g = dg2 > 0.5 * dg && dg2 > 1e-12, jump_s = ds2 > 0.5 * ds && ds2 > 1e-12;
+  int deeper = fabs(ga.h) >= fabs(gb.h) ? ga.active : gb.active;
+  int step_curve;
+  if (jump_g && (!jump_s || dg >= ds)) {
+    *cls = CH_VIS_GROOVE_WALL;
+    *curve = deeper;
+  } else if (jump_s) {
+    step_value(T, uv[0], uv[1], &step_curve);
+    *cls = CH_VIS_STEP_WALL;
+    *curve = step_curve;
+  } else if (ga.active >= 0 || gb.active >= 0) {
+    *cls = CH_VIS_GROOVE_WALL;
+    *curve = deeper >= 0 ? deeper : ga.active >= 0 ? ga.active : gb.active;
+  } else {
+    step_value(T, uv[0], uv[1], &step_curve);
+    *cls = step_curve >= 0 ? CH_VIS_STEP_WALL : CH_VIS_TOP;
+    *curve = step_curve;
+  }
+}
+
+void ch_truth_normal(const ch_truth *T, const double uv[2], double n[3]) {
+  double g[2] = {0.0, 0.0};
+  ch_groove_sample gs;
+  ch_groove_field_eval(&T->height->grooves, uv[0], uv[1], &gs);
+  if (gs.active >= 0) {
+    const ch_curve *c = &T->set->curves[gs.active];
+    double slope = profile_slope(&c->profile, gs.active_signed_distance / c->width);
+    if (slope != 0.0) {
+      /* s = side |q - cp|: its gradient is the unit vector from cp, signed. */
+      double ds[2];
+      across_curve(T, gs.active, uv, ds);
+      double sign = gs.active_signed_distance >= 0.0 ? 1.0 : -1.0;
+      int seg;
+      double t, cp[2];
+      groove_closest(T, gs.active, uv, &seg, &t, cp);
+      if (hypot(uv[0] - cp[0], uv[1] - cp[1]) <= 1e-7) sign = 1.0; /* on the curve: the left normal */
+      double k = c->depth / c->width * slope * sign;
+      g[0] += k * ds[0];
+      g[1] += k * ds[1];
+    }
+  }
+  if (T->height->has_steps) {
+    /* h_step is bilinear per texel: one-sided differences of 1e-5 UV (its
+     * float values would make smaller steps noisy), the flatter side. */
+    const double e = 1e-5;
+    double h0 = step_value(T, uv[0], uv[1], NULL);
+    for (int axis = 0; axis < 2; axis++) {
+      double p[2] = {uv[0], uv[1]}, m[2] = {uv[0], uv[1]};
+      p[axis] += e;
+      m[axis] -= e;
+      double fwd = (step_value(T, p[0], p[1], NULL) - h0) / e, back = (h0 - step_value(T, m[0], m[1], NULL)) / e;
+      g[axis] += fabs(fwd) <= fabs(back) ? fwd : back;
+    }
+  }
+  double len = sqrt(g[0] * g[0] + g[1] * g[1] + 1.0);
+  n[0] = -g[0] / len;
+  n[1] = -g[1] / len;
+  n[2] = 1.0 / len;
+}
+
+/* ---- intersection ---- */
+
+typedef struct ray {
+  const double *o, *d;
+  double duv_len; /* |(dx, dy)| */
+} ray;
+
+static double ray_f(const ch_truth *T, const ray *R, double t, double *h) {
+  double hh = ch_height_eval(T->height, R->o[0] + t * R->d[0], R->o[1] + t * R->d[1]);
+  if (h) *h = hh;
+  return R->o[2] + t * R->d[2] - hh;
+}
+
+static void finish_hit(const ch_truth *T, const ray *R, double a, double b, double fa, double fb, ch_truth_hit *hit) {
+  double ha = R->o[2] + a * R->d[2] - fa, hb = R->o[2] + b * R->d[2] - fb, dh0 = fabs(hb - ha);
+  double aa = a, bb = b, faa = fa, dh = dh0;
+  for (int k = 0; k < 4; k++) {
+    double m = 0.5 * (aa + bb), hm, fm = ray_f(T, R, m, &hm);
+    if ((fm > 0.0) == (faa > 0.0)) {
+      aa = m, faa = fm, ha = hm;
+    } else {
+      bb = m, hb = hm;
+    }
+    dh = fabs(hb - ha);
+  }
+  hit->wall = dh > 0.5 * dh0 && dh > 1e-10 && R->duv_len > 0.0;
+  double t = hit->wall ? 0.5 * (aa + bb) : (fa == fb ? a : a + (b - a) * fa / (fa - fb));
+  hit->t = t;
+  hit->uv[0] = R->o[0] + t * R->d[0];
+  hit->uv[1] = R->o[1] + t * R->d[1];
+  hit->point[0] = hit->uv[0];
+  hit->point[1] = hit->uv[1];
+  hit->point[2] = R->o[2] + t * R->d[2];
+  if (!hit->wall) {
+    ch_truth_normal(T, hit->uv, hit->normal);
+    return;
+  }
+  /* Across the curve that makes the jump, facing the ray. */
+  double dn[2] = {R->d[0] / R->duv_len, R->d[1] / R->duv_len}, n2[2] = {-dn[0], -dn[1]};
+  ch_vis_class cls;
+  int curve;
+  ch_truth_classify_wall(T, hit->uv, dn, &cls, &curve);
+  if (curve >= 0) across_curve(T, curve, hit->uv, n2);
+  if (n2[0] * R->d[0] + n2[1] * R->d[1] > 0.0) n2[0] = -n2[0], n2[1] = -n2[1];
+  hit->normal[0] = n2[0];
+  hit->normal[1] = n2[1];
+  hit->normal[2] = 0.0;
+}
+
+/* Between two samples on the same side (pos) the ray may still dip
+ * through the surface and back (skimming a rim just before a wall drops
+ * away): halves whose disk bound the ray's z range meets are split, up to
+ * PROBE_DEPTH levels (the spacing / 256) and a budget of bound
+ * evaluations per ray. Returns 1 with [*ra, *rb] holding a change of side. */
+enum { PROBE_DEPTH = 8, PROBE_STACK = 2 * PROBE_DEPTH + 2 };
+static int probe(const ch_truth *T, const ray *R, const int *items, int n, double a0, double b0, int pos, int *budget,
+                 double *ra, double *rb) {
+  double sa[PROBE_STACK], sb[PROBE_STACK];
+  int sd[PROBE_STACK], top = 0;
+  sa[0] = a0, sb[0] = b0, sd[0] = 0, top = 1;
+  while (top > 0 && *budget > 0) {
+    top--;
+    double a = sa[top], b = sb[top];
+    int depth = sd[top];
+    double za = R->o[2] + a * R->d[2], zb = R->o[2] + b * R->d[2];
+    double c[2] = {R->o[0] + 0.5 * (a + b) * R->d[0], R->o[1] + 0.5 * (a + b) * R->d[1]};
+    disk_bound db;
+    (*budget)--;
+    bound_disk(T, items, n, c, 0.5 * (b - a) * R->duv_len, &db);
+    double pad = 1e-12 * (1.0 + fabs(za) + fabs(zb));
+    if (fmax(za, zb) < db.lo - pad || fmin(za, zb) > db.hi + pad || db.constant || depth >= PROBE_DEPTH) continue;
+    double m = 0.5 * (a + b);
+    if ((ray_f(T, R, m, NULL) > 0.0) != pos) {
+      *ra = a;
+      *rb = m;
+      return 1;
+    }
+    sa[top] = m, sb[top] = b, sd[top++] = depth + 1;
+    sa[top] = a, sb[top] = m, sd[top++] = depth + 1;
+  }
+  return 0;
+}
+
+/* Bisects a sign change of f between a and b (fa_pos: f(a) > 0) down to
+ * the tolerance, then fills the hit. */
+static void bisect(const ch_truth *T, const ray *R, double a, double b, int fa_pos, ch_truth_hit *hit) {
+  while (b - a > T->tol) {
+    double m = 0.5 * (a + b);
+    if ((ray_f(T, R, m, NULL) > 0.0) == fa_pos)
+      a = m;
+    else
+      b = m;
+  }
+  finish_hit(T, R, a, b, ray_f(T, R, a, NULL), ray_f(T, R, b, NULL), hit);
+}
+
+int ch_truth_intersect(const ch_truth *T, const double o[3], const double d[3], double tnear, double tfar, int tile,
+                       ch_truth_hit *hit) {
+  int G = T->grid;
+  int i0 = 0, j0 = 0, i1 = G, j1 = G;
+  if (tile >= 0) {
+    i0 = (tile % T->tiles) * CH_TRUTH_TILE;
+    j0 = (tile / T->tiles) * CH_TRUTH_TILE;
+    i1 = i0 + CH_TRUTH_TILE;
+    j1 = j0 + CH_TRUTH_TILE;
+  }
+  ray R = {o, d, hypot(d[0], d[1])};
+  /* Clip to the UV rectangle of the cells. */
+  double ta = tnear, tb = tfar;
+  double lo[2] = {i0 * T->cell, j0 * T->cell}, hi[2] = {i1 * T->cell, j1 * T->cell};
+  for (int k = 0; k < 2; k++) {
+    if (d[k] == 0.0) {
+      if (o[k] < lo[k] || o[k] > hi[k]) return 0;
+      continue;
+    }
+    double t0 = (lo[k] - o[k]) / d[k], t1 = (hi[k] - o[k]) / d[k];
+    if (t0 > t1) {
+      double x = t0;
+      t0 = t1;
+      t1 = x;
+    }
+    ta = fmax(ta, t0);
+    tb = fmin(tb, t1);
+  }
+  if (!(ta <= tb)) return 0;
+  /* A ray along z without end: stop it beyond the surface's z range. */
+  if (!isfinite(tb)) {
+    if (d[2] == 0.0) return 0;
+    double t0 = (T->zmin - 1.0 - o[2]) / d[2], t1 = (T->zmax + 1.0 - o[2]) / d[2];
+    tb = fmin(tb, fmax(t0, t1));
+    if (!(ta <= tb)) return 0;
+  }
+  /* 2D DDA over the cells (Amanatides-Woo). */
+  double pu = d[0] != 0.0 ? o[0] + ta * d[0] : o[0], pv = d[1] != 0.0 ? o[1] + ta * d[1] : o[1];
+  int ix = clampi((int)floor(pu * G), i0, i1 - 1), iy = clampi((int)floor(pv * G), j0, j1 - 1);
+  int sx = d[0] > 0.0 ? 1 : -1, sy = d[1] > 0.0 ? 1 : -1;
+  double dtx = d[0] != 0.0 ? T->cell / fabs(d[0]) : INFINITY, dty = d[1] != 0.0 ? T->cell / fabs(d[1]) : INFINITY;
+  double tx = d[0] > 0.0 ? ((ix + 1) * T->cell - o[0]) / d[0] : d[0] < 0.0 ? (ix * T->cell - o[0]) / d[0] : INFINITY;
+  double ty = d[1] > 0.0 ? ((iy + 1) * T->cell - o[1]) / d[1] : d[1] < 0.0 ? (iy * T->cell - o[1]) / d[1] : INFINITY;
+  /* The last point whose side is known: f > 0 above the surface. */
+  double t = ta, last_t = ta;
+  int last_pos = ray_f(T, &R, ta, NULL) > 0.0;
+  const double spacing = T->cell / CH_TRUTH_SAMPLES;
+  int budget = 256;
+  for (;;) {
+    double t_exit = fmin(fmin(tx, ty), tb);
+    size_t ci = (size_t)iy * G + ix;
+    double za = o[2] + t * d[2], zb = o[2] + t_exit * d[2];
+    double pad = 1e-12 * (1.0 + fabs(T->lo[ci]) + fabs(T->hi[ci]));
+    int above = fmin(za, zb) > T->hi[ci] + pad, below = fmax(za, zb) < T->lo[ci] - pad;
+    if (above || below) {
+      /* The whole piece is on one side: a change of side happened between
+       * the last known point and this cell's entry. */
+      if (above != last_pos) {
+        bisect(T, &R, last_t, t, last_pos, hit);
+        return 1;
+      }
+      last_t = t_exit;
+    } else {
+      /* Samples no farther apart than cell / CH_TRUTH_SAMPLES in UV. */
+      double len = (t_exit - t) * R.duv_len;
+      int n = (int)ceil(len / spacing);
+      if (n < 1) n = 1;
+      const int *items = NULL;
+      double centre[2];
+      int n_items = cell_items(T, ix, iy, &items, centre);
+      for (int k = 1; k <= n; k++) {
+        double tk = k == n ? t_exit : t + (t_exit - t) * k / n, ra, rb;
+        int pos = ray_f(T, &R, tk, NULL) > 0.0;
+        if (pos != last_pos) {
+          bisect(T, &R, last_t, tk, last_pos, hit);
+          return 1;
+        }
+        if (probe(T, &R, items, n_items, last_t, tk, pos, &budget, &ra, &rb)) {
+          bisect(T, &R, ra, rb, pos, hit);
+          return 1;
+        }
+        last_t = tk;
+      }
+    }
+    if (t_exit >= tb) return 0;
+    if (tx <= ty) {
+      ix += sx;
+      t = tx;
+      tx += dtx;
+      if (ix < i0 || ix >= i1) return 0;
+    } else {
+      iy += sy;
+      t = ty;
+      ty += dty;
+      if (iy < j0 || iy >= j1) return 0;
+    }
+  }
+}
