@@ -6,7 +6,8 @@
  *   at 30 degrees across it, its left slope covers a cos(th) - d sin(th)
  *   and the right one a cos(th) + d sin(th) of image width (a = w / 2); a
  *   box groove seen so shows w cos(th) - d sin(th) of floor and d sin(th) of
- *   far wall. Counted per row, within a pixel per boundary.
+ *   far wall, a straight step of height d its wall over d sin(th). Counted
+ *   per row, within a pixel per boundary.
  * - Single rays: straight down onto a v slope (depth and normal in closed
  *   form), obliquely into a box groove's far wall (point, horizontal
  *   normal, class).
@@ -143,6 +144,20 @@ static void test_tilted_views(void) {
   for (int p = 0; p < 200 * 200; p++)
     if ((int)c2[p] == CH_VIS_GROOVE_WALL) normals_ok &= fabsf(nx2[p] + 1.0f) < 1e-6f && fabsf(nz2[p]) < 1e-6f;
   CHECK(normals_ok);
+  ch_image_free(&img);
+  world_free(&w);
+
+  /* A straight step along u = 0.5, written downwards in v: its left (+u)
+   * is 0.02 higher. Seen at 30 degrees towards +u, the wall (facing -u)
+   * covers 0.02 sin(th) of image width; the rest is top. */
+  REQUIRE(world_load(&w, "<path d='M 50 -10 L 50 110' data-kind='step' data-left='0.02' data-right='0'/>", 256, 0));
+  REQUIRE(ch_render(w.scene, w.truth, &cam, NULL, &img, NULL, &err) == CH_OK);
+  double es = 0.02 * sin(th) / pix * 200;
+  long step = count_class(&img, CH_VIS_STEP_WALL), top = count_class(&img, CH_VIS_TOP);
+  fprintf(stderr, "  step at 30 deg: wall %ld (expected %.0f), top %ld (expected %.0f)\n", step, es, top,
+          200 * 200 - es);
+  CHECK(fabs(step - es) <= 2 * 200);
+  CHECK(step + top == 200 * 200);
   ch_image_free(&img);
   world_free(&w);
 }
