@@ -1,0 +1,600 @@
+/* chisel study: every method against the Embree-traced truth, per view
+ * (issue 6). The scene file format is documented in `usage` below. */
+#define _POSIX_C_SOURCE 200809L
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "ch_curves.h"
+#include "ch_exr.h"
+#include "ch_file.h"
+#include "ch_height.h"
+#include "ch_math.h"
+#include "ch_mesh.h"
+#include "ch_metrics.h"
+#include "ch_png.h"
+#include "ch_render.h"
+#include "ch_trace.h"
+#include "ch_truth.h"
+#include "cli.h"
+
+static const char usage[] =
+    "usage: chisel study SCENE.json -o DIR\n"
+    "\n"
+    "Renders the true surface of the scene's curves over the planar base\n"
+    "(u, v, 0) (Embree, independent of the tessellator) and every method's mesh\n"
+    "from every view, and compares them pixel by pixel: visibility class\n"
+    "(top, groove wall, groove floor, step wall), groove id, depth, normal,\n"
+    "shading and shadows.\n"
+    "\n"
+    "SCENE.json (relative paths are taken from the scene file's folder):\n"
+    "  {\n"
+    "    \"curves\": \"curves.svg\",        required: the feature curves (SPEC 2)\n"
+    "    \"dci_resolution\": 1024,        optional: the step DCI, 16..16384\n"
+    "    \"truth_grid\": 512,             optional: the truth's bounds grid, a\n"
+    "                                   multiple of 16 in 16..16384\n"
+    "    \"light\": {\"direction\": [x, y, z], \"ambient\": 0.15, \"albedo\": 0.75,\n"
+    "              \"specular\": 0.25, \"shininess\": 40},      optional, any subset\n"
+    "    \"views\": [                      required, at least one\n"
+    "      {\"name\": \"top\", \"eye\": [x, y, z], \"target\": [x, y, z],\n"
+    "       \"up\": [0, 0, 1], \"fov\": 40, \"width\": 320, \"height\": 240,\n"
+    "       \"supersample\": 2},            up, fov (degrees), supersample optional;\n"
+    "                                   \"ortho_height\": h instead of fov: orthographic\n"
+    "    ],\n"
+    "    \"methods\": [                    optional\n"
+    "      {\"name\": \"snapped\", \"mesh\": \"snapped.obj\"}   OBJ/PLY/OFF/STL with UVs\n"
+    "    ]\n"
+    "  }\n"
+    "Names are letters, digits, '-' and '_' (they name files), unique per list.\n"
+    "\n"
+    "Writes into DIR (created if missing), per view V and method M:\n"
+    "  V.truth.exr, V.M.exr     all render layers (shade, shadow, depth, N, P, uv,\n"
+    "                           class, id, coverage)\n"
+    "  V.truth.png, V.M.png     the shading\n"
+    "  V.truth.class.png        classes: top grey, groove wall orange, floor blue,\n"
+    "                           step wall green, nothing black\n"
+    "  V.M.class.png            pixels whose class differs from the truth's in red\n"
+    "  V.M.normal.png           normal error, heat map 0..20 degrees\n"
+    "  V.M.depth.png            depth error, heat map 0..1% of the scene size\n"
+    "  summary.csv, summary.json  one row per view and method\n"
+    "On failure nothing is left in DIR.\n"
+    "\n"
+    "  -o, --output DIR   the output folder (required)\n";
+
+enum { NAME_MAX_LEN = 64 };
+
+typedef struct view {
+  char name[NAME_MAX_LEN];
+  ch_camera camera;
+} view;
+
+typedef struct method {
+  char name[NAME_MAX_LEN];
+  char *path;
+  ch_mesh mesh;
+  ch_trace *scene;
+} method;
+
+typedef struct study {
+  char *curves_path;
+  int dci_resolution, truth_grid;
+  ch_light light;
+  int num_views, num_methods;
+  view *views;
+  method *methods;
+} study;
+
+/* Written files, removed all together on failure. */
+typedef struct written {
+  char **paths;
+  int count, cap;
+} written;
+
+static int written_add(written *w, const char *path) {
+  if (w->count == w->cap) {
+    int cap = w->cap ? 2 * w->cap : 32;
+    char **p = realloc(w->paths, (size_t)cap * sizeof *p);
+    if (!p) return 0;
+    w->paths = p;
+    w->cap = cap;
+  }
+  if (!(w->paths[w->count] = strdup(path))) return 0;
+  w->count++;
+  return 1;
+}
+
+static void written_free(written *w, int remove_files) {
+  for (int i = 0; i < w->count; i++) {
+    if (remove_files) remove(w->paths[i]);
+    free(w->paths[i]);
+  }
+  free(w->paths);
+  memset(w, 0, sizeof *w);
+}
+
+/* ---- the scene file ---- */
+
+static char *resolve(const char *scene_path, const char *rel) {
+  const char *slash = strrchr(scene_path, '/');
+  size_t dir = rel[0] == '/' || !slash ? 0 : (size_t)(slash - scene_path) + 1;
+  char *out = malloc(dir + strlen(rel) + 1);
+  if (!out) return NULL;
+  memcpy(out, scene_path, dir);
+  strcpy(out + dir, rel);
+  return out;
+}
+
+static int check_keys(const cJSON *obj, const char *const *keys, const char *where, const char *file, ch_error *err) {
+  for (const cJSON *it = obj->child; it; it = it->next) {
+    int known = 0;
+    for (int k = 0; keys[k]; k++) known |= !strcmp(it->string, keys[k]);
+    if (!known) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s: unknown key '%s'", file, where, it->string);
+      return 0;
+    }
+  }
+  return 1;
+}
+
+static int get_vec3(const cJSON *obj, const char *key, double out[3], int required, const char *where,
+                    const char *file, ch_error *err) {
+  const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (!a) {
+    if (required) ch_error_set(err, CH_ERR_INPUT, "%s: %s: missing \"%s\"", file, where, key);
+    return !required;
+  }
+  if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != 3) goto bad;
+  for (int k = 0; k < 3; k++) {
+    const cJSON *x = cJSON_GetArrayItem(a, k);
+    if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble)) goto bad;
+    out[k] = x->valuedouble;
+  }
+  return 1;
+bad:
+  ch_error_set(err, CH_ERR_INPUT, "%s: %s.%s: expected an array of 3 finite numbers", file, where, key);
+  return 0;
+}
+
+/* A number in [lo, hi] (integer if integral); absent: keeps *out. */
+static int get_number(const cJSON *obj, const char *key, double lo, double hi, int integral, double *out,
+                      const char *where, const char *file, ch_error *err) {
+  const cJSON *x = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (!x) return 1;
+  double v = cJSON_IsNumber(x) ? x->valuedouble : NAN;
+  if (!(v >= lo && v <= hi) || (integral && v != floor(v))) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.%s: expected %s in [%g, %g]", file, where, key,
+                 integral ? "an integer" : "a number", lo, hi);
+    return 0;
+  }
+  *out = v;
+  return 1;
+}
+
+static int get_name(const cJSON *obj, char out[NAME_MAX_LEN], const char *where, const char *file, ch_error *err) {
+  const cJSON *x = cJSON_GetObjectItemCaseSensitive(obj, "name");
+  const char *s = cJSON_IsString(x) ? x->valuestring : NULL;
+  int ok = s && s[0] && strlen(s) < NAME_MAX_LEN;
+  for (const char *p = s; ok && *p; p++)
+    ok = (*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') || *p == '-' || *p == '_';
+  if (!ok) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s: \"name\" must be 1-%d letters, digits, '-' or '_'", file, where,
+                 NAME_MAX_LEN - 1);
+    return 0;
+  }
+  strcpy(out, s);
+  return 1;
+}
+
+static void study_free(study *s) {
+  free(s->curves_path);
+  free(s->views);
+  for (int i = 0; i < s->num_methods; i++) {
+    free(s->methods[i].path);
+    ch_trace_destroy(s->methods[i].scene);
+    ch_mesh_free(&s->methods[i].mesh);
+  }
+  free(s->methods);
+  memset(s, 0, sizeof *s);
+}
+
+static ch_status parse_scene(const char *file, const char *text, study *s, ch_error *err) {
+  memset(s, 0, sizeof *s);
+  s->dci_resolution = 1024;
+  s->truth_grid = 512;
+  cJSON *root = cJSON_Parse(text);
+  if (!root) {
+    const char *at = cJSON_GetErrorPtr();
+    long line = 1;
+    for (const char *p = text; at && p < at && *p; p++) line += *p == '\n';
+    return ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: not valid JSON", file, line);
+  }
+  static const char *const top_keys[] = {"curves", "dci_resolution", "truth_grid", "light", "views", "methods", NULL};
+  static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
+  static const char *const view_keys[] = {"name",  "eye",    "target",      "up",          "fov",
+                                          "width", "height", "supersample", "ortho_height", NULL};
+  static const char *const method_keys[] = {"name", "mesh", NULL};
+  char where[96];
+  const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
+  const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
+  const cJSON *methods = cJSON_GetObjectItemCaseSensitive(root, "methods");
+  const cJSON *light = cJSON_GetObjectItemCaseSensitive(root, "light");
+  double dres = s->dci_resolution, grid = s->truth_grid;
+  if (!cJSON_IsObject(root)) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: the scene must be a JSON object", file);
+    goto fail;
+  }
+  if (!check_keys(root, top_keys, "scene", file, err)) goto fail;
+  if (!cJSON_IsString(curves) || !curves->valuestring[0]) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: \"curves\": expected the path of an SVG file", file);
+    goto fail;
+  }
+  if (!get_number(root, "dci_resolution", 16, 16384, 1, &dres, "scene", file, err) ||
+      !get_number(root, "truth_grid", 16, 16384, 1, &grid, "scene", file, err))
+    goto fail;
+  if ((int)grid % CH_TRUTH_TILE) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: scene.truth_grid: %d is not a multiple of %d", file, (int)grid, CH_TRUTH_TILE);
+    goto fail;
+  }
+  s->dci_resolution = (int)dres;
+  s->truth_grid = (int)grid;
+  if (light) {
+    if (!cJSON_IsObject(light)) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: \"light\": expected an object", file);
+      goto fail;
+    }
+    if (!check_keys(light, light_keys, "light", file, err) ||
+        !get_vec3(light, "direction", s->light.direction, 0, "light", file, err) ||
+        !get_number(light, "ambient", 0, 1, 0, &s->light.ambient, "light", file, err) ||
+        !get_number(light, "albedo", 0, 1, 0, &s->light.albedo, "light", file, err) ||
+        !get_number(light, "specular", 0, 10, 0, &s->light.specular, "light", file, err) ||
+        !get_number(light, "shininess", 0, 10000, 0, &s->light.shininess, "light", file, err))
+      goto fail;
+  }
+  if (!cJSON_IsArray(views) || cJSON_GetArraySize(views) < 1) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: \"views\": expected an array of at least one view", file);
+    goto fail;
+  }
+  if (methods && !cJSON_IsArray(methods)) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: \"methods\": expected an array", file);
+    goto fail;
+  }
+  if (!(s->curves_path = resolve(file, curves->valuestring))) goto nomem;
+  s->num_views = cJSON_GetArraySize(views);
+  s->num_methods = methods ? cJSON_GetArraySize(methods) : 0;
+  s->views = calloc((size_t)s->num_views, sizeof *s->views);
+  s->methods = calloc((size_t)(s->num_methods ? s->num_methods : 1), sizeof *s->methods);
+  if (!s->views || !s->methods) goto nomem;
+  for (int i = 0; i < s->num_views; i++) {
+    const cJSON *v = cJSON_GetArrayItem(views, i);
+    snprintf(where, sizeof where, "views[%d]", i);
+    if (!cJSON_IsObject(v)) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s: expected an object", file, where);
+      goto fail;
+    }
+    view *vw = &s->views[i];
+    ch_camera *c = &vw->camera;
+    double width = 320, height = 240, ss = 2, fov = 40, ortho = 0;
+    c->up[2] = 1.0;
+    if (!check_keys(v, view_keys, where, file, err) || !get_name(v, vw->name, where, file, err) ||
+        !get_vec3(v, "eye", c->eye, 1, where, file, err) || !get_vec3(v, "target", c->target, 1, where, file, err) ||
+        !get_vec3(v, "up", c->up, 0, where, file, err) || !get_number(v, "fov", 0.1, 170, 0, &fov, where, file, err) ||
+        !get_number(v, "ortho_height", 0, 1e6, 0, &ortho, where, file, err) ||
+        !get_number(v, "width", 1, 8192, 1, &width, where, file, err) ||
+        !get_number(v, "height", 1, 8192, 1, &height, where, file, err) ||
+        !get_number(v, "supersample", 1, 16, 1, &ss, where, file, err))
+      goto fail;
+    c->fov_deg = fov;
+    c->ortho_height = ortho;
+    c->width = (int)width;
+    c->height = (int)height;
+    c->supersample = (int)ss;
+    for (int j = 0; j < i; j++)
+      if (!strcmp(s->views[j].name, vw->name)) {
+        ch_error_set(err, CH_ERR_INPUT, "%s: %s: the name '%s' is used twice", file, where, vw->name);
+        goto fail;
+      }
+    /* The camera's own checks (view direction, up), with the view's name. */
+    double o[3], d[3];
+    ch_error cerr = {0};
+    if (ch_camera_ray(c, 0, 0, o, d, &cerr)) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s ('%s'): %s", file, where, vw->name, cerr.message);
+      goto fail;
+    }
+  }
+  for (int i = 0; i < s->num_methods; i++) {
+    const cJSON *m = cJSON_GetArrayItem(methods, i);
+    snprintf(where, sizeof where, "methods[%d]", i);
+    if (!cJSON_IsObject(m)) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s: expected an object", file, where);
+      goto fail;
+    }
+    method *mt = &s->methods[i];
+    const cJSON *mesh = cJSON_GetObjectItemCaseSensitive(m, "mesh");
+    if (!check_keys(m, method_keys, where, file, err) || !get_name(m, mt->name, where, file, err)) goto fail;
+    if (!strcmp(mt->name, "truth")) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s: the name 'truth' is reserved", file, where);
+      goto fail;
+    }
+    for (int j = 0; j < i; j++)
+      if (!strcmp(s->methods[j].name, mt->name)) {
+        ch_error_set(err, CH_ERR_INPUT, "%s: %s: the name '%s' is used twice", file, where, mt->name);
+        goto fail;
+      }
+    if (!cJSON_IsString(mesh) || !mesh->valuestring[0]) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s.mesh: expected the path of a mesh file", file, where);
+      goto fail;
+    }
+    if (!(mt->path = resolve(file, mesh->valuestring))) goto nomem;
+  }
+  cJSON_Delete(root);
+  return CH_OK;
+nomem:
+  ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", file);
+fail:
+  cJSON_Delete(root);
+  study_free(s);
+  return err->status;
+}
+
+/* ---- images ---- */
+
+static uint8_t to8(double x) { return (uint8_t)lround(255.0 * pow(ch_clamp(x, 0.0, 1.0), 1.0 / 2.2)); }
+
+typedef enum picture { PIC_SHADE, PIC_CLASSES, PIC_CLASS_DIFF, PIC_NORMAL, PIC_DEPTH } picture;
+
+static ch_status write_png(const char *path, picture what, const ch_image *img, const ch_image *truth,
+                           double scene_size, written *w, ch_error *err) {
+  size_t n = (size_t)img->width * img->height;
+  uint8_t *px = malloc(3 * n);
+  if (!px) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %s", path);
+  static const uint8_t class_rgb[CH_VIS_COUNT][3] = {{0, 0, 0}, {200, 200, 200}, {235, 140, 40}, {60, 110, 220},
+                                                     {60, 170, 80}};
+  const float *shade = ch_image_plane(img, CH_RENDER_SHADE), *cls = ch_image_plane(img, CH_RENDER_CLASS);
+  const float *tshade = truth ? ch_image_plane(truth, CH_RENDER_SHADE) : NULL;
+  const float *tcls = truth ? ch_image_plane(truth, CH_RENDER_CLASS) : NULL;
+  for (size_t p = 0; p < n; p++) {
+    uint8_t *o = &px[3 * p];
+    int both = truth && ch_image_plane(img, CH_RENDER_COVERAGE)[p] > 0.0f &&
+               ch_image_plane(truth, CH_RENDER_COVERAGE)[p] > 0.0f;
+    switch (what) {
+    case PIC_SHADE: o[0] = o[1] = o[2] = to8(shade[p]); break;
+    case PIC_CLASSES: memcpy(o, class_rgb[(int)cls[p] % CH_VIS_COUNT], 3); break;
+    case PIC_CLASS_DIFF:
+      if (cls[p] != tcls[p]) {
+        o[0] = 230, o[1] = 20, o[2] = 20;
+      } else {
+        o[0] = o[1] = o[2] = to8(0.6 * tshade[p]);
+      }
+      break;
+    case PIC_NORMAL:
+    case PIC_DEPTH: {
+      if (!both) {
+        o[0] = o[1] = o[2] = 0;
+        break;
+      }
+      double x;
+      if (what == PIC_NORMAL) {
+        double dot = 0.0;
+        for (int k = 0; k < 3; k++) dot += (double)ch_image_plane(img, CH_RENDER_NX + k)[p] * ch_image_plane(truth, CH_RENDER_NX + k)[p];
+        x = acos(ch_clamp(dot, -1.0, 1.0)) * 180.0 / CH_PI / 20.0;
+      } else {
+        x = fabs((double)ch_image_plane(img, CH_RENDER_DEPTH)[p] - ch_image_plane(truth, CH_RENDER_DEPTH)[p]) /
+            scene_size / 1e-2;
+      }
+      ch_colormap_heat(ch_clamp(x, 0.0, 1.0), o);
+      break;
+    }
+    }
+  }
+  ch_status st = ch_png_write(path, img->width, img->height, 3, px, err);
+  free(px);
+  if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+  return st;
+}
+
+static ch_status write_exr(const char *path, const ch_image *img, const char *viewname, const char *methodname,
+                           written *w, ch_error *err) {
+  const ch_exr_attribute attrs[] = {{"chisel:command", "study"}, {"chisel:view", viewname}, {"chisel:method", methodname}};
+  ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3};
+  ch_status st = ch_exr_write(path, img, &desc, err);
+  if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+  return st;
+}
+
+/* ---- the run ---- */
+
+typedef struct row {
+  int view, method;
+  ch_metrics m;
+  long rays;
+  double seconds;
+} row;
+
+static ch_status write_summaries(const char *dir, const study *s, const row *rows, int nrows, written *w, ch_error *err) {
+  char path[4096];
+  snprintf(path, sizeof path, "%s/summary.csv", dir);
+  ch_atomic_file f;
+  ch_status st = ch_atomic_open(&f, path, err);
+  if (st) return st;
+  fprintf(f.fp, "view,method,class_mismatch_pct,class_mismatch_groove_pct,id_mismatch_pct,depth_error_rel,"
+                "normal_mean_deg,normal_p95_deg,shade_rmse,shadow_mismatch_pct,pixels,groove_pixels\n");
+  for (int i = 0; i < nrows; i++) {
+    const ch_metrics *m = &rows[i].m;
+    fprintf(f.fp, "%s,%s,%.6f,%.6f,%.6f,%.6e,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", s->views[rows[i].view].name,
+            s->methods[rows[i].method].name, m->class_mismatch, m->class_mismatch_groove, m->id_mismatch,
+            m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shadow_mismatch, m->pixels,
+            m->groove_pixels);
+  }
+  if ((st = ch_atomic_commit(&f, err))) return st;
+  if (!written_add(w, path)) return ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+
+  cJSON *root = cJSON_CreateObject(), *arr = cJSON_AddArrayToObject(root, "rows");
+  cJSON_AddStringToObject(root, "curves", s->curves_path);
+  cJSON_AddNumberToObject(root, "truth_grid", s->truth_grid);
+  cJSON_AddNumberToObject(root, "dci_resolution", s->dci_resolution);
+  for (int i = 0; i < nrows && arr; i++) {
+    const ch_metrics *m = &rows[i].m;
+    cJSON *r = cJSON_CreateObject();
+    cJSON_AddItemToArray(arr, r);
+    cJSON_AddStringToObject(r, "view", s->views[rows[i].view].name);
+    cJSON_AddStringToObject(r, "method", s->methods[rows[i].method].name);
+    cJSON_AddNumberToObject(r, "class_mismatch_pct", m->class_mismatch);
+    cJSON_AddNumberToObject(r, "class_mismatch_groove_pct", m->class_mismatch_groove);
+    cJSON_AddNumberToObject(r, "id_mismatch_pct", m->id_mismatch);
+    cJSON_AddNumberToObject(r, "depth_error_rel", m->depth_error);
+    cJSON_AddNumberToObject(r, "normal_mean_deg", m->normal_mean_deg);
+    cJSON_AddNumberToObject(r, "normal_p95_deg", m->normal_p95_deg);
+    cJSON_AddNumberToObject(r, "shade_rmse", m->shade_rmse);
+    cJSON_AddNumberToObject(r, "shadow_mismatch_pct", m->shadow_mismatch);
+    cJSON_AddNumberToObject(r, "pixels", (double)m->pixels);
+    cJSON_AddNumberToObject(r, "groove_pixels", (double)m->groove_pixels);
+  }
+  char *text = root && arr ? cJSON_Print(root) : NULL;
+  cJSON_Delete(root);
+  if (!text) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for summary.json");
+  snprintf(path, sizeof path, "%s/summary.json", dir);
+  st = ch_atomic_open(&f, path, err);
+  if (!st) {
+    fputs(text, f.fp);
+    fputc('\n', f.fp);
+    st = ch_atomic_commit(&f, err);
+  }
+  cJSON_free(text);
+  if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+  return st;
+}
+
+static int run(int argc, char **argv) {
+  const char *cmd = "study";
+  const char *scene_path = NULL, *dir = NULL;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
+      if (!(dir = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (a[0] == '-' && a[1]) {
+      return cli_usage_error(cmd, "unknown option '%s'", a);
+    } else if (!scene_path) {
+      scene_path = a;
+    } else {
+      return cli_usage_error(cmd, "unexpected argument '%s'", a);
+    }
+  }
+  if (!scene_path) return cli_usage_error(cmd, "missing the scene file SCENE.json");
+  if (!dir || !dir[0]) return cli_usage_error(cmd, "missing -o DIR");
+  if (strlen(dir) > 3000) return cli_usage_error(cmd, "-o: path too long");
+
+  ch_error err = cli_error();
+  char *text = NULL;
+  size_t size;
+  study s;
+  ch_curve_set set = {0};
+  ch_height height = {0};
+  ch_truth *truth = NULL;
+  ch_trace *truth_scene = NULL;
+  written w = {0};
+  row *rows = NULL;
+  int nrows = 0, made_dir = 0;
+  if (ch_file_read_all(scene_path, 16 << 20, &text, &size, &err)) return cli_fail(&err);
+  ch_status st = parse_scene(scene_path, text, &s, &err);
+  free(text);
+  if (st) return cli_fail(&err);
+  /* Every input is read and checked before anything is written. */
+  ch_height_desc hd = {.dci_resolution = s.dci_resolution, .step_method = CH_RECON_EXACT};
+  ch_truth_desc td = {.grid = s.truth_grid};
+  st = ch_curves_read_svg(s.curves_path, &set, &err);
+  if (!st) st = ch_height_init(&height, &set, &hd, &err);
+  for (int i = 0; !st && i < s.num_methods; i++) {
+    method *m = &s.methods[i];
+    st = ch_mesh_read(m->path, &m->mesh, &err);
+    if (!st) st = ch_trace_create_mesh(&m->mesh, m->path, &m->scene, &err);
+  }
+  if (!st) st = ch_truth_create(&height, &td, &truth, &err);
+  if (!st) st = ch_trace_create_truth(truth, &truth_scene, &err);
+  if (!st) {
+    struct stat sb;
+    if (stat(dir, &sb) == 0) {
+      if (!S_ISDIR(sb.st_mode)) st = ch_error_set(&err, CH_ERR_IO, "%s: exists and is not a folder", dir);
+    } else if (mkdir(dir, 0777) == 0) {
+      made_dir = 1;
+    } else {
+      st = ch_error_set(&err, CH_ERR_IO, "%s: cannot create the folder: %s", dir, strerror(errno));
+    }
+    if (!st && access(dir, W_OK) != 0)
+      st = ch_error_set(&err, CH_ERR_IO, "%s: cannot write into the folder: %s", dir, strerror(errno));
+  }
+  rows = calloc((size_t)(s.num_views * s.num_methods + 1), sizeof *rows);
+  if (!st && !rows) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
+  double tb[6];
+  if (!st) ch_trace_bounds(truth_scene, tb);
+  double scene_size = st ? 1.0 : sqrt(1.0 + 1.0 + (tb[5] - tb[2]) * (tb[5] - tb[2]));
+  int progress = isatty(2);
+  char path[4096];
+  for (int v = 0; !st && v < s.num_views; v++) {
+    const view *vw = &s.views[v];
+    ch_image timg = {0};
+    ch_render_stats rs;
+    st = ch_render(truth_scene, truth, &vw->camera, &s.light, &timg, &rs, &err);
+    if (!st && progress)
+      fprintf(stderr, "study: %s: truth, %ld rays in %.2f s\n", vw->name, rs.primary_rays + rs.shadow_rays, rs.seconds);
+    if (!st) snprintf(path, sizeof path, "%s/%s.truth.exr", dir, vw->name), st = write_exr(path, &timg, vw->name, "truth", &w, &err);
+    if (!st) snprintf(path, sizeof path, "%s/%s.truth.png", dir, vw->name), st = write_png(path, PIC_SHADE, &timg, NULL, scene_size, &w, &err);
+    if (!st)
+      snprintf(path, sizeof path, "%s/%s.truth.class.png", dir, vw->name),
+          st = write_png(path, PIC_CLASSES, &timg, NULL, scene_size, &w, &err);
+    for (int m = 0; !st && m < s.num_methods; m++) {
+      const method *mt = &s.methods[m];
+      ch_image img = {0};
+      row *r = &rows[nrows];
+      st = ch_render(mt->scene, truth, &vw->camera, &s.light, &img, &rs, &err);
+      if (!st) st = ch_metrics_compare(&img, &timg, scene_size, &r->m, &err);
+      if (!st) {
+        r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;
+        nrows++;
+        if (progress)
+          fprintf(stderr, "study: %s: %s, class mismatch %.3f%%, normal p95 %.2f deg\n", vw->name, mt->name,
+                  r->m.class_mismatch, r->m.normal_p95_deg);
+      }
+      static const struct {
+        const char *suffix;
+        picture what;
+      } pics[] = {{"png", PIC_SHADE}, {"class.png", PIC_CLASS_DIFF}, {"normal.png", PIC_NORMAL}, {"depth.png", PIC_DEPTH}};
+      if (!st) snprintf(path, sizeof path, "%s/%s.%s.exr", dir, vw->name, mt->name), st = write_exr(path, &img, vw->name, mt->name, &w, &err);
+      for (int k = 0; !st && k < 4; k++) {
+        snprintf(path, sizeof path, "%s/%s.%s.%s", dir, vw->name, mt->name, pics[k].suffix);
+        st = write_png(path, pics[k].what, &img, &timg, scene_size, &w, &err);
+      }
+      ch_image_free(&img);
+    }
+    ch_image_free(&timg);
+  }
+  if (!st) st = write_summaries(dir, &s, rows, nrows, &w, &err);
+  if (!st) {
+    printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%", "depth",
+           "n_mean", "n_p95", "shade", "shadow%", "Mrays/s");
+    for (int i = 0; i < nrows; i++) {
+      const ch_metrics *m = &rows[i].m;
+      printf("%-12s %-12s %9.4f %9.4f %9.4f %10.3e %9.3f %9.3f %9.4f %9.4f %8.2f\n", s.views[rows[i].view].name,
+             s.methods[rows[i].method].name, m->class_mismatch, m->class_mismatch_groove, m->id_mismatch,
+             m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shadow_mismatch,
+             rows[i].seconds > 0 ? rows[i].rays / rows[i].seconds * 1e-6 : 0.0);
+    }
+  }
+  written_free(&w, st != CH_OK);
+  if (st && made_dir) rmdir(dir);
+  free(rows);
+  ch_trace_destroy(truth_scene);
+  ch_truth_destroy(truth);
+  ch_height_free(&height);
+  ch_curves_free(&set);
+  study_free(&s);
+  return st ? cli_fail(&err) : 0;
+}
+
+const cli_command cli_study_command = {"study", "every method's mesh against the Embree-traced true surface", usage,
+                                       run};

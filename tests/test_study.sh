@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# chisel study end to end: a mesh that is the truth has no mismatch in any
+# view; chisel's snapped mesh beats the --no-snap one on groove classes;
+# the summary is deterministic; bad scenes give exit 2, one line naming the
+# file and the problem, and leave nothing behind.
+# usage: test_study.sh CHISEL DATA_DIR MODELS_DIR TMP_DIR
+set -u
+chisel=$1 data=$2 models=$3 tmp=$4
+rm -rf "$tmp"
+mkdir -p "$tmp"
+failures=0 checks=0
+fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
+check() { checks=$((checks + 1)); "$@" || fail "$*"; }
+
+# 1. The box-groove mesh is the truth: every metric 0 (depth to 1e-8 of the
+#    scene size: the mesh's coordinates are read as float).
+checks=$((checks + 1))
+if "$chisel" study "$data/box_groove.json" -o "$tmp/exact" >"$tmp/stdout" 2>"$tmp/stderr"; then
+  rows=$(tail -n +2 "$tmp/exact/summary.csv" | wc -l)
+  check [ "$rows" = 3 ]
+  bad=$(tail -n +2 "$tmp/exact/summary.csv" |
+        awk -F, '$3 != 0 || $4 != 0 || $5 != 0 || $6 > 1e-8 || $8 > 1e-3 || $9 > 1e-6 || $10 != 0' | wc -l)
+  check [ "$bad" = 0 ]
+  # Per view: truth exr/png/class.png, method exr + 4 png; and the two summaries.
+  check [ "$(ls "$tmp/exact" | wc -l)" = $((3 * 8 + 2)) ]
+  check grep -q '"class_mismatch_pct":	0' "$tmp/exact/summary.json"
+else
+  fail "study of box_groove.json failed: $(cat "$tmp/stderr")"
+fi
+
+# 2. Snapped against naive at equal triangles on the glyphs.
+svg="$models/curves/glyphs.svg"
+"$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/snapped.obj" --target-tris 20000 2>/dev/null || fail "displace"
+"$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/naive.obj" --target-tris 20000 --no-snap 2>/dev/null ||
+  fail "displace --no-snap"
+cat >"$tmp/glyphs.json" <<JSON
+{"curves": "$svg", "dci_resolution": 256, "truth_grid": 256,
+ "views": [{"name": "oblique", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "width": 160, "height": 120},
+           {"name": "grazing", "eye": [0.5, -0.3, 0.15], "target": [0.5, 0.5, -0.01], "fov": 50,
+            "width": 160, "height": 120, "supersample": 1}],
+ "methods": [{"name": "snapped", "mesh": "snapped.obj"}, {"name": "naive", "mesh": "naive.obj"}]}
+JSON
+checks=$((checks + 1))
+if "$chisel" study "$tmp/glyphs.json" -o "$tmp/glyphs" >"$tmp/stdout" 2>"$tmp/stderr"; then
+  cat "$tmp/stdout" >&2
+  for v in oblique grazing; do
+    s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $4}' "$tmp/glyphs/summary.csv")
+    n=$(awk -F, -v v=$v '$1 == v && $2 == "naive" {print $4}' "$tmp/glyphs/summary.csv")
+    check awk -v s="$s" -v n="$n" 'BEGIN { exit !(s != "" && n != "" && s < n) }'
+  done
+  # Same bytes again.
+  "$chisel" study "$tmp/glyphs.json" -o "$tmp/glyphs2" >/dev/null 2>&1
+  check cmp -s "$tmp/glyphs/summary.csv" "$tmp/glyphs2/summary.csv"
+  check cmp -s "$tmp/glyphs/grazing.naive.exr" "$tmp/glyphs2/grazing.naive.exr"
+else
+  fail "study of glyphs failed: $(cat "$tmp/stderr")"
+fi
+
+# 3. Bad scenes: exit 2, one line naming the file and the problem, no output.
+bad() {
+  local name=$1 want=$2 body=$3
+  printf '%s\n' "$body" >"$tmp/$name.json"
+  checks=$((checks + 1))
+  "$chisel" study "$tmp/$name.json" -o "$tmp/out_$name" >"$tmp/stdout" 2>"$tmp/stderr"
+  local rc=$?
+  [ "$rc" = 2 ] || fail "$name: exit $rc (want 2)"
+  [ "$(wc -l <"$tmp/stderr")" = 1 ] || fail "$name: stderr is not one line: $(cat "$tmp/stderr")"
+  grep -qF -- "$want" "$tmp/stderr" || fail "$name: stderr lacks '$want': $(cat "$tmp/stderr")"
+  [ ! -e "$tmp/out_$name" ] || fail "$name: output folder left behind"
+}
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$tmp/nouv.obj"
+view='{"name": "v", "eye": [0.5, -1, 1], "target": [0.5, 0.5, 0]}'
+bad syntax "syntax.json: line 2: not valid JSON" $'{"curves": "x.svg",\n "views": [}'
+bad nocurves 'nocurves.json: "curves"' '{"views": ['"$view"']}'
+bad noviews 'noviews.json: "views"' '{"curves": "'"$svg"'", "views": []}'
+bad unknown "unknown.json: views[0]: unknown key 'fovy'" \
+  '{"curves": "'"$svg"'", "views": [{"name": "v", "eye": [0, 0, 1], "target": [0, 0, 0], "fovy": 3}]}'
+bad eye "eye.json: views[0].eye: expected an array of 3 finite numbers" \
+  '{"curves": "'"$svg"'", "views": [{"name": "v", "eye": [0, 1], "target": [0, 0, 0]}]}'
+bad upview "upview.json: views[0] ('v'): camera: up is parallel" \
+  '{"curves": "'"$svg"'", "views": [{"name": "v", "eye": [0.5, 0.5, 1], "target": [0.5, 0.5, 0]}]}'
+bad grid "grid.json: scene.truth_grid: 100 is not a multiple of 16" \
+  '{"curves": "'"$svg"'", "truth_grid": 100, "views": ['"$view"']}'
+bad dupe "dupe.json: methods[1]: the name 'm' is used twice" \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "a.obj"}, {"name": "m", "mesh": "b.obj"}]}'
+bad badname "badname.json: views[0]: \"name\" must be" \
+  '{"curves": "'"$svg"'", "views": [{"name": "a/b", "eye": [0, 0, 1], "target": [1, 0, 0]}]}'
+bad nouv "nouv.obj: the mesh has no texture coordinates" \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "nouv.obj"}]}'
+bad nosvg "missing.svg" '{"curves": "missing.svg", "views": ['"$view"']}'
+
+echo "$checks checks, $failures failures" >&2
+[ "$failures" = 0 ]
