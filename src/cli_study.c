@@ -62,7 +62,10 @@ static const char usage[] =
     "  V.M.class.png            pixels whose class differs from the truth's in red\n"
     "  V.M.normal.png           normal error, heat map 0..20 degrees\n"
     "  V.M.depth.png            depth error, heat map 0..1% of the scene size\n"
-    "  summary.csv, summary.json  one row per view and method\n"
+    "  summary.csv, summary.json  one row per view and method: class mismatch %\n"
+    "                           (all pixels, groove pixels), groove id mismatch %,\n"
+    "                           depth error / scene size, normal error mean and\n"
+    "                           p95 (degrees), shading RMSE and SSIM, shadow mismatch %\n"
     "On failure nothing is left in DIR.\n"
     "\n"
     "  -o, --output DIR   the output folder (required)\n";
@@ -423,13 +426,13 @@ static ch_status write_summaries(const char *dir, const study *s, const row *row
   ch_status st = ch_atomic_open(&f, path, err);
   if (st) return st;
   fprintf(f.fp, "view,method,class_mismatch_pct,class_mismatch_groove_pct,id_mismatch_pct,depth_error_rel,"
-                "normal_mean_deg,normal_p95_deg,shade_rmse,shadow_mismatch_pct,pixels,groove_pixels\n");
+                "normal_mean_deg,normal_p95_deg,shade_rmse,shade_ssim,shadow_mismatch_pct,pixels,groove_pixels\n");
   for (int i = 0; i < nrows; i++) {
     const ch_metrics *m = &rows[i].m;
-    fprintf(f.fp, "%s,%s,%.6f,%.6f,%.6f,%.6e,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", s->views[rows[i].view].name,
+    fprintf(f.fp, "%s,%s,%.6f,%.6f,%.6f,%.6e,%.6f,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", s->views[rows[i].view].name,
             s->methods[rows[i].method].name, m->class_mismatch, m->class_mismatch_groove, m->id_mismatch,
-            m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shadow_mismatch, m->pixels,
-            m->groove_pixels);
+            m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shade_ssim, m->shadow_mismatch,
+            m->pixels, m->groove_pixels);
   }
   if ((st = ch_atomic_commit(&f, err))) return st;
   if (!written_add(w, path)) return ch_error_set(err, CH_ERR_NOMEM, "out of memory");
@@ -451,6 +454,7 @@ static ch_status write_summaries(const char *dir, const study *s, const row *row
     cJSON_AddNumberToObject(r, "normal_mean_deg", m->normal_mean_deg);
     cJSON_AddNumberToObject(r, "normal_p95_deg", m->normal_p95_deg);
     cJSON_AddNumberToObject(r, "shade_rmse", m->shade_rmse);
+    cJSON_AddNumberToObject(r, "shade_ssim", m->shade_ssim);
     cJSON_AddNumberToObject(r, "shadow_mismatch_pct", m->shadow_mismatch);
     cJSON_AddNumberToObject(r, "pixels", (double)m->pixels);
     cJSON_AddNumberToObject(r, "groove_pixels", (double)m->groove_pixels);
@@ -575,14 +579,14 @@ static int run(int argc, char **argv) {
   }
   if (!st) st = write_summaries(dir, &s, rows, nrows, &w, &err);
   if (!st) {
-    printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%", "depth",
-           "n_mean", "n_p95", "shade", "shadow%", "Mrays/s");
+    printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%",
+           "depth", "n_mean", "n_p95", "shade", "ssim", "shadow%", "Mrays/s");
     for (int i = 0; i < nrows; i++) {
       const ch_metrics *m = &rows[i].m;
-      printf("%-12s %-12s %9.4f %9.4f %9.4f %10.3e %9.3f %9.3f %9.4f %9.4f %8.2f\n", s.views[rows[i].view].name,
-             s.methods[rows[i].method].name, m->class_mismatch, m->class_mismatch_groove, m->id_mismatch,
-             m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shadow_mismatch,
-             rows[i].seconds > 0 ? rows[i].rays / rows[i].seconds * 1e-6 : 0.0);
+      printf("%-12s %-12s %9.4f %9.4f %9.4f %10.3e %9.3f %9.3f %9.4f %9.5f %9.4f %8.2f\n",
+             s.views[rows[i].view].name, s.methods[rows[i].method].name, m->class_mismatch, m->class_mismatch_groove,
+             m->id_mismatch, m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shade_ssim,
+             m->shadow_mismatch, rows[i].seconds > 0 ? rows[i].rays / rows[i].seconds * 1e-6 : 0.0);
     }
   }
   written_free(&w, st != CH_OK);

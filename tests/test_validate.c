@@ -364,7 +364,53 @@ static void test_threads_same_bytes(void) {
   world_free(&w);
 }
 
+/* Metrics on renders made by hand: 10 x 10 pixels, all hit, top; the
+ * method differs in 5 pixels' class (2 of them groove), its normals are
+ * tilted by 30 degrees in 10 pixels, its depth is 0.1 off in 20, and its
+ * shading is a constant 0.6 against 0.5: SSIM (2ab + C1) / (a^2 + b^2 + C1). */
+static void test_metrics_by_hand(void) {
+  ch_image a, b;
+  ch_error err = {0};
+  REQUIRE(ch_image_init(&a, 10, 10, CH_RENDER_NUM_LAYERS, ch_render_layer_names, &err) == CH_OK);
+  REQUIRE(ch_image_init(&b, 10, 10, CH_RENDER_NUM_LAYERS, ch_render_layer_names, &err) == CH_OK);
+  for (int p = 0; p < 100; p++) {
+    ch_image *im[2] = {&a, &b};
+    for (int k = 0; k < 2; k++) {
+      ch_image_plane(im[k], CH_RENDER_COVERAGE)[p] = 1.0f;
+      ch_image_plane(im[k], CH_RENDER_CLASS)[p] = CH_VIS_TOP;
+      ch_image_plane(im[k], CH_RENDER_ID)[p] = -1.0f;
+      ch_image_plane(im[k], CH_RENDER_NZ)[p] = 1.0f;
+      ch_image_plane(im[k], CH_RENDER_DEPTH)[p] = 2.0f;
+      ch_image_plane(im[k], CH_RENDER_SHADE)[p] = k ? 0.5f : 0.6f;
+    }
+    if (p < 3) ch_image_plane(&a, CH_RENDER_CLASS)[p] = CH_VIS_STEP_WALL;
+    if (p >= 3 && p < 5) ch_image_plane(&a, CH_RENDER_CLASS)[p] = CH_VIS_GROOVE_FLOOR;
+    if (p >= 50 && p < 60) {
+      ch_image_plane(&a, CH_RENDER_NX)[p] = 0.5f;
+      ch_image_plane(&a, CH_RENDER_NZ)[p] = (float)sqrt(0.75);
+    }
+    if (p >= 60 && p < 80) ch_image_plane(&a, CH_RENDER_DEPTH)[p] = 2.1f;
+  }
+  ch_metrics m;
+  REQUIRE(ch_metrics_compare(&a, &b, 2.0, &m, &err) == CH_OK);
+  CHECK_NEAR(m.class_mismatch, 5.0, 1e-12);
+  CHECK(m.groove_pixels == 2);
+  CHECK_NEAR(m.class_mismatch_groove, 100.0, 1e-12);
+  CHECK_NEAR(m.normal_mean_deg, 10 * 30.0 / 100, 1e-4);
+  CHECK_NEAR(m.normal_p95_deg, 30.0, 1e-4);
+  CHECK_NEAR(m.depth_error, 20 * 0.1 / 100 / 2.0, 1e-7);
+  CHECK_NEAR(m.shade_rmse, 0.1, 1e-7);
+  double x = 0.6, y = 0.5, c1 = 1e-4;
+  CHECK_NEAR(m.shade_ssim, (2 * x * y + c1) / (x * x + y * y + c1), 1e-7);
+  REQUIRE(ch_metrics_compare(&b, &b, 2.0, &m, &err) == CH_OK);
+  CHECK(m.class_mismatch == 0.0 && m.normal_p95_deg == 0.0);
+  CHECK_NEAR(m.shade_ssim, 1.0, 1e-12);
+  ch_image_free(&a);
+  ch_image_free(&b);
+}
+
 int main(void) {
+  RUN(test_metrics_by_hand);
   RUN(test_single_rays);
   RUN(test_v_groove_from_above);
   RUN(test_tilted_views);

@@ -16,6 +16,61 @@ static int cmp_double(const void *a, const void *b) {
   return (x > y) - (x < y);
 }
 
+/* Separable Gaussian blur (sigma 1.5, 11 taps, edges clamped) of a W x H plane. */
+static void blur(const double *in, double *tmp, double *out, int W, int H) {
+  double w[11], sum = 0.0;
+  for (int k = 0; k < 11; k++) sum += w[k] = exp(-0.5 * (k - 5) * (k - 5) / (1.5 * 1.5));
+  for (int k = 0; k < 11; k++) w[k] /= sum;
+  for (int y = 0; y < H; y++)
+    for (int x = 0; x < W; x++) {
+      double a = 0.0;
+      for (int k = 0; k < 11; k++) {
+        int xx = x + k - 5;
+        xx = xx < 0 ? 0 : xx >= W ? W - 1 : xx;
+        a += w[k] * in[(size_t)y * W + xx];
+      }
+      tmp[(size_t)y * W + x] = a;
+    }
+  for (int y = 0; y < H; y++)
+    for (int x = 0; x < W; x++) {
+      double a = 0.0;
+      for (int k = 0; k < 11; k++) {
+        int yy = y + k - 5;
+        yy = yy < 0 ? 0 : yy >= H ? H - 1 : yy;
+        a += w[k] * tmp[(size_t)yy * W + x];
+      }
+      out[(size_t)y * W + x] = a;
+    }
+}
+
+/* Mean SSIM of two planes (Wang, Bovik, Sheikh, Simoncelli 2004, eq. 13). */
+static int ssim(const float *a, const float *b, int W, int H, double *out) {
+  size_t n = (size_t)W * H;
+  double *buf = calloc(7 * n, sizeof *buf);
+  if (!buf) return 0;
+  double *x = buf, *tmp = buf + n, *mx = buf + 2 * n, *my = buf + 3 * n, *sxx = buf + 4 * n, *syy = buf + 5 * n,
+         *sxy = buf + 6 * n;
+  for (size_t p = 0; p < n; p++) x[p] = a[p];
+  blur(x, tmp, mx, W, H);
+  for (size_t p = 0; p < n; p++) x[p] = b[p];
+  blur(x, tmp, my, W, H);
+  for (size_t p = 0; p < n; p++) x[p] = (double)a[p] * a[p];
+  blur(x, tmp, sxx, W, H);
+  for (size_t p = 0; p < n; p++) x[p] = (double)b[p] * b[p];
+  blur(x, tmp, syy, W, H);
+  for (size_t p = 0; p < n; p++) x[p] = (double)a[p] * b[p];
+  blur(x, tmp, sxy, W, H);
+  const double c1 = 0.01 * 0.01, c2 = 0.03 * 0.03;
+  double sum = 0.0;
+  for (size_t p = 0; p < n; p++) {
+    double vx = sxx[p] - mx[p] * mx[p], vy = syy[p] - my[p] * my[p], cxy = sxy[p] - mx[p] * my[p];
+    sum += (2 * mx[p] * my[p] + c1) * (2 * cxy + c2) / ((mx[p] * mx[p] + my[p] * my[p] + c1) * (vx + vy + c2));
+  }
+  free(buf);
+  *out = n ? sum / (double)n : 1.0;
+  return 1;
+}
+
 static double pct(long k, long n) { return n > 0 ? 100.0 * (double)k / (double)n : 0.0; }
 
 ch_status ch_metrics_compare(const ch_image *m, const ch_image *t, double scene_size, ch_metrics *out, ch_error *err) {
@@ -73,5 +128,8 @@ ch_status ch_metrics_compare(const ch_image *m, const ch_image *t, double scene_
     out->normal_p95_deg = angles[k < 0 ? 0 : k];
   }
   free(angles);
+  if (!ssim(ch_image_plane(m, CH_RENDER_SHADE), ch_image_plane(t, CH_RENDER_SHADE), m->width, m->height,
+            &out->shade_ssim))
+    return ch_error_set(err, CH_ERR_NOMEM, "metrics: out of memory");
   return CH_OK;
 }

@@ -21,6 +21,9 @@ typedef struct ch_metrics {
   double depth_error;           /* mean |depth - depth_truth| over both_hit, / scene_size */
   double normal_mean_deg, normal_p95_deg; /* angle between the normals over both_hit (p95: nearest rank) */
   double shade_rmse;            /* over all pixels (shade in [0, ~1]) */
+  double shade_ssim;            /* perceptual: mean SSIM of the shading (Wang et al. 2004:
+                                   Gaussian window sigma 1.5 px, 11 taps, edges clamped,
+                                   C1 = 0.01^2, C2 = 0.03^2 for a range of 1); 1 = same */
   double shadow_mismatch;       /* % of both_hit where the shadow shares differ by more than 1/2 */
 } ch_metrics;
 
