@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# The accuracy study of issue 6 on the bundled curve sets over the planar
+# base (models/plane.obj): for each set, chisel's snapped mesh, the
+# --no-snap mesh and the uniform grid with exact vertex heights (what a
+# raster displacement of a subdivided plane gives) at the same triangle
+# count, rendered with the Embree-traced truth from four views by
+# `chisel study`.
+# usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]
+#   BUILD_DIR  holds chisel and bench/chisel-uniform-grid (default build)
+#   OUT_DIR    one folder per set (scene.json, the meshes, the study), plus
+#              summary.csv joining every set's table
+#   TRIANGLES  target triangle count of every method (default 100000)
+#   SET        curve sets of models/curves (default: all)
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+build=${1:-$here/build}
+out=${2:?usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]}
+tris=${3:-100000}
+shift $(( $# < 3 ? $# : 3 ))
+sets=("$@")
+if [ ${#sets[@]} -eq 0 ]; then
+  for f in "$here"/models/curves/*.svg; do sets+=("$(basename "$f" .svg)"); done
+fi
+chisel=$build/chisel grid=$build/bench/chisel-uniform-grid
+mkdir -p "$out"
+summary=$out/summary.csv
+first=1
+for set in "${sets[@]}"; do
+  svg=$here/models/curves/$set.svg dir=$out/$set
+  mkdir -p "$dir"
+  echo "study.sh: $set: meshes at $tris triangles" >&2
+  "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/snapped.obj" --target-tris "$tris" 2>/dev/null
+  "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/naive.obj" --target-tris "$tris" --no-snap 2>/dev/null
+  "$grid" "$svg" -o "$dir/raster.obj" --target-tris "$tris" --dci-res 1024 2>/dev/null
+  cat >"$dir/scene.json" <<JSON
+{
+  "curves": "$svg",
+  "dci_resolution": 1024,
+  "truth_grid": 512,
+  "views": [
+    {"name": "oblique", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "fov": 40,
+     "width": 320, "height": 240, "supersample": 2},
+    {"name": "grazing", "eye": [0.5, -0.3, 0.15], "target": [0.5, 0.5, -0.01], "fov": 50,
+     "width": 320, "height": 240, "supersample": 2},
+    {"name": "closeup", "eye": [0.42, 0.3, 0.14], "target": [0.5, 0.5, -0.01], "fov": 30,
+     "width": 320, "height": 240, "supersample": 2},
+    {"name": "top", "eye": [0.5, 0.5, 2], "target": [0.5, 0.5, 0], "up": [0, 1, 0], "ortho_height": 1,
+     "width": 256, "height": 256, "supersample": 2}
+  ],
+  "methods": [
+    {"name": "snapped", "mesh": "snapped.obj"},
+    {"name": "naive", "mesh": "naive.obj"},
+    {"name": "raster", "mesh": "raster.obj"}
+  ]
+}
+JSON
+  rm -rf "$dir/study"
+  "$chisel" study "$dir/scene.json" -o "$dir/study" >&2
+  if [ $first = 1 ]; then
+    { printf 'set,'; head -1 "$dir/study/summary.csv"; } >"$summary"
+    first=0
+  fi
+  tail -n +2 "$dir/study/summary.csv" | sed "s/^/$set,/" >>"$summary"
+done
+echo "study.sh: wrote $summary" >&2
