@@ -3,7 +3,8 @@
 # base (models/plane.obj): for each set, chisel's snapped mesh, the
 # --no-snap mesh and the uniform grid with exact vertex heights (what a
 # raster displacement of a subdivided plane gives) at the same triangle
-# count, rendered with the Embree-traced truth from four views by
+# count, and the flat base with the exact normals (a perfect normal map),
+# rendered with the Embree-traced truth from four views by
 # `chisel study`.
 # usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]
 #   BUILD_DIR  holds chisel and bench/chisel-uniform-grid (default build)
@@ -50,7 +51,8 @@ for set in "${sets[@]}"; do
   "methods": [
     {"name": "snapped", "mesh": "snapped.obj"},
     {"name": "naive", "mesh": "naive.obj"},
-    {"name": "raster", "mesh": "raster.obj"}
+    {"name": "raster", "mesh": "raster.obj"},
+    {"name": "normalmap", "mesh": "$here/models/plane.obj", "shader": "exact-normals"}
   ]
 }
 JSON

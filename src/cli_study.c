@@ -49,6 +49,10 @@ static const char usage[] =
     "    ],\n"
     "    \"methods\": [                    optional\n"
     "      {\"name\": \"snapped\", \"mesh\": \"snapped.obj\"}   OBJ/PLY/OFF/STL with UVs\n"
+    "      {\"name\": \"normalmap\", \"mesh\": \"plane.obj\", \"shader\": \"exact-normals\"}\n"
+    "                                   a texture-space method on the base mesh:\n"
+    "                                   exact-normals = the truth's normal at the\n"
+    "                                   hit's UV (a perfect normal map)\n"
     "    ]\n"
     "  }\n"
     "Names are letters, digits, '-' and '_' (they name files), unique per list.\n"
@@ -80,6 +84,7 @@ typedef struct view {
 typedef struct method {
   char name[NAME_MAX_LEN];
   char *path;
+  int exact_normals; /* "shader": "exact-normals" */
   ch_mesh mesh;
   ch_trace *scene;
 } method;
@@ -221,7 +226,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
   static const char *const view_keys[] = {"name",  "eye",    "target",      "up",          "fov",
                                           "width", "height", "supersample", "ortho_height", NULL};
-  static const char *const method_keys[] = {"name", "mesh", NULL};
+  static const char *const method_keys[] = {"name", "mesh", "shader", NULL};
   char where[96];
   const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
   const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
@@ -332,6 +337,14 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
     if (!cJSON_IsString(mesh) || !mesh->valuestring[0]) {
       ch_error_set(err, CH_ERR_INPUT, "%s: %s.mesh: expected the path of a mesh file", file, where);
       goto fail;
+    }
+    const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
+    if (shader) {
+      if (!cJSON_IsString(shader) || strcmp(shader->valuestring, "exact-normals")) {
+        ch_error_set(err, CH_ERR_INPUT, "%s: %s.shader: unknown shader (known: \"exact-normals\")", file, where);
+        goto fail;
+      }
+      mt->exact_normals = 1;
     }
     if (!(mt->path = resolve(file, mesh->valuestring))) goto nomem;
   }
@@ -555,7 +568,8 @@ static int run(int argc, char **argv) {
       const method *mt = &s.methods[m];
       ch_image img = {0};
       row *r = &rows[nrows];
-      st = ch_render(mt->scene, truth, &vw->camera, &s.light, &img, &rs, &err);
+      ch_render_shader sh = ch_shader_exact_normals(truth);
+      st = ch_render_shaded(mt->scene, mt->exact_normals ? &sh : NULL, truth, &vw->camera, &s.light, &img, &rs, &err);
       if (!st) st = ch_metrics_compare(&img, &timg, scene_size, &r->m, &err);
       if (!st) {
         r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;

@@ -38,7 +38,8 @@ cat >"$tmp/glyphs.json" <<JSON
  "views": [{"name": "oblique", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "width": 160, "height": 120},
            {"name": "grazing", "eye": [0.5, -0.3, 0.15], "target": [0.5, 0.5, -0.01], "fov": 50,
             "width": 160, "height": 120, "supersample": 1}],
- "methods": [{"name": "snapped", "mesh": "snapped.obj"}, {"name": "naive", "mesh": "naive.obj"}]}
+ "methods": [{"name": "snapped", "mesh": "snapped.obj"}, {"name": "naive", "mesh": "naive.obj"},
+             {"name": "normalmap", "mesh": "$models/plane.obj", "shader": "exact-normals"}]}
 JSON
 checks=$((checks + 1))
 if "$chisel" study "$tmp/glyphs.json" -o "$tmp/glyphs" >"$tmp/stdout" 2>"$tmp/stderr"; then
@@ -47,6 +48,12 @@ if "$chisel" study "$tmp/glyphs.json" -o "$tmp/glyphs" >"$tmp/stdout" 2>"$tmp/st
     s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $4}' "$tmp/glyphs/summary.csv")
     n=$(awk -F, -v v=$v '$1 == v && $2 == "naive" {print $4}' "$tmp/glyphs/summary.csv")
     check awk -v s="$s" -v n="$n" 'BEGIN { exit !(s != "" && n != "" && s < n) }'
+    # A perfect normal map has the truth's classes where carved grooves meet
+    # the surface at their rims (z = 0 both), but no depth: its depth error
+    # is far above the snapped mesh's.
+    s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $6}' "$tmp/glyphs/summary.csv")
+    p=$(awk -F, -v v=$v '$1 == v && $2 == "normalmap" {print $6}' "$tmp/glyphs/summary.csv")
+    check awk -v s="$s" -v p="$p" 'BEGIN { exit !(s != "" && p != "" && 10 * s < p) }'
   done
   # Same bytes again.
   "$chisel" study "$tmp/glyphs.json" -o "$tmp/glyphs2" >/dev/null 2>&1
@@ -87,6 +94,8 @@ bad badname "badname.json: views[0]: \"name\" must be" \
   '{"curves": "'"$svg"'", "views": [{"name": "a/b", "eye": [0, 0, 1], "target": [1, 0, 0]}]}'
 bad nouv "nouv.obj: the mesh has no texture coordinates" \
   '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "nouv.obj"}]}'
+bad shader "shader.json: methods[0].shader: unknown shader" \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "a.obj", "shader": "relief"}]}'
 bad nosvg "missing.svg" '{"curves": "missing.svg", "views": ['"$view"']}'
 
 echo "$checks checks, $failures failures" >&2

@@ -409,8 +409,41 @@ static void test_metrics_by_hand(void) {
   ch_image_free(&b);
 }
 
+/* The exact-normals shader on the flat plane, seen from straight above
+ * (orthographic, the v groove of test_v_groove_from_above): the classes
+ * and normals are the truth's (same UV under every pixel), the depth is off
+ * by |h|, whose mean over the 40 groove pixels of a row (midpoints of a
+ * linear profile) is d / 2: over all pixels 0.2 d / 2 = 0.002. */
+static void test_normal_map_shader(void) {
+  world w;
+  REQUIRE(world_load(&w, v_groove, 256, 0));
+  ch_mesh plane = {0};
+  ch_error err = {0};
+  ch_trace *base = NULL;
+  REQUIRE(ch_mesh_read(CHISEL_MODELS "/plane.obj", &plane, &err) == CH_OK);
+  REQUIRE(ch_trace_create_mesh(&plane, "plane.obj", &base, &err) == CH_OK);
+  ch_camera cam = tilted(0.0, 200);
+  ch_render_shader sh = ch_shader_exact_normals(w.truth);
+  ch_image a, b;
+  REQUIRE(ch_render_shaded(base, &sh, w.truth, &cam, NULL, &a, NULL, &err) == CH_OK);
+  REQUIRE(ch_render(w.scene, w.truth, &cam, NULL, &b, NULL, &err) == CH_OK);
+  ch_metrics m;
+  REQUIRE(ch_metrics_compare(&a, &b, 1.0, &m, &err) == CH_OK);
+  fprintf(stderr, "  normal map from above: class %.4f%%, depth %.6f (expected 0.002), normal p95 %.2e deg\n",
+          m.class_mismatch, m.depth_error, m.normal_p95_deg);
+  CHECK(m.class_mismatch == 0.0);
+  CHECK_NEAR(m.depth_error, 0.002, 1e-6);
+  CHECK(m.normal_p95_deg < 1e-3);
+  ch_image_free(&a);
+  ch_image_free(&b);
+  ch_trace_destroy(base);
+  ch_mesh_free(&plane);
+  world_free(&w);
+}
+
 int main(void) {
   RUN(test_metrics_by_hand);
+  RUN(test_normal_map_shader);
   RUN(test_single_rays);
   RUN(test_v_groove_from_above);
   RUN(test_tilted_views);

@@ -103,9 +103,12 @@ ch_status ch_metrics_compare(const ch_image *m, const ch_image *t, double scene_
     shade_sq += ds * ds;
     if (!(L(m, CH_RENDER_COVERAGE)[p] > 0.0f && L(t, CH_RENDER_COVERAGE)[p] > 0.0f)) continue;
     depth_sum += fabs((double)L(m, CH_RENDER_DEPTH)[p] - L(t, CH_RENDER_DEPTH)[p]);
-    double dot = 0.0;
-    for (int k = 0; k < 3; k++) dot += (double)L(m, CH_RENDER_NX + k)[p] * L(t, CH_RENDER_NX + k)[p];
-    double a = acos(ch_clamp(dot, -1.0, 1.0)) * 180.0 / CH_PI;
+    /* atan2(|a x b|, a . b): accurate for small angles, where acos of a
+     * dot product of float normals is not (1e-2 degrees of noise). */
+    double na[3], nb[3], cr[3];
+    for (int k = 0; k < 3; k++) na[k] = L(m, CH_RENDER_NX + k)[p], nb[k] = L(t, CH_RENDER_NX + k)[p];
+    ch_cross3(na, nb, cr);
+    double a = atan2(sqrt(ch_dot3(cr, cr)), ch_dot3(na, nb)) * 180.0 / CH_PI;
     angles[both++] = a;
     angle_sum += a;
     shadow_bad += fabs((double)L(m, CH_RENDER_SHADOW)[p] - L(t, CH_RENDER_SHADOW)[p]) > 0.5;

@@ -78,13 +78,15 @@ typedef struct sample {
   double shade, shadow, depth, n[3], p[3], uv[2];
 } sample;
 
-static void trace_sample(const ch_trace *scene, const ch_truth *truth, const double L[3], const ch_light *lt,
-                         const double o[3], const double d[3], sample *s, long *shadow_rays) {
+static void trace_sample(const ch_trace *scene, const ch_render_shader *shader, const ch_truth *truth,
+                         const double L[3], const ch_light *lt, const double o[3], const double d[3], sample *s,
+                         long *shadow_rays) {
   memset(s, 0, sizeof *s);
   s->cls = CH_VIS_NONE;
   s->id = -1;
   ch_trace_hit h;
   if (!ch_trace_intersect(scene, o, d, 0.0, INFINITY, &h)) return;
+  if (shader && !shader->shade(shader->user, o, d, &h)) return;
   s->hit = 1;
   s->depth = h.t;
   memcpy(s->p, h.point, sizeof s->p);
@@ -112,7 +114,7 @@ static void trace_sample(const ch_trace *scene, const ch_truth *truth, const dou
     double so[3];
     for (int k = 0; k < 3; k++) so[k] = h.point[k] + 1e-7 * ng[k];
     (*shadow_rays)++;
-    lit = !ch_trace_occluded(scene, so, L, 0.0, INFINITY);
+    lit = shader && shader->occluded ? !shader->occluded(shader->user, &h, L) : !ch_trace_occluded(scene, so, L, 0.0, INFINITY);
   }
   s->shadow = lit ? 0.0 : 1.0;
   double half[3] = {L[0] - d[0], L[1] - d[1], L[2] - d[2]};
@@ -121,8 +123,28 @@ static void trace_sample(const ch_trace *scene, const ch_truth *truth, const dou
   s->shade = lt->albedo * (lt->ambient + (1.0 - lt->ambient) * diff * lit) + lt->specular * spec * lit;
 }
 
-ch_status ch_render(const ch_trace *scene, const ch_truth *truth, const ch_camera *cam, const ch_light *light_in,
+ch_status ch_render(const ch_trace *scene, const ch_truth *truth, const ch_camera *cam, const ch_light *light,
                     ch_image *out, ch_render_stats *stats, ch_error *err) {
+  return ch_render_shaded(scene, NULL, truth, cam, light, out, stats, err);
+}
+
+static int exact_normals(void *user, const double org[3], const double dir[3], ch_trace_hit *hit) {
+  (void)org;
+  (void)dir;
+  ch_truth_normal(user, hit->uv, hit->shading_normal);
+  memcpy(hit->normal, hit->shading_normal, sizeof hit->normal);
+  hit->wall = 0;
+  return 1;
+}
+
+ch_render_shader ch_shader_exact_normals(const ch_truth *truth) {
+  ch_render_shader sh = {exact_normals, NULL, (void *)truth};
+  return sh;
+}
+
+ch_status ch_render_shaded(const ch_trace *scene, const ch_render_shader *shader, const ch_truth *truth,
+                           const ch_camera *cam, const ch_light *light_in, ch_image *out, ch_render_stats *stats,
+                           ch_error *err) {
   memset(out, 0, sizeof *out);
   frame fr;
   ch_status st = camera_frame(cam, &fr, err);
@@ -161,7 +183,7 @@ ch_status ch_render(const ch_trace *scene, const ch_truth *truth, const ch_camer
             double o[3], d[3];
             frame_ray(cam, &fr, x + (i + 0.5) / n, y + (j + 0.5) / n, o, d);
             sample *s = &smp[j * n + i];
-            trace_sample(scene, truth, L, &lt, o, d, s, &shadow_total);
+            trace_sample(scene, shader, truth, L, &lt, o, d, s, &shadow_total);
             count[s->cls]++;
             acc[CH_RENDER_SHADE] += s->shade;
             if (!s->hit) continue;

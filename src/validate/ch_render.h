@@ -74,6 +74,21 @@ typedef struct ch_render_stats {
   double seconds;
 } ch_render_stats;
 
+/* A texture-space method as a per-pixel shader on the base surface (the
+ * plug-in point of normal maps, pinchmaps, groove textures): the renderer
+ * traces the scene (the undisplaced base mesh) and hands the shader every
+ * hit, which it may move along the same ray (relief, groove textures: new
+ * t, point and uv, or a miss by returning 0), mark as a wall, and whose
+ * normals it may replace (normal maps). Its result is classified and shaded
+ * like any hit. occluded, if set, answers shadow rays from a shaded hit
+ * (texture-space shadowing); if NULL they are traced against the scene.
+ * Both are called from many threads at once. */
+typedef struct ch_render_shader {
+  int (*shade)(void *user, const double org[3], const double dir[3], ch_trace_hit *hit);
+  int (*occluded)(void *user, const ch_trace_hit *from, const double dir[3]);
+  void *user;
+} ch_render_shader;
+
 /* Renders into out (allocated here: width x height, the layers above).
  * classifier gives the classes (it may be the truth the scene traces, or
  * the truth of the curves a mesh was made from). stats may be NULL. Bad
@@ -81,6 +96,16 @@ typedef struct ch_render_stats {
  * give CH_ERR_INPUT. */
 ch_status ch_render(const ch_trace *scene, const ch_truth *classifier, const ch_camera *camera,
                     const ch_light *light, ch_image *out, ch_render_stats *stats, ch_error *err);
+
+/* The same through a shader (NULL: ch_render). */
+ch_status ch_render_shaded(const ch_trace *scene, const ch_render_shader *shader, const ch_truth *classifier,
+                           const ch_camera *camera, const ch_light *light, ch_image *out, ch_render_stats *stats,
+                           ch_error *err);
+
+/* The first shader: the base surface with the truth's exact normal at the
+ * hit's UV (walls never): the best any normal map can do, with no parallax,
+ * masking or silhouette. truth must outlive the shader. */
+ch_render_shader ch_shader_exact_normals(const ch_truth *truth);
 
 /* The primary ray through image point (px, py) in pixels (0,0 the top-left
  * corner of the image): origin and unit direction. Exposed for tests. */
