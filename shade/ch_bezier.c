@@ -82,9 +82,10 @@ static int quadratic_roots_01(double a, double b, double c, double r[2]) {
 }
 
 /* Root of the cubic f in [lo, hi] where f(lo) and f(hi) differ in sign:
- * Newton steps, falling back to bisection when a step leaves the bracket. */
-static double bracketed_root(const double k[4], double lo, double hi, double flo) {
-  double t = 0.5 * (lo + hi);
+ * Newton steps from `start` (inside the bracket), falling back to
+ * bisection when a step leaves the bracket. */
+static double bracketed_root(const double k[4], double lo, double hi, double flo, double start) {
+  double t = start > lo && start < hi ? start : 0.5 * (lo + hi);
   for (int it = 0; it < 100; it++) {
     double f = ((k[0] * t + k[1]) * t + k[2]) * t + k[3];
     if (f == 0.0) return t;
@@ -130,20 +131,29 @@ double ch_bezier_closest(const double p[3][2], int is_line, const double q[2], d
   for (int i = 0; i < ncrit; i++) cuts[ncuts++] = crit[i];
   cuts[ncuts++] = 1.0;
 
-  double best_t = 0.0, best = dist2_at(p, 0.0, q);
-  double d1 = dist2_at(p, 1.0, q);
-  if (d1 < best) {
-    best = d1;
-    best_t = 1.0;
+  /* The ends are candidates only where the distance does not fall going
+   * in (f(0) >= 0, f(1) <= 0); the closest point is one of them or an
+   * interior minimum. Newton starts from the projection on the chord. */
+  double best_t = 0.0, best = INFINITY;
+  double f0 = k[3], f1 = k[0] + k[1] + k[2] + k[3];
+  if (f0 >= 0.0) best = ch_dot2(m, m);
+  if (f1 <= 0.0) {
+    double e[2] = {p[2][0] - q[0], p[2][1] - q[1]}, d1 = ch_dot2(e, e);
+    if (d1 < best) {
+      best = d1;
+      best_t = 1.0;
+    }
   }
+  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]}, chord2 = ch_dot2(chord, chord);
+  double start = chord2 > 0.0 ? -ch_dot2(m, chord) / chord2 : 0.5;
   for (int i = 0; i + 1 < ncuts; i++) {
     double lo = cuts[i], hi = cuts[i + 1];
-    double flo = ((k[0] * lo + k[1]) * lo + k[2]) * lo + k[3];
-    double fhi = ((k[0] * hi + k[1]) * hi + k[2]) * hi + k[3];
+    double flo = i == 0 ? f0 : ((k[0] * lo + k[1]) * lo + k[2]) * lo + k[3];
+    double fhi = i + 2 == ncuts ? f1 : ((k[0] * hi + k[1]) * hi + k[2]) * hi + k[3];
     double t;
     /* A minimum of the distance is where f goes from negative to positive. */
     if (flo <= 0.0 && fhi >= 0.0 && !(flo == 0.0 && fhi == 0.0))
-      t = flo == 0.0 ? lo : fhi == 0.0 ? hi : bracketed_root(k, lo, hi, flo);
+      t = flo == 0.0 ? lo : fhi == 0.0 ? hi : bracketed_root(k, lo, hi, flo, start);
     else
       continue;
     double d = dist2_at(p, t, q);
