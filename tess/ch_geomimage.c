@@ -91,10 +91,7 @@ static int face_patches(const ch_surface *s, int face, patch *out) {
     for (int c = 0; c < 4; c++) {
       corner[c][0] = p->origin[0] + p->scale * local[c][0];
       corner[c][1] = p->origin[1] + p->scale * local[c][1];
-      ch_surface_point sp;
-      if (ch_surface_eval(s, face, corner[c][0], corner[c][1], &sp) != CH_OK) return -1;
-      p->uv[c][0] = sp.uv[0];
-      p->uv[c][1] = sp.uv[1];
+      if (ch_surface_eval_uv(s, face, corner[c][0], corner[c][1], p->uv[c]) != CH_OK) return -1;
     }
     p->box[0] = p->box[1] = INFINITY;
     p->box[2] = p->box[3] = -INFINITY;
@@ -111,7 +108,7 @@ static int face_patches(const ch_surface *s, int face, patch *out) {
 ch_status ch_surface_locate(const ch_surface *s, int face, const double uv[2], double st[2]) {
   int n = ch_surface_face_size(s, face);
   if (n < 3) return CH_ERR_INPUT;
-  patch *ps = malloc((size_t)n * sizeof *ps);
+  patch local[8], *ps = n <= 8 ? local : malloc((size_t)n * sizeof *ps); /* called per new vertex: no malloc for the usual faces */
   if (!ps) return CH_ERR_NOMEM;
   int np = face_patches(s, face, ps);
   ch_status st_code = CH_ERR_INPUT;
@@ -124,7 +121,7 @@ ch_status ch_surface_locate(const ch_surface *s, int face, const double uv[2], d
       break;
     }
   }
-  free(ps);
+  if (ps != local) free(ps);
   return st_code;
 }
 

@@ -460,6 +460,18 @@ extern "C" ch_status ch_surface_edge_param(const ch_surface *S, int face, int k,
   return CH_OK;
 }
 
+extern "C" ch_status ch_surface_eval_uv(const ch_surface *S, int face, double s, double t, double uv[2]) {
+  if (!S || !uv || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;
+  try {
+    if (!in_domain(S->pos[face].GetParameterization(), s, t)) return CH_ERR_INPUT;
+    double st[2] = {s, t};
+    eval_uv(S, face, st, uv);
+  } catch (...) {
+    return CH_ERR_INTERNAL;
+  }
+  return CH_OK;
+}
+
 extern "C" ch_status ch_surface_eval(const ch_surface *S, int face, double s, double t,
                                      ch_surface_point *out) {
   if (!S || !out || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;

@@ -101,6 +101,9 @@ typedef struct ch_surface_point {
 ch_status ch_surface_eval(const ch_surface *surface, int face, double s, double t,
                           ch_surface_point *out);
 
+/* Only the UV of ch_surface_eval (the same value, a fraction of the cost). */
+ch_status ch_surface_eval_uv(const ch_surface *surface, int face, double s, double t, double uv[2]);
+
 /* ---- tessellation ------------------------------------------------------ */
 
 /* Exactly one of the two must be > 0. */
