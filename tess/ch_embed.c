@@ -1825,6 +1825,13 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     free(pstats);
     if (oom) goto nomem;
   }
+  if (desc && desc->count_only) {
+    stats.triangles = o.ntri;
+    stats.seconds_refine = t1 - t0;
+    stats.seconds_cut = omp_get_wtime() - t1;
+    if (stats_out) *stats_out = stats;
+    goto done;
+  }
   if ((st = evaluate_positions(surface, &o, err))) goto done;
   double t2 = omp_get_wtime();
   stats.min_h = INFINITY;
@@ -1863,6 +1870,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
       goto nomem;
     }
   }
+  stats.triangles = out->num_faces;
   stats.seconds_refine = t1 - t0;
   stats.seconds_cut = t2 - t1;
   stats.seconds_normals = omp_get_wtime() - t2;
@@ -1926,12 +1934,21 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       }
       d.reference_edge = sqrt(2.0 * area / (double)target);
     }
+    /* Pilots only count; one that lands is run again in full. */
+    d.count_only = pass < pilots;
     if ((st = ch_embed_build(surface, &cur_tess, height, &d, &cur, &cur_stats, err))) break;
     runs++;
-    double nb = cur_tess.mesh.num_faces, no = cur.num_faces, miss = fabs(no - (double)target);
+    double nb = cur_tess.mesh.num_faces, no = (double)cur_stats.triangles, miss = fabs(no - (double)target);
     xs[pass] = nb;
     ys[pass] = no;
-    if (miss < best_miss) { /* keep the closest run */
+    if (d.count_only && miss <= 0.04 * (double)target) {
+      d.count_only = 0;
+      if ((st = ch_embed_build(surface, &cur_tess, height, &d, &cur, &cur_stats, err))) break;
+      runs++;
+      no = (double)cur_stats.triangles;
+      miss = fabs(no - (double)target);
+    }
+    if (!d.count_only && miss < best_miss) { /* keep the closest full run */
       ch_tess_free(&best_tess);
       ch_mesh_free(&best);
       best_tess = cur_tess;
@@ -2001,6 +2018,13 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   }
   ch_tess_free(&cur_tess);
   ch_mesh_free(&cur);
+  if (!st && best_miss == INFINITY) { /* only pilots ran (the next base was a pilot's): that one in full */
+    ch_tess_desc td = {.target_triangles = base};
+    d.count_only = 0;
+    if (!(st = ch_tess_build(surface, &td, &best_tess, err)))
+      st = ch_embed_build(surface, &best_tess, height, &d, &best, &best_stats, err);
+    runs++;
+  }
   if (passes) *passes = runs;
   if (st) {
     ch_tess_free(&best_tess);

@@ -55,6 +55,9 @@ typedef struct ch_embed_desc {
                               most 4 times this around the end point; 0 ->
                               1800 e degrees within [1, 10], e the reference
                               edge below in UV */
+  int count_only;          /* only count the triangles the cut makes
+                              (stats->triangles; out stays empty): the
+                              pilots of ch_embed_to_target */
   double reference_edge;   /* e for that rule; 0 -> the tessellation's mean
                               UV edge (ch_embed_to_target sets the target's,
                               so the lines do not change between its runs) */
@@ -67,6 +70,8 @@ typedef struct ch_embed_stats {
   int junctions;           /* triangles where three pieces meet */
   int wall_triangles;
   int unresolved;          /* triangles left uncut after refinement (0 expected) */
+  long triangles;          /* output triangles (with count_only: before the
+                              cleanup, which removes a fraction of a percent) */
   double min_h, max_h;
   double seconds_refine, seconds_cut, seconds_normals;
   /* parts of seconds_refine: */
