@@ -8,15 +8,17 @@
 # `chisel study`.
 # usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]
 #   BUILD_DIR  holds chisel and bench/chisel-uniform-grid (default build)
-#   OUT_DIR    one folder per set (scene.json, the meshes, the study), plus
-#              summary.csv joining every set's table
-#   TRIANGLES  target triangle count of every method (default 100000)
+#   OUT_DIR    one folder per set (scene.json, the meshes, the study with
+#              its index.html), plus summary.csv joining every set's table
+#   TRIANGLES  comma-separated target triangle counts, each method made at
+#              each (one family per method in the plots; default
+#              25000,100000)
 #   SET        curve sets of models/curves (default: all)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$here/build}
 out=${2:?usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]}
-tris=${3:-100000}
+tris=${3:-25000,100000}
 shift $(( $# < 3 ? $# : 3 ))
 sets=("$@")
 if [ ${#sets[@]} -eq 0 ]; then
@@ -29,10 +31,17 @@ first=1
 for set in "${sets[@]}"; do
   svg=$here/models/curves/$set.svg dir=$out/$set
   mkdir -p "$dir"
-  echo "study.sh: $set: meshes at $tris triangles" >&2
-  "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/snapped.obj" --target-tris "$tris" 2>/dev/null
-  "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/naive.obj" --target-tris "$tris" --no-snap 2>/dev/null
-  "$grid" "$svg" -o "$dir/raster.obj" --target-tris "$tris" --dci-res 1024 2>/dev/null
+  methods=""
+  for n in ${tris//,/ }; do
+    echo "study.sh: $set: meshes at $n triangles" >&2
+    "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/snapped_$n.obj" --target-tris "$n" 2>/dev/null
+    "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/naive_$n.obj" --target-tris "$n" --no-snap 2>/dev/null
+    "$grid" "$svg" -o "$dir/raster_$n.obj" --target-tris "$n" --dci-res 1024 2>/dev/null
+    for m in snapped naive raster; do
+      methods+="    {\"name\": \"${m}_$n\", \"family\": \"$m\", \"mesh\": \"${m}_$n.obj\"},
+"
+    done
+  done
   cat >"$dir/scene.json" <<JSON
 {
   "curves": "$svg",
@@ -49,10 +58,7 @@ for set in "${sets[@]}"; do
      "width": 256, "height": 256, "supersample": 2}
   ],
   "methods": [
-    {"name": "snapped", "mesh": "snapped.obj"},
-    {"name": "naive", "mesh": "naive.obj"},
-    {"name": "raster", "mesh": "raster.obj"},
-    {"name": "normalmap", "mesh": "$here/models/plane.obj", "shader": "exact-normals"}
+$methods    {"name": "normalmap", "mesh": "$here/models/plane.obj", "shader": "exact-normals"}
   ]
 }
 JSON

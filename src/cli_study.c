@@ -50,6 +50,9 @@ static const char usage[] =
     "    \"methods\": [                    optional\n"
     "      {\"name\": \"snapped\", \"mesh\": \"snapped.obj\"}   OBJ/PLY/OFF/STL with UVs\n"
     "      {\"name\": \"normalmap\", \"mesh\": \"plane.obj\", \"shader\": \"exact-normals\"}\n"
+    "                                   optional \"family\": methods of one family\n"
+    "                                   (e.g. one method at several triangle counts)\n"
+    "                                   are one line in the report's plots\n"
     "                                   a texture-space method on the base mesh:\n"
     "                                   exact-normals = the truth's normal at the\n"
     "                                   hit's UV (a perfect normal map)\n"
@@ -66,6 +69,8 @@ static const char usage[] =
     "  V.M.class.png            pixels whose class differs from the truth's in red\n"
     "  V.M.normal.png           normal error, heat map 0..20 degrees\n"
     "  V.M.depth.png            depth error, heat map 0..1% of the scene size\n"
+    "  V.montage.png            truth and methods' shading side by side\n"
+    "  index.html               the report: table, images, error against triangles\n"
     "  summary.csv, summary.json  one row per view and method: class mismatch %\n"
     "                           (all pixels, groove pixels), groove id mismatch %,\n"
     "                           depth error / scene size, normal error mean and\n"
@@ -83,6 +88,7 @@ typedef struct view {
 
 typedef struct method {
   char name[NAME_MAX_LEN];
+  char family[NAME_MAX_LEN]; /* methods plotted as one line against triangles */
   char *path;
   int exact_normals; /* "shader": "exact-normals" */
   ch_mesh mesh;
@@ -226,7 +232,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
   static const char *const view_keys[] = {"name",  "eye",    "target",      "up",          "fov",
                                           "width", "height", "supersample", "ortho_height", NULL};
-  static const char *const method_keys[] = {"name", "mesh", "shader", NULL};
+  static const char *const method_keys[] = {"name", "mesh", "shader", "family", NULL};
   char where[96];
   const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
   const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
@@ -275,6 +281,12 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   if (!(s->curves_path = resolve(file, curves->valuestring))) goto nomem;
   s->num_views = cJSON_GetArraySize(views);
   s->num_methods = methods ? cJSON_GetArraySize(methods) : 0;
+  if (s->num_views > 256 || s->num_methods > 32) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: at most 256 views and 32 methods (got %d and %d)", file, s->num_views,
+                 s->num_methods);
+    s->num_views = s->num_methods = 0;
+    goto fail;
+  }
   s->views = calloc((size_t)s->num_views, sizeof *s->views);
   s->methods = calloc((size_t)(s->num_methods ? s->num_methods : 1), sizeof *s->methods);
   if (!s->views || !s->methods) goto nomem;
@@ -337,6 +349,16 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
     if (!cJSON_IsString(mesh) || !mesh->valuestring[0]) {
       ch_error_set(err, CH_ERR_INPUT, "%s: %s.mesh: expected the path of a mesh file", file, where);
       goto fail;
+    }
+    const cJSON *family = cJSON_GetObjectItemCaseSensitive(m, "family");
+    strcpy(mt->family, mt->name);
+    if (family) {
+      if (!cJSON_IsString(family) || !family->valuestring[0] || strlen(family->valuestring) >= NAME_MAX_LEN ||
+          strpbrk(family->valuestring, "<>&\"'")) {
+        ch_error_set(err, CH_ERR_INPUT, "%s: %s.family: expected a short name without <>&\"'", file, where);
+        goto fail;
+      }
+      strcpy(mt->family, family->valuestring);
     }
     const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
     if (shader) {
@@ -427,6 +449,7 @@ static ch_status write_exr(const char *path, const ch_image *img, const char *vi
 
 typedef struct row {
   int view, method;
+  long triangles;
   ch_metrics m;
   long rays;
   double seconds;
@@ -438,12 +461,12 @@ static ch_status write_summaries(const char *dir, const study *s, const row *row
   ch_atomic_file f;
   ch_status st = ch_atomic_open(&f, path, err);
   if (st) return st;
-  fprintf(f.fp, "view,method,class_mismatch_pct,class_mismatch_groove_pct,id_mismatch_pct,depth_error_rel,"
+  fprintf(f.fp, "view,method,family,triangles,class_mismatch_pct,class_mismatch_groove_pct,id_mismatch_pct,depth_error_rel,"
                 "normal_mean_deg,normal_p95_deg,shade_rmse,shade_ssim,shadow_mismatch_pct,pixels,groove_pixels\n");
   for (int i = 0; i < nrows; i++) {
     const ch_metrics *m = &rows[i].m;
-    fprintf(f.fp, "%s,%s,%.6f,%.6f,%.6f,%.6e,%.6f,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", s->views[rows[i].view].name,
-            s->methods[rows[i].method].name, m->class_mismatch, m->class_mismatch_groove, m->id_mismatch,
+    fprintf(f.fp, "%s,%s,%s,%ld,%.6f,%.6f,%.6f,%.6e,%.6f,%.6f,%.6f,%.6f,%.6f,%ld,%ld\n", s->views[rows[i].view].name,
+            s->methods[rows[i].method].name, s->methods[rows[i].method].family, rows[i].triangles, m->class_mismatch, m->class_mismatch_groove, m->id_mismatch,
             m->depth_error, m->normal_mean_deg, m->normal_p95_deg, m->shade_rmse, m->shade_ssim, m->shadow_mismatch,
             m->pixels, m->groove_pixels);
   }
@@ -460,6 +483,8 @@ static ch_status write_summaries(const char *dir, const study *s, const row *row
     cJSON_AddItemToArray(arr, r);
     cJSON_AddStringToObject(r, "view", s->views[rows[i].view].name);
     cJSON_AddStringToObject(r, "method", s->methods[rows[i].method].name);
+    cJSON_AddStringToObject(r, "family", s->methods[rows[i].method].family);
+    cJSON_AddNumberToObject(r, "triangles", (double)rows[i].triangles);
     cJSON_AddNumberToObject(r, "class_mismatch_pct", m->class_mismatch);
     cJSON_AddNumberToObject(r, "class_mismatch_groove_pct", m->class_mismatch_groove);
     cJSON_AddNumberToObject(r, "id_mismatch_pct", m->id_mismatch);
@@ -483,6 +508,164 @@ static ch_status write_summaries(const char *dir, const study *s, const row *row
     st = ch_atomic_commit(&f, err);
   }
   cJSON_free(text);
+  if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+  return st;
+}
+
+/* Truth and methods' shading side by side, 4 black pixels apart. */
+static ch_status write_montage(const char *path, const ch_image *const *imgs, int n, written *w, ch_error *err) {
+  int W = imgs[0]->width, H = imgs[0]->height, gap = 4, MW = n * W + (n - 1) * gap;
+  uint8_t *px = calloc((size_t)MW * H * 3, 1);
+  if (!px) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %s", path);
+  for (int k = 0; k < n; k++) {
+    const float *shade = ch_image_plane(imgs[k], CH_RENDER_SHADE);
+    for (int y = 0; y < H; y++)
+      for (int x = 0; x < W; x++) {
+        uint8_t *o = &px[3 * ((size_t)y * MW + k * (W + gap) + x)];
+        o[0] = o[1] = o[2] = to8(shade[(size_t)y * W + x]);
+      }
+  }
+  ch_status st = ch_png_write(path, MW, H, 3, px, err);
+  free(px);
+  if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+  return st;
+}
+
+static void html_text(FILE *f, const char *t) {
+  for (; *t; t++) {
+    if (*t == '<') fputs("&lt;", f);
+    else if (*t == '>') fputs("&gt;", f);
+    else if (*t == '&') fputs("&amp;", f);
+    else if (*t == '"') fputs("&quot;", f);
+    else fputc(*t, f);
+  }
+}
+
+/* One SVG plot of a metric against triangles (log scale), a line per family. */
+static void html_plot(FILE *f, const study *s, const row *rows, int nrows, int v, const char *title, int which) {
+  const int PW = 420, PH = 260, L = 60, R = 120, T = 30, B = 40;
+  double xmin = INFINITY, xmax = -INFINITY, ymax = 0.0;
+#define METRIC(r) (which == 0 ? (r)->m.class_mismatch_groove : which == 1 ? (r)->m.normal_p95_deg : (r)->m.depth_error)
+  for (int i = 0; i < nrows; i++) {
+    if (rows[i].view != v || rows[i].triangles < 1) continue;
+    double x = log10((double)rows[i].triangles);
+    xmin = fmin(xmin, x), xmax = fmax(xmax, x), ymax = fmax(ymax, METRIC(&rows[i]));
+  }
+  if (!(xmin <= xmax)) return;
+  if (xmax - xmin < 0.5) xmin -= 0.25, xmax += 0.25;
+  if (!(ymax > 0.0)) ymax = 1.0;
+  ymax *= 1.1;
+  fprintf(f, "<svg class=\"plot\" width=\"%d\" height=\"%d\" viewBox=\"0 0 %d %d\">\n", PW, PH, PW, PH);
+  fprintf(f, "<text x=\"%d\" y=\"18\" font-size=\"13\">%s</text>\n", L, title);
+  fprintf(f, "<rect x=\"%d\" y=\"%d\" width=\"%d\" height=\"%d\" fill=\"none\" stroke=\"#888\"/>\n", L, T, PW - L - R,
+          PH - T - B);
+  for (int k = 0; k <= 4; k++) {
+    double y = ymax * k / 4, py = PH - B - (PH - T - B) * k / 4.0;
+    fprintf(f, "<text x=\"%d\" y=\"%.1f\" font-size=\"10\" text-anchor=\"end\">%.3g</text>\n", L - 4, py + 3, y);
+  }
+  for (int e = (int)ceil(xmin); e <= (int)floor(xmax); e++) {
+    double px = L + (PW - L - R) * (e - xmin) / (xmax - xmin);
+    fprintf(f, "<text x=\"%.1f\" y=\"%d\" font-size=\"10\" text-anchor=\"middle\">1e%d</text>\n", px, PH - B + 14, e);
+  }
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles</text>\n", L + (PW - L - R) / 2,
+          PH - 8);
+  static const char *colours[] = {"#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"};
+  int nf = 0;
+  for (int m = 0; m < s->num_methods; m++) {
+    int first = 1;
+    for (int j = 0; j < m; j++) first &= strcmp(s->methods[j].family, s->methods[m].family) != 0;
+    if (!first) continue;
+    const char *col = colours[nf % 7];
+    /* The family's rows in this view, by triangle count. */
+    const row *pts[64];
+    int np = 0;
+    for (int i = 0; i < nrows && np < 64; i++)
+      if (rows[i].view == v && rows[i].triangles > 0 && !strcmp(s->methods[rows[i].method].family, s->methods[m].family))
+        pts[np++] = &rows[i];
+    for (int a = 1; a < np; a++)
+      for (int b = a; b > 0 && pts[b]->triangles < pts[b - 1]->triangles; b--) {
+        const row *t = pts[b];
+        pts[b] = pts[b - 1];
+        pts[b - 1] = t;
+      }
+    fprintf(f, "<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"1.5\" points=\"", col);
+    for (int a = 0; a < np; a++)
+      fprintf(f, "%.1f,%.1f ", L + (PW - L - R) * (log10((double)pts[a]->triangles) - xmin) / (xmax - xmin),
+              PH - B - (PH - T - B) * METRIC(pts[a]) / ymax);
+    fprintf(f, "\"/>\n");
+    for (int a = 0; a < np; a++)
+      fprintf(f, "<circle r=\"3\" fill=\"%s\" cx=\"%.1f\" cy=\"%.1f\"><title>%s: %ld triangles, %.4g</title></circle>\n",
+              col, L + (PW - L - R) * (log10((double)pts[a]->triangles) - xmin) / (xmax - xmin),
+              PH - B - (PH - T - B) * METRIC(pts[a]) / ymax, s->methods[pts[a]->method].name, pts[a]->triangles,
+              METRIC(pts[a]));
+    fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" fill=\"%s\">%s</text>\n", PW - R + 8, T + 12 + 14 * nf, col,
+            s->methods[m].family);
+    nf++;
+  }
+#undef METRIC
+  fprintf(f, "</svg>\n");
+}
+
+static ch_status write_index(const char *dir, const study *s, const row *rows, int nrows, written *w, ch_error *err) {
+  char path[4096];
+  snprintf(path, sizeof path, "%s/index.html", dir);
+  ch_atomic_file af;
+  ch_status st = ch_atomic_open(&af, path, err);
+  if (st) return st;
+  FILE *f = af.fp;
+  fputs("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>chisel study</title>\n"
+        "<style>body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collapse:collapse;font-size:13px}"
+        "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{background:#eee}td.l{text-align:left}"
+        "figure{display:inline-block;margin:4px;text-align:center;font-size:12px}figure img{display:block;"
+        "image-rendering:pixelated}.plot{margin:6px;background:#fff}</style></head><body>\n",
+        f);
+  fputs("<h1>chisel study</h1>\n<p>Curves <code>", f);
+  html_text(f, s->curves_path);
+  fprintf(f,
+          "</code> over the planar base; truth: Embree, exact h of SPEC §3 (bounds grid %d, step DCI %d). Classes: "
+          "top, groove wall, groove floor, step wall. Depth error relative to the scene's diagonal; SSIM of the "
+          "shading (1 = same).</p>\n",
+          s->truth_grid, s->dci_resolution);
+  fputs("<h2>Summary</h2>\n<table><tr><th>view</th><th>method</th><th>triangles</th><th>class %</th>"
+        "<th>in grooves %</th><th>groove id %</th><th>depth</th><th>normal mean °</th><th>normal p95 °</th>"
+        "<th>shade RMSE</th><th>SSIM</th><th>shadow %</th></tr>\n",
+        f);
+  for (int i = 0; i < nrows; i++) {
+    const ch_metrics *m = &rows[i].m;
+    fprintf(f,
+            "<tr><td class=\"l\">%s</td><td class=\"l\">%s</td><td>%ld</td><td>%.4f</td><td>%.4f</td><td>%.4f</td>"
+            "<td>%.3e</td><td>%.3f</td><td>%.3f</td><td>%.4f</td><td>%.5f</td><td>%.4f</td></tr>\n",
+            s->views[rows[i].view].name, s->methods[rows[i].method].name, rows[i].triangles, m->class_mismatch,
+            m->class_mismatch_groove, m->id_mismatch, m->depth_error, m->normal_mean_deg, m->normal_p95_deg,
+            m->shade_rmse, m->shade_ssim, m->shadow_mismatch);
+  }
+  fputs("</table>\n<p>Also as <a href=\"summary.csv\">summary.csv</a> and <a href=\"summary.json\">summary.json</a>."
+        "</p>\n",
+        f);
+  for (int v = 0; v < s->num_views; v++) {
+    const char *vn = s->views[v].name;
+    fprintf(f, "<h2>View %s</h2>\n<div>\n", vn);
+    if (s->num_methods > 0) {
+      html_plot(f, s, rows, nrows, v, "class mismatch in grooves (%)", 0);
+      html_plot(f, s, rows, nrows, v, "normal error p95 (degrees)", 1);
+      html_plot(f, s, rows, nrows, v, "depth error / scene size", 2);
+    }
+    fprintf(f, "</div>\n<div><figure><img src=\"%s.montage.png\" alt=\"montage\">truth", vn);
+    for (int m = 0; m < s->num_methods; m++) fprintf(f, " | %s", s->methods[m].name);
+    fprintf(f, "</figure></div>\n<div><figure><img src=\"%s.truth.png\" alt=\"truth\">truth</figure>"
+               "<figure><img src=\"%s.truth.class.png\" alt=\"truth classes\">truth classes</figure></div>\n",
+            vn, vn);
+    for (int m = 0; m < s->num_methods; m++) {
+      const char *mn = s->methods[m].name;
+      fprintf(f, "<div><figure><img src=\"%s.%s.png\" alt=\"%s\">%s</figure>", vn, mn, mn, mn);
+      fprintf(f, "<figure><img src=\"%s.%s.class.png\" alt=\"class mismatch\">class mismatch (red)</figure>", vn, mn);
+      fprintf(f, "<figure><img src=\"%s.%s.normal.png\" alt=\"normal error\">normal error 0..20°</figure>", vn, mn);
+      fprintf(f, "<figure><img src=\"%s.%s.depth.png\" alt=\"depth error\">depth error 0..1%%</figure></div>\n", vn,
+              mn);
+    }
+  }
+  fputs("</body></html>\n", f);
+  st = ch_atomic_commit(&af, err);
   if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
   return st;
 }
@@ -564,15 +747,18 @@ static int run(int argc, char **argv) {
     if (!st)
       snprintf(path, sizeof path, "%s/%s.truth.class.png", dir, vw->name),
           st = write_png(path, PIC_CLASSES, &timg, NULL, scene_size, &w, &err);
+    ch_image *imgs = calloc((size_t)s.num_methods + 1, sizeof *imgs);
+    if (!imgs) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
     for (int m = 0; !st && m < s.num_methods; m++) {
       const method *mt = &s.methods[m];
-      ch_image img = {0};
+      ch_image *img = &imgs[m + 1];
       row *r = &rows[nrows];
       ch_render_shader sh = ch_shader_exact_normals(truth);
-      st = ch_render_shaded(mt->scene, mt->exact_normals ? &sh : NULL, truth, &vw->camera, &s.light, &img, &rs, &err);
-      if (!st) st = ch_metrics_compare(&img, &timg, scene_size, &r->m, &err);
+      st = ch_render_shaded(mt->scene, mt->exact_normals ? &sh : NULL, truth, &vw->camera, &s.light, img, &rs, &err);
+      if (!st) st = ch_metrics_compare(img, &timg, scene_size, &r->m, &err);
       if (!st) {
         r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;
+        r->triangles = ch_trace_triangles(mt->scene);
         nrows++;
         if (progress)
           fprintf(stderr, "study: %s: %s, class mismatch %.3f%%, normal p95 %.2f deg\n", vw->name, mt->name,
@@ -582,16 +768,26 @@ static int run(int argc, char **argv) {
         const char *suffix;
         picture what;
       } pics[] = {{"png", PIC_SHADE}, {"class.png", PIC_CLASS_DIFF}, {"normal.png", PIC_NORMAL}, {"depth.png", PIC_DEPTH}};
-      if (!st) snprintf(path, sizeof path, "%s/%s.%s.exr", dir, vw->name, mt->name), st = write_exr(path, &img, vw->name, mt->name, &w, &err);
+      if (!st) snprintf(path, sizeof path, "%s/%s.%s.exr", dir, vw->name, mt->name), st = write_exr(path, img, vw->name, mt->name, &w, &err);
       for (int k = 0; !st && k < 4; k++) {
         snprintf(path, sizeof path, "%s/%s.%s.%s", dir, vw->name, mt->name, pics[k].suffix);
-        st = write_png(path, pics[k].what, &img, &timg, scene_size, &w, &err);
+        st = write_png(path, pics[k].what, img, &timg, scene_size, &w, &err);
       }
-      ch_image_free(&img);
     }
+    if (!st) {
+      const ch_image *list[64];
+      int nl = 0;
+      list[nl++] = &timg;
+      for (int m = 0; m < s.num_methods && nl < 64; m++) list[nl++] = &imgs[m + 1];
+      snprintf(path, sizeof path, "%s/%s.montage.png", dir, vw->name);
+      st = write_montage(path, list, nl, &w, &err);
+    }
+    for (int m = 0; imgs && m < s.num_methods; m++) ch_image_free(&imgs[m + 1]);
+    free(imgs);
     ch_image_free(&timg);
   }
   if (!st) st = write_summaries(dir, &s, rows, nrows, &w, &err);
+  if (!st) st = write_index(dir, &s, rows, nrows, &w, &err);
   if (!st) {
     printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%",
            "depth", "n_mean", "n_p95", "shade", "ssim", "shadow%", "Mrays/s");

@@ -13,17 +13,22 @@ fail() { echo "FAIL: $*" >&2; failures=$((failures + 1)); }
 check() { checks=$((checks + 1)); "$@" || fail "$*"; }
 
 # 1. The box-groove mesh is the truth: every metric 0 (depth to 1e-8 of the
-#    scene size: the mesh's coordinates are read as float).
+#    scene size: the mesh's coordinates are read as float); its report.
 checks=$((checks + 1))
 if "$chisel" study "$data/box_groove.json" -o "$tmp/exact" >"$tmp/stdout" 2>"$tmp/stderr"; then
   rows=$(tail -n +2 "$tmp/exact/summary.csv" | wc -l)
   check [ "$rows" = 3 ]
   bad=$(tail -n +2 "$tmp/exact/summary.csv" |
-        awk -F, '$3 != 0 || $4 != 0 || $5 != 0 || $6 > 1e-8 || $8 > 1e-3 || $9 > 1e-6 || $10 < 0.999999 || $11 != 0' | wc -l)
+        awk -F, '$5 != 0 || $6 != 0 || $7 != 0 || $8 > 1e-8 || $10 > 1e-3 || $11 > 1e-6 || $12 < 0.999999 || $13 != 0 || $4 != 10' | wc -l)
   check [ "$bad" = 0 ]
   # Per view: truth exr/png/class.png, method exr + 4 png; and the two summaries.
-  check [ "$(ls "$tmp/exact" | wc -l)" = $((3 * 8 + 2)) ]
+  check [ "$(ls "$tmp/exact" | wc -l)" = $((3 * 9 + 3)) ]
   check grep -q '"class_mismatch_pct":	0' "$tmp/exact/summary.json"
+  # The report: every image it shows exists, the table has a row per result.
+  imgs=$(grep -o 'src="[^"]*"' "$tmp/exact/index.html" | sed 's/src="//; s/"$//')
+  check [ "$(echo "$imgs" | wc -l)" = $((3 * 7)) ]
+  for i in $imgs; do check [ -s "$tmp/exact/$i" ]; done
+  check [ "$(grep -c '<tr><td class="l">' "$tmp/exact/index.html")" = 3 ]
 else
   fail "study of box_groove.json failed: $(cat "$tmp/stderr")"
 fi
@@ -45,14 +50,14 @@ checks=$((checks + 1))
 if "$chisel" study "$tmp/glyphs.json" -o "$tmp/glyphs" >"$tmp/stdout" 2>"$tmp/stderr"; then
   cat "$tmp/stdout" >&2
   for v in oblique grazing; do
-    s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $4}' "$tmp/glyphs/summary.csv")
-    n=$(awk -F, -v v=$v '$1 == v && $2 == "naive" {print $4}' "$tmp/glyphs/summary.csv")
+    s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $6}' "$tmp/glyphs/summary.csv")
+    n=$(awk -F, -v v=$v '$1 == v && $2 == "naive" {print $6}' "$tmp/glyphs/summary.csv")
     check awk -v s="$s" -v n="$n" 'BEGIN { exit !(s != "" && n != "" && s < n) }'
     # A perfect normal map has the truth's classes where carved grooves meet
     # the surface at their rims (z = 0 both), but no depth: its depth error
     # is far above the snapped mesh's.
-    s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $6}' "$tmp/glyphs/summary.csv")
-    p=$(awk -F, -v v=$v '$1 == v && $2 == "normalmap" {print $6}' "$tmp/glyphs/summary.csv")
+    s=$(awk -F, -v v=$v '$1 == v && $2 == "snapped" {print $8}' "$tmp/glyphs/summary.csv")
+    p=$(awk -F, -v v=$v '$1 == v && $2 == "normalmap" {print $8}' "$tmp/glyphs/summary.csv")
     check awk -v s="$s" -v p="$p" 'BEGIN { exit !(s != "" && p != "" && 10 * s < p) }'
   done
   # Same bytes again.

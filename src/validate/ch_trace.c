@@ -219,6 +219,8 @@ void ch_trace_destroy(ch_trace *s) {
   free(s);
 }
 
+long ch_trace_triangles(const ch_trace *s) { return s->num_tris; }
+
 void ch_trace_bounds(const ch_trace *s, double box[6]) { memcpy(box, s->bounds, sizeof s->bounds); }
 
 static void make_ray(struct RTCRay *r, const double o[3], const double d[3], double tnear, double tfar) {

@@ -50,6 +50,9 @@ int ch_trace_intersect(const ch_trace *scene, const double org[3], const double 
 /* Whether anything is hit in (tnear, tfar). */
 int ch_trace_occluded(const ch_trace *scene, const double org[3], const double dir[3], double tnear, double tfar);
 
+/* Triangles of a mesh scene (polygons counted as fans); 0 for the truth. */
+long ch_trace_triangles(const ch_trace *scene);
+
 /* Scene bounds: min xyz, max xyz. */
 void ch_trace_bounds(const ch_trace *scene, double box[6]);
 
