@@ -617,7 +617,8 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
         "<style>body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collapse:collapse;font-size:13px}"
         "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{background:#eee}td.l{text-align:left}"
         "figure{display:inline-block;margin:4px;text-align:center;font-size:12px}figure img{display:block;"
-        "image-rendering:pixelated}.plot{margin:6px;background:#fff}</style></head><body>\n",
+        "image-rendering:pixelated}figure.wide{display:block}figure.wide img{max-width:100%}"
+        ".plot{margin:6px;background:#fff}</style></head><body>\n",
         f);
   fputs("<h1>chisel study</h1>\n<p>Curves <code>", f);
   html_text(f, s->curves_path);
@@ -650,7 +651,7 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
       html_plot(f, s, rows, nrows, v, "normal error p95 (degrees)", 1);
       html_plot(f, s, rows, nrows, v, "depth error / scene size", 2);
     }
-    fprintf(f, "</div>\n<div><figure><img src=\"%s.montage.png\" alt=\"montage\">truth", vn);
+    fprintf(f, "</div>\n<div><figure class=\"wide\"><img src=\"%s.montage.png\" alt=\"montage\">truth", vn);
     for (int m = 0; m < s->num_methods; m++) fprintf(f, " | %s", s->methods[m].name);
     fprintf(f, "</figure></div>\n<div><figure><img src=\"%s.truth.png\" alt=\"truth\">truth</figure>"
                "<figure><img src=\"%s.truth.class.png\" alt=\"truth classes\">truth classes</figure></div>\n",
