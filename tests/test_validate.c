@@ -210,6 +210,15 @@ static void test_single_rays(void) {
   double nuv[2] = {h.normal[0], h.normal[1]};
   ch_truth_classify_wall(w.truth, h.uv, nuv, &cls, &id);
   CHECK(cls == CH_VIS_GROOVE_WALL && id == 0);
+  /* The same against a box groove whose far wall u = 0.5625 lies on a tile
+   * border (tiles are 16 cells of 1/256): through Embree, tile by tile. */
+  world w2;
+  REQUIRE(world_load(&w2, "<path d='M 50 -10 L 50 110' data-profile='box' data-width='12.5' data-depth='0.05'/>", 256, 0));
+  REQUIRE(ch_trace_intersect(w2.scene, o3, d3, 0.0, INFINITY, &h));
+  CHECK(h.wall);
+  CHECK_NEAR(h.point[0], 0.5625, 1e-9);
+  CHECK_NEAR(h.point[2], 0.03 - 0.0625, 1e-9);
+  world_free(&w2);
   /* Straight down into it: the floor. */
   double o4[3] = {0.52, 0.3, 1.0};
   REQUIRE(ch_trace_intersect(w.scene, o4, d, 0.0, INFINITY, &h));

@@ -653,9 +653,17 @@ int ch_truth_intersect(const ch_truth *T, const double o[3], const double d[3], 
   double dtx = d[0] != 0.0 ? T->cell / fabs(d[0]) : INFINITY, dty = d[1] != 0.0 ? T->cell / fabs(d[1]) : INFINITY;
   double tx = d[0] > 0.0 ? ((ix + 1) * T->cell - o[0]) / d[0] : d[0] < 0.0 ? (ix * T->cell - o[0]) / d[0] : INFINITY;
   double ty = d[1] > 0.0 ? ((iy + 1) * T->cell - o[1]) / d[1] : d[1] < 0.0 ? (iy * T->cell - o[1]) / d[1] : INFINITY;
-  /* The last point whose side is known: f > 0 above the surface. */
+  /* The last point whose side is known: f > 0 above the surface. Where the
+   * ray enters this tile from a neighbouring one, that is a hair before the
+   * entry: a wall on the tile's border is then a change of side (the
+   * neighbour's walk stops at its border). */
   double t = ta, last_t = ta;
-  int last_pos = ray_f(T, &R, ta, NULL) > 0.0;
+  if (ta > tnear) {
+    double tp = fmax(tnear, ta - 1e-9 * (1.0 + fabs(ta)));
+    double up = o[0] + tp * d[0], vp = o[1] + tp * d[1];
+    if (up > 0.0 && up < 1.0 && vp > 0.0 && vp < 1.0) last_t = tp;
+  }
+  int last_pos = ray_f(T, &R, last_t, NULL) > 0.0;
   const double spacing = T->cell / CH_TRUTH_SAMPLES;
   int budget = 256;
   for (;;) {
