@@ -161,8 +161,10 @@ static void step_bounds(const ch_truth *T, const double box[4], double *lo, doub
   float a = INFINITY, b = -INFINITY;
   for (int y = ya >> l; y <= yb >> l; y++)
     for (int x = xa >> l; x <= xb >> l; x++) {
-      a = fminf(a, p->lo[l][(size_t)y * p->w[l] + x]);
-      b = fmaxf(b, p->hi[l][(size_t)y * p->w[l] + x]);
+      /* (Plain comparisons: fminf is a libm call here, and this is hot.) */
+      float lo = p->lo[l][(size_t)y * p->w[l] + x], hi = p->hi[l][(size_t)y * p->w[l] + x];
+      a = lo < a ? lo : a;
+      b = hi > b ? hi : b;
     }
   *lo = a;
   *hi = b;
