@@ -1889,6 +1889,20 @@ done:
   return st;
 }
 
+/* The base count b with b + c0 + c1 sqrt(b) = target (bisection; 1 if
+ * none is above 1). */
+static double model_base(double target, double c0, double c1) {
+  double lo = 1.0, hi = target;
+  for (int it = 0; it < 80; it++) {
+    double mid = 0.5 * (lo + hi);
+    if (mid + c0 + c1 * sqrt(mid) < target)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats, int *passes,
                              ch_error *err) {
@@ -1917,6 +1931,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     if (b >= 2000 && b >= fewest) pilot[pilots++] = b;
   }
   long first_base = pilots > 0 ? pilot[0] : target, base = first_base;
+  double model_c1 = 0.0; /* the pilots' sqrt term, kept for the first correction */
   ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
   int auto_angle = !(d.normal_tolerance_deg > 0.0), coarsenings = 0;
   for (int pass = 0; pass < 8; pass++) {
@@ -1979,15 +1994,8 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
         c1 = fmax(0.0, ((ys[i1] - xs[i1]) - (ys[i0] - xs[i0])) / (s1 - s0));
         c0 = (ys[i1] - xs[i1]) - c1 * s1;
       }
-      double lo = 1.0, hi = (double)target;
-      for (int it = 0; it < 80; it++) {
-        double mid = 0.5 * (lo + hi);
-        if (mid + c0 + c1 * sqrt(mid) < (double)target)
-          lo = mid;
-        else
-          hi = mid;
-      }
-      next = lo;
+      model_c1 = c1;
+      next = model_base((double)target, c0, c1);
       if (next < (double)target / 8.0 && auto_angle && coarsenings < 4) {
         /* The u lines would take more than 7/8 of the triangles and starve
          * everything else (crossings, CSG seams, the flat parts): coarser
@@ -2006,6 +2014,10 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       }
     } else if (pass == 0) {
       next = xs[0] * (double)target / no; /* no pilot (a small target) */
+    } else if (pass == pilots && pilots > 0) {
+      /* The first full run missed: the model through it, its slope kept
+       * (a secant to a pilot far below runs too flat or too steep). */
+      next = model_base((double)target, (no - nb) - model_c1 * sqrt(nb), model_c1);
     } else {
       double dx = xs[pass] - xs[pass - 1], dy = ys[pass] - ys[pass - 1];
       next = dy != 0.0 ? xs[pass] + ((double)target - ys[pass]) * dx / dy : xs[pass] * (double)target / no;
