@@ -647,3 +647,22 @@ ch_status ch_accuracy_uniform_grid(const ch_height *height, int n, ch_mesh *out,
   out->face_start[nf] = 3 * nf;
   return CH_OK;
 }
+
+ch_status ch_accuracy_read_raster(const ch_height *height, int R, ch_mesh *mesh, ch_error *err) {
+  float *img = malloc((size_t)R * R * sizeof *img);
+  if (!img) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %d x %d raster", R, R);
+#pragma omp parallel for schedule(dynamic, 8)
+  for (int y = 0; y < R; y++)
+    for (int x = 0; x < R; x++) img[(size_t)y * R + x] = (float)ch_height_eval(height, (x + 0.5) / R, (y + 0.5) / R);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < mesh->num_positions; v++) {
+    double *p = &mesh->positions[3 * (size_t)v];
+    double fx = fmin(fmax(p[0] * R - 0.5, 0.0), R - 1.0), fy = fmin(fmax(p[1] * R - 0.5, 0.0), R - 1.0);
+    int x0 = (int)fx, y0 = (int)fy, x1 = x0 + 1 < R ? x0 + 1 : x0, y1 = y0 + 1 < R ? y0 + 1 : y0;
+    double ax = fx - x0, ay = fy - y0;
+    const float *r0 = &img[(size_t)y0 * R], *r1 = &img[(size_t)y1 * R];
+    p[2] = (1 - ay) * ((1 - ax) * r0[x0] + ax * r0[x1]) + ay * ((1 - ax) * r1[x0] + ax * r1[x1]);
+  }
+  free(img);
+  return CH_OK;
+}

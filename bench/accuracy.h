@@ -116,6 +116,11 @@ ch_status ch_accuracy_uniform_grid(const ch_height *height, int n, ch_mesh *out,
 /* The n whose 2 n^2 is closest to target_tris (the smaller n on ties). */
 int ch_accuracy_uniform_n(long target_tris);
 
+/* Replaces each vertex's z by the bilinear reading, at its (x, y), of an
+ * R x R raster of h at the pixel centres (edges clamped): a mesh displaced
+ * by a height texture, as a Displace modifier does. */
+ch_status ch_accuracy_read_raster(const ch_height *height, int R, ch_mesh *mesh, ch_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # The accuracy study of issue 6 on the bundled curve sets over the planar
 # base (models/plane.obj): for each set, chisel's snapped mesh, the
-# --no-snap mesh and the uniform grid with exact vertex heights (what a
-# raster displacement of a subdivided plane gives) at the same triangle
-# count, and the flat base with the exact normals (a perfect normal map),
+# --no-snap mesh and a raster-displaced mesh (a uniform grid with its
+# heights read bilinearly from a 2048^2 height raster: what a subdivided
+# plane under a Displace modifier with a height texture gives) at the same
+# triangle count, and the flat base with the exact normals (a perfect
+# normal map),
 # rendered with the Embree-traced truth from four views by
 # `chisel study`.
 # usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]
@@ -36,7 +38,7 @@ for set in "${sets[@]}"; do
     echo "study.sh: $set: meshes at $n triangles" >&2
     "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/snapped_$n.obj" --target-tris "$n" 2>/dev/null
     "$chisel" displace "$here/models/plane.obj" "$svg" -o "$dir/naive_$n.obj" --target-tris "$n" --no-snap 2>/dev/null
-    "$grid" "$svg" -o "$dir/raster_$n.obj" --target-tris "$n" --dci-res 1024 2>/dev/null
+    "$grid" "$svg" -o "$dir/raster_$n.obj" --target-tris "$n" --dci-res 1024 --raster 2048 2>/dev/null
     for m in snapped naive raster; do
       methods+="    {\"name\": \"${m}_$n\", \"family\": \"$m\", \"mesh\": \"${m}_$n.obj\"},
 "

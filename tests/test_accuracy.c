@@ -417,6 +417,26 @@ static void test_determinism(void) {
   ch_curves_free(&set);
 }
 
+/* The raster reading: a v groove of width 0.2 along v = 1/2 (h = -d (1 -
+ * |v - 1/2| / 0.1)) read from a 10 x 10 raster (pixel centres at 0.05,
+ * 0.15, ...): at v = 0.45, a pixel centre, h exactly (-d/2); at the crease
+ * v = 1/2, between the centres 0.45 and 0.55, their mean -d/2 instead of
+ * -d; away from the groove 0. */
+static void test_raster_reading(void) {
+  scene s;
+  REQUIRE(scene_init(&s, "<path d='M 0 50 H 100' data-profile='v' data-width='20' data-depth='0.01'/>", 64) == 0);
+  ch_mesh m;
+  ch_error err = {0};
+  REQUIRE(ch_accuracy_uniform_grid(&s.height, 20, &m, &err) == CH_OK);
+  CHECK_NEAR(m.positions[3 * (10 * 21 + 7) + 2], -0.01, 1e-12); /* exact before: v = 0.5 */
+  REQUIRE(ch_accuracy_read_raster(&s.height, 10, &m, &err) == CH_OK);
+  CHECK_NEAR(m.positions[3 * (9 * 21 + 7) + 2], -0.005, 1e-8);  /* v = 0.45 */
+  CHECK_NEAR(m.positions[3 * (10 * 21 + 7) + 2], -0.005, 1e-8); /* v = 0.5 */
+  CHECK_NEAR(m.positions[3 * (2 * 21 + 7) + 2], 0.0, 1e-12);    /* v = 0.1 */
+  ch_mesh_free(&m);
+  scene_free(&s);
+}
+
 static void test_uniform_n(void) {
   CHECK(ch_accuracy_uniform_n(131072) == 256);
   CHECK(ch_accuracy_uniform_n(524288) == 512);
@@ -429,6 +449,7 @@ static void test_uniform_n(void) {
 
 int main(void) {
   RUN(test_uniform_n);
+  RUN(test_raster_reading);
   RUN(test_flat_no_features);
   RUN(test_missing_triangle);
   RUN(test_v_groove_exact);
