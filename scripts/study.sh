@@ -6,7 +6,8 @@
 # plane under a Displace modifier with a height texture gives) at the same
 # triangle count, and the flat base with the exact normals (a perfect
 # normal map),
-# rendered with the Embree-traced truth from four views by
+# rendered with the Embree-traced truth from seven views (an orbit of four
+# oblique ones, a grazing one, a close-up and one from straight above) by
 # `chisel study`.
 # usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]
 #   BUILD_DIR  holds chisel and bench/chisel-uniform-grid (default build)
@@ -50,8 +51,8 @@ for set in "${sets[@]}"; do
   "dci_resolution": 1024,
   "truth_grid": 512,
   "views": [
-    {"name": "oblique", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "fov": 40,
-     "width": 320, "height": 240, "supersample": 2},
+    {"name": "orbit", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "fov": 40,
+     "width": 320, "height": 240, "supersample": 2, "orbit": 4},
     {"name": "grazing", "eye": [0.5, -0.3, 0.15], "target": [0.5, 0.5, -0.01], "fov": 50,
      "width": 320, "height": 240, "supersample": 2},
     {"name": "closeup", "eye": [0.42, 0.3, 0.14], "target": [0.5, 0.5, -0.01], "fov": 30,

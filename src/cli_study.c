@@ -45,7 +45,10 @@ static const char usage[] =
     "      {\"name\": \"top\", \"eye\": [x, y, z], \"target\": [x, y, z],\n"
     "       \"up\": [0, 0, 1], \"fov\": 40, \"width\": 320, \"height\": 240,\n"
     "       \"supersample\": 2},            up, fov (degrees), supersample optional;\n"
-    "                                   \"ortho_height\": h instead of fov: orthographic\n"
+    "                                   \"ortho_height\": h instead of fov: orthographic;\n"
+    "                                   \"orbit\": n (1..64) makes n views NAME_0..NAME_n-1,\n"
+    "                                   the eye turned about the vertical through the\n"
+    "                                   target in steps of 360/n degrees\n"
     "    ],\n"
     "    \"methods\": [                    optional\n"
     "      {\"name\": \"snapped\", \"mesh\": \"snapped.obj\"}   OBJ/PLY/OFF/STL with UVs\n"
@@ -230,8 +233,8 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   }
   static const char *const top_keys[] = {"curves", "dci_resolution", "truth_grid", "light", "views", "methods", NULL};
   static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
-  static const char *const view_keys[] = {"name",  "eye",    "target",      "up",          "fov",
-                                          "width", "height", "supersample", "ortho_height", NULL};
+  static const char *const view_keys[] = {"name",   "eye",         "target",       "up",    "fov", "width",
+                                          "height", "supersample", "ortho_height", "orbit", NULL};
   static const char *const method_keys[] = {"name", "mesh", "shader", "family", NULL};
   char where[96];
   const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
@@ -279,7 +282,12 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
     goto fail;
   }
   if (!(s->curves_path = resolve(file, curves->valuestring))) goto nomem;
-  s->num_views = cJSON_GetArraySize(views);
+  /* Views after orbits are expanded (an orbit's count is checked below). */
+  s->num_views = 0;
+  for (int i = 0; i < cJSON_GetArraySize(views); i++) {
+    const cJSON *o = cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(views, i), "orbit");
+    s->num_views += cJSON_IsNumber(o) && o->valuedouble >= 1 && o->valuedouble <= 64 ? (int)o->valuedouble : 1;
+  }
   s->num_methods = methods ? cJSON_GetArraySize(methods) : 0;
   if (s->num_views > 256 || s->num_methods > 32) {
     ch_error_set(err, CH_ERR_INPUT, "%s: at most 256 views and 32 methods (got %d and %d)", file, s->num_views,
@@ -290,16 +298,16 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   s->views = calloc((size_t)s->num_views, sizeof *s->views);
   s->methods = calloc((size_t)(s->num_methods ? s->num_methods : 1), sizeof *s->methods);
   if (!s->views || !s->methods) goto nomem;
-  for (int i = 0; i < s->num_views; i++) {
+  for (int i = 0, out = 0; i < cJSON_GetArraySize(views); i++) {
     const cJSON *v = cJSON_GetArrayItem(views, i);
     snprintf(where, sizeof where, "views[%d]", i);
     if (!cJSON_IsObject(v)) {
       ch_error_set(err, CH_ERR_INPUT, "%s: %s: expected an object", file, where);
       goto fail;
     }
-    view *vw = &s->views[i];
+    view *vw = &s->views[out];
     ch_camera *c = &vw->camera;
-    double width = 320, height = 240, ss = 2, fov = 40, ortho = 0;
+    double width = 320, height = 240, ss = 2, fov = 40, ortho = 0, orbit = 1;
     c->up[2] = 1.0;
     if (!check_keys(v, view_keys, where, file, err) || !get_name(v, vw->name, where, file, err) ||
         !get_vec3(v, "eye", c->eye, 1, where, file, err) || !get_vec3(v, "target", c->target, 1, where, file, err) ||
@@ -307,24 +315,45 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
         !get_number(v, "ortho_height", 0, 1e6, 0, &ortho, where, file, err) ||
         !get_number(v, "width", 1, 8192, 1, &width, where, file, err) ||
         !get_number(v, "height", 1, 8192, 1, &height, where, file, err) ||
-        !get_number(v, "supersample", 1, 16, 1, &ss, where, file, err))
+        !get_number(v, "supersample", 1, 16, 1, &ss, where, file, err) ||
+        !get_number(v, "orbit", 1, 64, 1, &orbit, where, file, err))
       goto fail;
+    if (orbit > 1 && strlen(vw->name) + 3 >= NAME_MAX_LEN) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s: the name '%s' is too long for an orbit's views", file, where, vw->name);
+      goto fail;
+    }
     c->fov_deg = fov;
     c->ortho_height = ortho;
     c->width = (int)width;
     c->height = (int)height;
     c->supersample = (int)ss;
-    for (int j = 0; j < i; j++)
-      if (!strcmp(s->views[j].name, vw->name)) {
-        ch_error_set(err, CH_ERR_INPUT, "%s: %s: the name '%s' is used twice", file, where, vw->name);
+    const view first = *vw;
+    for (int k = 0; k < (int)orbit; k++, out++) {
+      view *ov = &s->views[out];
+      *ov = first;
+      if (orbit > 1) {
+        /* The eye turned by 360 k / n degrees about the vertical through the target. */
+        double a = 2.0 * CH_PI * k / orbit, dx = first.camera.eye[0] - first.camera.target[0];
+        double dy = first.camera.eye[1] - first.camera.target[1];
+        ov->camera.eye[0] = first.camera.target[0] + dx * cos(a) - dy * sin(a);
+        ov->camera.eye[1] = first.camera.target[1] + dx * sin(a) + dy * cos(a);
+        char named[NAME_MAX_LEN + 16]; /* fits: the length was checked above */
+        snprintf(named, sizeof named, "%s_%d", first.name, k);
+        memcpy(ov->name, named, NAME_MAX_LEN - 1);
+        ov->name[NAME_MAX_LEN - 1] = '\0';
+      }
+      for (int j = 0; j < out; j++)
+        if (!strcmp(s->views[j].name, ov->name)) {
+          ch_error_set(err, CH_ERR_INPUT, "%s: %s: the name '%s' is used twice", file, where, ov->name);
+          goto fail;
+        }
+      /* The camera's own checks (view direction, up), with the view's name. */
+      double o[3], d[3];
+      ch_error cerr = {0};
+      if (ch_camera_ray(&ov->camera, 0, 0, o, d, &cerr)) {
+        ch_error_set(err, CH_ERR_INPUT, "%s: %s ('%s'): %s", file, where, ov->name, cerr.message);
         goto fail;
       }
-    /* The camera's own checks (view direction, up), with the view's name. */
-    double o[3], d[3];
-    ch_error cerr = {0};
-    if (ch_camera_ray(c, 0, 0, o, d, &cerr)) {
-      ch_error_set(err, CH_ERR_INPUT, "%s: %s ('%s'): %s", file, where, vw->name, cerr.message);
-      goto fail;
     }
   }
   for (int i = 0; i < s->num_methods; i++) {

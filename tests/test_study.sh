@@ -68,6 +68,26 @@ else
   fail "study of glyphs failed: $(cat "$tmp/stderr")"
 fi
 
+# An orbit: view o_0 is the given eye (the same picture as a plain view
+# from there), o_1 is turned 90 degrees about the target's vertical (a
+# different picture of the glyphs), five views in all.
+cat >"$tmp/orbit.json" <<JSON
+{"curves": "$svg", "dci_resolution": 256, "truth_grid": 256,
+ "views": [{"name": "o", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "width": 64, "height": 48,
+            "supersample": 1, "orbit": 4},
+           {"name": "plain", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "width": 64, "height": 48,
+            "supersample": 1}]}
+JSON
+checks=$((checks + 1))
+if "$chisel" study "$tmp/orbit.json" -o "$tmp/orbit" >/dev/null 2>"$tmp/stderr"; then
+  check cmp -s "$tmp/orbit/o_0.truth.png" "$tmp/orbit/plain.truth.png"
+  check test -s "$tmp/orbit/o_3.truth.png"
+  if cmp -s "$tmp/orbit/o_0.truth.png" "$tmp/orbit/o_1.truth.png"; then fail "orbit: o_1 is o_0"; fi
+  check test ! -e "$tmp/orbit/o_4.truth.png"
+else
+  fail "orbit study failed: $(cat "$tmp/stderr")"
+fi
+
 # 3. Bad scenes: exit 2, one line naming the file and the problem, no output.
 bad() {
   local name=$1 want=$2 body=$3
@@ -102,6 +122,8 @@ bad nouv "nouv.obj: the mesh has no texture coordinates" \
 bad shader "shader.json: methods[0].shader: unknown shader" \
   '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "a.obj", "shader": "relief"}]}'
 bad nosvg "missing.svg" '{"curves": "missing.svg", "views": ['"$view"']}'
+bad orbit0 "orbit0.json: views[0].orbit" \
+  '{"curves": "'"$svg"'", "views": [{"name": "v", "eye": [0.5, -1, 1], "target": [0.5, 0.5, 0], "orbit": 0}]}'
 
 echo "$checks checks, $failures failures" >&2
 [ "$failures" = 0 ]
