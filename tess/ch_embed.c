@@ -547,6 +547,33 @@ static double edge_t_segment(const labeler *lb, const work *w, const wedge *e, i
   return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv) / lb->set->curves[sg->curve].width;
 }
 
+/* A level set of t = s / w along edge e: the root of f = T(t) - target,
+ * T the identity or |.| (rim), bracketed by [*a, *b] with f(a) = *fa and
+ * f(b) = *fb of opposite signs, by false position (Illinois) until the
+ * bracket is below tol. One segment of c (seg >= 0: both ends are nearest
+ * it) is enough for the search; callers check the answer by the labels.
+ * On return [*a, *b] brackets the root (in either order) and *fa is f(*a). */
+static void level_root(const labeler *lb, const work *w, const wedge *e, int c, int seg, int rim, double target,
+                       double tol, double *a, double *b, double *fa, double *fb) {
+  int side = 0;
+  for (int it = 0; it < 80 && fabs(*b - *a) > tol; it++) {
+    double m = (*a * *fb - *b * *fa) / (*fb - *fa);
+    if (!(m > fmin(*a, *b) && m < fmax(*a, *b))) m = 0.5 * (*a + *b);
+    double fm = seg >= 0 ? edge_t_segment(lb, w, e, seg, m) : edge_t(lb, w, e, c, m, NULL);
+    fm = (rim ? fabs(fm) : fm) - target;
+    if (fm * *fb < 0.0) {
+      *a = *b;
+      *fa = *fb;
+      side = 0;
+    } else if (++side >= 2) {
+      *fa *= 0.5;
+    }
+    *b = m;
+    *fb = fm;
+    if (fm == 0.0) break;
+  }
+}
+
 /* The fast path of the crossing search, between two pieces of one groove
  * (its break lines, the many lines of a u profile): the line is the level
  * set t = break, found by false position (Illinois) on t along the edge in
@@ -576,24 +603,7 @@ static int line_crossing(const labeler *lb, const work *w, const wedge *e, uint6
   double a = x0, b = x1, fa = edge_t(lb, w, e, c, a, &sa) - target, fb = edge_t(lb, w, e, c, b, &sb) - target;
   if (!(fa * fb < 0.0)) return 0;
   double f0 = fa; /* x0's sign */
-  /* Where both ends are nearest the same segment, the root is searched on
-   * it alone (the labels below check the answer either way). */
-  int one = sa == sb ? sa : -1, side = 0;
-  for (int it = 0; it < 80 && fabs(b - a) > 1e-14; it++) {
-    double m = (a * fb - b * fa) / (fb - fa);
-    if (!(m > fmin(a, b) && m < fmax(a, b))) m = 0.5 * (a + b);
-    double fm = (one >= 0 ? edge_t_segment(lb, w, e, one, m) : edge_t(lb, w, e, c, m, NULL)) - target;
-    if (fm * fb < 0.0) {
-      a = b;
-      fa = fb;
-      side = 0;
-    } else if (++side >= 2) {
-      fa *= 0.5;
-    }
-    b = m;
-    fb = fm;
-    if (fm == 0.0) break;
-  }
+  level_root(lb, w, e, c, sa == sb ? sa : -1, 0, target, 1e-14, &a, &b, &fa, &fb);
   /* The end on x0's side keeps l0's sign of t - target. */
   double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
   if (near > far) return 0;
@@ -619,22 +629,7 @@ static void rim_bracket(const labeler *lb, const work *w, const wedge *e, uint64
   double a = *lo, b = *hi;
   double fa = fabs(edge_t(lb, w, e, c, a, &sa)) - 0.5, fb = fabs(edge_t(lb, w, e, c, b, &sb)) - 0.5;
   if (!(fa * fb < 0.0)) return;
-  int one = sa == sb ? sa : -1, side = 0;
-  for (int it = 0; it < 60 && fabs(b - a) > 1e-12; it++) {
-    double m = (a * fb - b * fa) / (fb - fa);
-    if (!(m > fmin(a, b) && m < fmax(a, b))) m = 0.5 * (a + b);
-    double fm = fabs(one >= 0 ? edge_t_segment(lb, w, e, one, m) : edge_t(lb, w, e, c, m, NULL)) - 0.5;
-    if (fm * fb < 0.0) {
-      a = b;
-      fa = fb;
-      side = 0;
-    } else if (++side >= 2) {
-      fa *= 0.5;
-    }
-    b = m;
-    fb = fm;
-    if (fm == 0.0) break;
-  }
+  level_root(lb, w, e, c, sa == sb ? sa : -1, 1, 0.5, 1e-12, &a, &b, &fa, &fb);
   double guess = 0.5 * (a + b), l = fmax(*lo, guess - 1e-9), h = fmin(*hi, guess + 1e-9);
   if (!(l < h) || edge_label(lb, w, e, l) != l0) return;
   uint64_t lh = edge_label(lb, w, e, h);
