@@ -285,15 +285,20 @@ static void mesh_hit(const ch_trace *s, long t, const double o[3], const double 
   hit->face = s->tri_face[t];
 }
 
+/* The context that carries the ray in double precision to the truth's callbacks. */
+static void init_context(truth_context *tc, const double o[3], const double d[3], double tnear, double tfar) {
+  rtcInitIntersectContext(&tc->ctx);
+  tc->org = o;
+  tc->dir = d;
+  tc->tnear = tnear;
+  tc->tfar = tfar;
+  tc->found = 0;
+}
+
 int ch_trace_intersect(const ch_trace *s, const double o[3], const double d[3], double tnear, double tfar,
                        ch_trace_hit *hit) {
   truth_context tc;
-  rtcInitIntersectContext(&tc.ctx);
-  tc.org = o;
-  tc.dir = d;
-  tc.tnear = tnear;
-  tc.tfar = tfar;
-  tc.found = 0;
+  init_context(&tc, o, d, tnear, tfar);
   struct RTCRayHit rh;
   make_ray(&rh.ray, o, d, tnear, tfar);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -317,12 +322,7 @@ int ch_trace_intersect(const ch_trace *s, const double o[3], const double d[3], 
 
 int ch_trace_occluded(const ch_trace *s, const double o[3], const double d[3], double tnear, double tfar) {
   truth_context tc;
-  rtcInitIntersectContext(&tc.ctx);
-  tc.org = o;
-  tc.dir = d;
-  tc.tnear = tnear;
-  tc.tfar = tfar;
-  tc.found = 0;
+  init_context(&tc, o, d, tnear, tfar);
   struct RTCRay r;
   make_ray(&r, o, d, tnear, tfar);
   rtcOccluded1(s->scene, &tc.ctx, &r);
