@@ -588,19 +588,21 @@ static int line_crossing(const labeler *lb, const work *w, const wedge *e, uint6
   if ((l0 & 0xffffffffu) != (l1 & 0xffffffffu) || !g0) return 0;
   int c = (int)(g0 >> 8) - 1, k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff);
   const double *br = lb->crease_t + lb->crease_start[c];
+  if (g1 && (g0 >> 8) != (g1 >> 8)) return 0;
+  int sa = -1, sb = -1;
+  double a = x0, b = x1, ta = edge_t(lb, w, e, c, a, &sa), tb = edge_t(lb, w, e, c, b, &sb);
   if (!g1) {
     /* Out of the groove: through its lines to the rim first, one at a
      * time, towards the side x1 lies on; the rim itself is bisected. */
     int nb = lb->crease_start[c + 1] - lb->crease_start[c];
-    k1 = k0 + (edge_t(lb, w, e, c, x1, NULL) > edge_t(lb, w, e, c, x0, NULL) ? 1 : -1);
+    k1 = k0 + (tb > ta ? 1 : -1);
     if (k1 < 1 || k1 > nb - 1) return 0;
     g1 = (g0 & ~(uint64_t)0xff) | (uint64_t)k1;
   }
-  if ((g0 >> 8) != (g1 >> 8) || k0 == k1) return 0;
+  if (k0 == k1) return 0;
   int d = k1 > k0 ? 1 : -1;
   double target = (d > 0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
-  int sa = -1, sb = -1;
-  double a = x0, b = x1, fa = edge_t(lb, w, e, c, a, &sa) - target, fb = edge_t(lb, w, e, c, b, &sb) - target;
+  double fa = ta - target, fb = tb - target;
   if (!(fa * fb < 0.0)) return 0;
   double f0 = fa; /* x0's sign */
   level_root(lb, w, e, c, sa == sb ? sa : -1, 0, target, 1e-14, &a, &b, &fa, &fb);
@@ -1955,7 +1957,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       d.count_only = 0;
       if ((st = ch_embed_build(surface, &cur_tess, height, &d, &cur, &cur_stats, err))) break;
       runs++;
-      no = (double)cur_stats.triangles;
+      no = ys[pass] = (double)cur_stats.triangles; /* the cleanup's count */
       miss = fabs(no - (double)target);
     }
     if (!d.count_only && miss < best_miss) { /* keep the closest full run */
