@@ -1,0 +1,185 @@
+/* ch_warp: the view-dependent texture warp (diffusion-curves-on-surfaces
+ * §3.2): texture space is resized so that parts of the object that appear
+ * large on screen and carry curves get more texels (and, downstream, more
+ * triangles).
+ *
+ * Two spaces: UV (the original texture coordinates) and warped UV, both
+ * the unit square.
+ * - W = (Wu, Wv): two monotone, piecewise-linear functions on n uniform
+ *   intervals per axis, found from per-triangle texture need by a global
+ *   per-axis optimisation (ch_warp_build). Exact inverse.
+ * - The cage map C: the base surface's triangles (the cage) keep their
+ *   barycentric coordinates: a UV point p in cage triangle T with
+ *   barycentric b maps to sum_k b_k W(uv_k). This is how a renderer maps a
+ *   warped texture onto the triangles (warped UVs at the vertices,
+ *   interpolated linearly), so curves are warped by C, and every texel of
+ *   warped UV is read back through C^-1. C is affine per triangle; where
+ *   the cage does not cover a point, C is W itself.
+ *
+ * Everything here is in shade/: the cage arrives as plain arrays (tess/
+ * builds it from the base surface), so shade/ keeps depending on core/
+ * only. */
+#ifndef CH_WARP_H
+#define CH_WARP_H
+#include "ch_curves.h"
+#include "ch_error.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A pinhole camera (SPEC §5 --camera): eye, the point looked at, vertical
+ * field of view. Up is +z, or +y when the view is along z (|dir.z| >
+ * 0.999 |dir|). The frustum is square (horizontal field of view = vertical),
+ * since the command line names no image size. */
+typedef struct ch_camera {
+  double eye[3], at[3];
+  double fov_deg;
+  /* derived by ch_camera_init: orthonormal frame, tan(fov / 2) */
+  double forward[3], right[3], up[3];
+  double tan_half;
+} ch_camera;
+
+/* Sets up the camera from the 7 numbers of --camera. CH_ERR_INPUT (message
+ * "camera: ...", no file name: the caller prefixes it) for a non-finite
+ * value, eye == at (closer than 1e-12), or a field of view outside
+ * [0.01, 179] degrees. */
+ch_status ch_camera_init(ch_camera *cam, const double values[7], ch_error *err);
+
+/* Projects p: ndc[0] right, ndc[1] up, in [-1, 1] inside the frustum, and
+ * the depth along forward. Returns 1 when depth > 0 (in front), else 0
+ * (ndc then undefined). */
+int ch_camera_project(const ch_camera *cam, const double p[3], double ndc[2], double *depth);
+
+/* The cage: triangles of the base surface with per-corner UV and 3D
+ * position (corners counter-clockwise in UV, as the base faces are). */
+typedef struct ch_warp_cage {
+  int num_triangles;
+  const double *uv;        /* 6 per triangle: u0 v0 u1 v1 u2 v2 */
+  const double *position;  /* 9 per triangle: x0 y0 z0 x1 ... z2 */
+} ch_warp_cage;
+
+/* Zero means default. */
+typedef struct ch_warp_desc {
+  int intervals;      /* n, intervals per axis; 0: 256 */
+  double floor;       /* least slope of W (1 = uniform); 0: 0.1 */
+  double max_slope;   /* largest slope of W; 0: 64 */
+  double max_ratio;   /* largest slope ratio between neighbouring
+                         intervals (keeps the warp smooth); 0: 1.25 */
+} ch_warp_desc;
+
+typedef struct ch_warp_stats {
+  int visible_triangles;    /* cage triangles in the frustum, facing the eye */
+  int needy_triangles;      /* of those, the ones that hold curves */
+  double max_slope[2];      /* largest slope of Wu, Wv: the virtual
+                               resolution is R times these */
+  double visible_share;     /* share of warped texels (of the unit square)
+                               whose point lies in a visible cage triangle */
+  double unwarped_share;    /* the same share without the warp */
+  int folded_triangles;     /* cage triangles with UV area whose warped
+                               corners turn the other way or collapse: W
+                               varies too much across them (a coarse cage),
+                               C is not one-to-one there and C^-1 takes the
+                               lowest-numbered triangle; the caller warns */
+  double seconds_need, seconds_functions, seconds_grids;
+} ch_warp_stats;
+
+typedef struct ch_warp {
+  int n;                /* intervals per axis */
+  double *wu, *wv;      /* n + 1 values each: W at the knots i / n;
+                           wu[0] = 0, wu[n] = 1, strictly increasing */
+  /* the cage (copied), its warped corners and a uniform grid over each space */
+  int num_triangles;
+  double *uv, *wuv;     /* 6 per triangle */
+  unsigned char *visible; /* per triangle: 1 in the frustum, facing the eye */
+  void *grids;          /* private: triangle grids over UV and warped UV */
+  ch_warp_stats stats;
+} ch_warp;
+
+/* Builds W and the cage map for cam. Per cage triangle: visible (any part
+ * in the frustum, depth > 0, front-facing: the normal of its corners'
+ * positions towards the eye; the frustum test is conservative: the screen
+ * box of the triangle clipped to the near plane) and holding curves (the
+ * control box of one of the curves' segments, grown by half its groove
+ * width or its blur radius, whichever is larger, overlaps the triangle's
+ * UV box); the need of a visible triangle that holds curves is, per axis,
+ * the largest screen-space length (in NDC units) of a unit step in u
+ * (resp. v), from the triangle's affine UV -> 3D map, at its corners and
+ * centroid that are in front (depth taken >= 1e-6 of the cage's diagonal);
+ * others, and triangles without UV or 3D area, need 0. Per interval of
+ * each axis the need is the largest of the triangles whose UV range
+ * overlaps it; it is spread to the neighbours so that neighbouring needs
+ * differ by at most max_ratio; the slopes are max(floor, a * need) capped
+ * at max_slope, a chosen so that the slopes average 1 (W(1) = 1; a is
+ * solved exactly, not iterated). When no triangle is needy, or the cage is
+ * degenerate (no triangle with UV area and 3D area), W is the identity and
+ * stats.visible_triangles / needy_triangles tell why; the caller warns. An
+ * axis on which no a reaches mean 1 is the identity on its own: that needs
+ * the spread need to underflow (n above ~3000) and the intervals with need
+ * to be too few to make up for the rest at floor even at max_slope. desc
+ * may be NULL (all defaults), set NULL (no curves: the identity).
+ * Deterministic on any thread count. Errors: CH_ERR_INPUT for a bad desc
+ * (floor outside [0, 1), max_slope < 1, max_ratio <= 1, non-finite values,
+ * intervals outside [1, 65536]) or bad cage data (negative count, missing
+ * arrays, non-finite values); CH_ERR_NOMEM. out is zeroed on failure. */
+ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch_curve_set *set,
+                        const ch_warp_desc *desc, ch_warp *out, ch_error *err);
+
+/* The identity warp over cage (for runs without --camera that still want
+ * the cage map, and for tests): wu = wv = i / n, n = intervals (0: 256),
+ * no triangle visible. Errors as ch_warp_build's for intervals and cage. */
+ch_status ch_warp_identity(const ch_warp_cage *cage, int intervals, ch_warp *out, ch_error *err);
+
+void ch_warp_free(ch_warp *w);
+
+/* W and its exact inverse, per axis (axis 0: u, 1: v), for any x in
+ * [0, 1] (clamped outside). W(0) = 0 and W(1) = 1 exactly. These and the
+ * map functions below only read w: safe from any number of threads. */
+double ch_warp_axis(const ch_warp *w, int axis, double x);
+double ch_warp_axis_inverse(const ch_warp *w, int axis, double y);
+/* The slope of W on axis at x (of the interval holding x; at a knot the
+ * right one, at 1 the last one). */
+double ch_warp_axis_slope(const ch_warp *w, int axis, double x);
+
+/* The cage map C and its inverse (see above). Return the cage triangle
+ * used, or -1 when none holds the point (then W, resp. W^-1, is used).
+ * Where triangles overlap in UV the lowest-numbered one is used. */
+int ch_warp_map(const ch_warp *w, const double uv[2], double out[2]);
+int ch_warp_unmap(const ch_warp *w, const double wuv[2], double out[2]);
+
+/* Length of the image under W of the straight UV segment a -> b, from its
+ * start up to fraction x in [0, 1] (exact: W is affine between the knot
+ * lines the segment crosses), and the inverse: the fraction at which that
+ * length is y times the whole (x, y clamped to [0, 1]). a == b, or an
+ * image of length 0: arc 0, the inverse returns y. Used to place
+ * tessellation points evenly in warped space along a base edge. */
+double ch_warp_arc(const ch_warp *w, const double a[2], const double b[2], double x);
+double ch_warp_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y);
+
+typedef struct ch_warp_curve_stats {
+  int registered_pieces;    /* pieces after cutting at triangle boundaries */
+  double seconds;
+} ch_warp_curve_stats;
+
+/* Registers the curves on the cage and warps them through it: every
+ * segment is cut where it crosses a cage triangle's edge (the triangles
+ * near it come from the grid over UV, so the cost follows the curves, not
+ * curves x triangles), each piece is registered to the triangle holding
+ * its middle and its control points are mapped by that triangle's affine
+ * map (so a quadratic piece stays exactly the quadratic image of the
+ * original, lines stay lines); pieces outside the cage have their control
+ * points mapped by W (not cut at the knot lines: no exact image there).
+ * Consecutive pieces share their end points exactly (the start of a piece
+ * is set to the end of the one before, across segments where the original
+ * ones meet exactly; a closed subpath ends on its first point). out is a complete curve set (same
+ * curves, attributes, subpaths, closedness; prev/next, counts and boxes
+ * recomputed) in warped UV. Widths and blur radii stay in UV units (the
+ * consumers scale them by the slopes). stats may be NULL. Parallel over
+ * segments; the same bytes on any thread count. CH_ERR_NOMEM
+ * (CH_ERR_INPUT past INT_MAX pieces); out zeroed on failure. */
+ch_status ch_warp_curves(const ch_warp *w, const ch_curve_set *in, ch_curve_set *out,
+                         ch_warp_curve_stats *stats, ch_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
