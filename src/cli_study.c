@@ -86,7 +86,7 @@ enum { NAME_MAX_LEN = 64 };
 
 typedef struct view {
   char name[NAME_MAX_LEN];
-  ch_camera camera;
+  ch_render_camera camera;
 } view;
 
 typedef struct method {
@@ -306,7 +306,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
       goto fail;
     }
     view *vw = &s->views[out];
-    ch_camera *c = &vw->camera;
+    ch_render_camera *c = &vw->camera;
     double width = 320, height = 240, ss = 2, fov = 40, ortho = 0, orbit = 1;
     c->up[2] = 1.0;
     if (!check_keys(v, view_keys, where, file, err) || !get_name(v, vw->name, where, file, err) ||

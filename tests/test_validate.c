@@ -67,9 +67,9 @@ static const char box_groove[] = "<path d='M 50 -10 L 50 110' data-profile='box'
 
 /* Orthographic, looking along (sin th, 0, -cos th) at (0.5, 0.5, 0), image
  * 0.5 x 0.5 world units, 200 x 200 pixels, one sample per pixel. */
-static ch_camera tilted(double th_deg, int size) {
+static ch_render_camera tilted(double th_deg, int size) {
   double th = th_deg * 3.14159265358979323846 / 180.0;
-  ch_camera c = {.target = {0.5, 0.5, 0.0}, .up = {0, 1, 0}, .ortho_height = 0.5, .width = size, .height = size,
+  ch_render_camera c = {.target = {0.5, 0.5, 0.0}, .up = {0, 1, 0}, .ortho_height = 0.5, .width = size, .height = size,
                  .supersample = 1};
   c.eye[0] = 0.5 - 2.0 * sin(th);
   c.eye[1] = 0.5;
@@ -87,7 +87,7 @@ static long count_class(const ch_image *img, int cls) {
 static void test_v_groove_from_above(void) {
   world w;
   REQUIRE(world_load(&w, v_groove, 256, 0));
-  ch_camera cam = tilted(0.0, 200);
+  ch_render_camera cam = tilted(0.0, 200);
   ch_image img;
   ch_error err = {0};
   REQUIRE(ch_render(w.scene, w.truth, &cam, NULL, &img, NULL, &err) == CH_OK);
@@ -109,7 +109,7 @@ static void test_tilted_views(void) {
   const double th = 30.0 * 3.14159265358979323846 / 180.0, a = 0.05, pix = 0.5 / 200;
   world w;
   REQUIRE(world_load(&w, v_groove, 256, 0));
-  ch_camera cam = tilted(30.0, 200);
+  ch_render_camera cam = tilted(30.0, 200);
   ch_image img;
   ch_error err = {0};
   REQUIRE(ch_render(w.scene, w.truth, &cam, NULL, &img, NULL, &err) == CH_OK);
@@ -238,8 +238,8 @@ static int mesh_from_obj(const char *text, ch_mesh *m) {
   return 1;
 }
 
-static ch_camera oblique(void) {
-  ch_camera c = {.eye = {0.15, -0.6, 0.75}, .target = {0.5, 0.5, -0.01}, .up = {0, 0, 1}, .fov_deg = 40,
+static ch_render_camera oblique(void) {
+  ch_render_camera c = {.eye = {0.15, -0.6, 0.75}, .target = {0.5, 0.5, -0.01}, .up = {0, 0, 1}, .fov_deg = 40,
                  .width = 160, .height = 120, .supersample = 2};
   return c;
 }
@@ -250,7 +250,7 @@ static void compare_mesh(const char *what, const world *w, const ch_mesh *m, ch_
   ch_image a = {0}, b = {0};
   memset(mt, 0, sizeof *mt);
   mt->class_mismatch = 100;
-  ch_camera cam = oblique();
+  ch_render_camera cam = oblique();
   if (ch_trace_create_mesh(m, what, &ms, &err) || ch_render(ms, w->truth, &cam, NULL, &a, NULL, &err) ||
       ch_render(w->scene, w->truth, &cam, NULL, &b, NULL, &err) || ch_metrics_compare(&a, &b, sqrt(2.0), mt, &err))
     fprintf(stderr, "%s\n", err.message);
@@ -317,8 +317,8 @@ static const char mixed[] =
     "data-depth='0.01'/>"
     "<circle cx='45' cy='55' r='10' data-kind='step' data-left='0.008' data-right='0'/>";
 
-static ch_camera grazing(void) {
-  ch_camera c = {.eye = {0.5, -0.35, 0.22}, .target = {0.5, 0.55, -0.005}, .up = {0, 0, 1}, .fov_deg = 55,
+static ch_render_camera grazing(void) {
+  ch_render_camera c = {.eye = {0.5, -0.35, 0.22}, .target = {0.5, 0.55, -0.005}, .up = {0, 0, 1}, .fov_deg = 55,
                  .width = 160, .height = 120, .supersample = 1};
   return c;
 }
@@ -327,7 +327,7 @@ static void test_convergence(void) {
   world a, b;
   REQUIRE(world_load(&a, mixed, 256, 1e-9));
   REQUIRE(world_load(&b, mixed, 512, 5e-10));
-  ch_camera cams[2] = {oblique(), grazing()};
+  ch_render_camera cams[2] = {oblique(), grazing()};
   for (int k = 0; k < 2; k++) {
     cams[k].supersample = 1;
     ch_image ia, ib;
@@ -356,7 +356,7 @@ static void test_convergence(void) {
 static void test_threads_same_bytes(void) {
   world w;
   REQUIRE(world_load(&w, mixed, 256, 0));
-  ch_camera cam = grazing();
+  ch_render_camera cam = grazing();
   cam.width = 80;
   cam.height = 60;
   ch_image a, b;
@@ -431,7 +431,7 @@ static void test_normal_map_shader(void) {
   ch_trace *base = NULL;
   REQUIRE(ch_mesh_read(CHISEL_MODELS "/plane.obj", &plane, &err) == CH_OK);
   REQUIRE(ch_trace_create_mesh(&plane, "plane.obj", &base, &err) == CH_OK);
-  ch_camera cam = tilted(0.0, 200);
+  ch_render_camera cam = tilted(0.0, 200);
   ch_render_shader sh = ch_shader_exact_normals(w.truth);
   ch_image a, b;
   REQUIRE(ch_render_shaded(base, &sh, w.truth, &cam, NULL, &a, NULL, &err) == CH_OK);

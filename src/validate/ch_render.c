@@ -24,7 +24,7 @@ typedef struct frame {
   double half_h, half_w; /* half the view at distance 1 (pinhole) or in world units (ortho) */
 } frame;
 
-static ch_status camera_frame(const ch_camera *c, frame *fr, ch_error *err) {
+static ch_status camera_frame(const ch_render_camera *c, frame *fr, ch_error *err) {
   if (c->width < 1 || c->height < 1 || c->width > CH_IMAGE_MAX_SIDE || c->height > CH_IMAGE_MAX_SIDE)
     return ch_error_set(err, CH_ERR_INPUT, "camera: image size %d x %d out of range", c->width, c->height);
   if (c->supersample < 0 || c->supersample > 16)
@@ -47,7 +47,7 @@ static ch_status camera_frame(const ch_camera *c, frame *fr, ch_error *err) {
   return CH_OK;
 }
 
-static void frame_ray(const ch_camera *c, const frame *fr, double px, double py, double o[3], double d[3]) {
+static void frame_ray(const ch_render_camera *c, const frame *fr, double px, double py, double o[3], double d[3]) {
   double sx = (2.0 * px / c->width - 1.0) * fr->half_w, sy = (1.0 - 2.0 * py / c->height) * fr->half_h;
   if (c->ortho_height > 0.0) {
     for (int k = 0; k < 3; k++) {
@@ -63,7 +63,7 @@ static void frame_ray(const ch_camera *c, const frame *fr, double px, double py,
   }
 }
 
-ch_status ch_camera_ray(const ch_camera *c, double px, double py, double o[3], double d[3], ch_error *err) {
+ch_status ch_camera_ray(const ch_render_camera *c, double px, double py, double o[3], double d[3], ch_error *err) {
   frame fr;
   ch_status st = camera_frame(c, &fr, err);
   if (st) return st;
@@ -123,7 +123,7 @@ static void trace_sample(const ch_trace *scene, const ch_render_shader *shader, 
   s->shade = lt->albedo * (lt->ambient + (1.0 - lt->ambient) * diff * lit) + lt->specular * spec * lit;
 }
 
-ch_status ch_render(const ch_trace *scene, const ch_truth *truth, const ch_camera *cam, const ch_light *light,
+ch_status ch_render(const ch_trace *scene, const ch_truth *truth, const ch_render_camera *cam, const ch_light *light,
                     ch_image *out, ch_render_stats *stats, ch_error *err) {
   return ch_render_shaded(scene, NULL, truth, cam, light, out, stats, err);
 }
@@ -143,7 +143,7 @@ ch_render_shader ch_shader_exact_normals(const ch_truth *truth) {
 }
 
 ch_status ch_render_shaded(const ch_trace *scene, const ch_render_shader *shader, const ch_truth *truth,
-                           const ch_camera *cam, const ch_light *light_in, ch_image *out, ch_render_stats *stats,
+                           const ch_render_camera *cam, const ch_light *light_in, ch_image *out, ch_render_stats *stats,
                            ch_error *err) {
   memset(out, 0, sizeof *out);
   frame fr;

@@ -20,13 +20,13 @@
 extern "C" {
 #endif
 
-typedef struct ch_camera {
+typedef struct ch_render_camera {
   double eye[3], target[3], up[3];
   double fov_deg;      /* vertical field of view (pinhole) */
   double ortho_height; /* > 0: orthographic, the view's height in world units */
   int width, height;
   int supersample;     /* n: n x n samples per pixel on a regular grid; 0: 1 */
-} ch_camera;
+} ch_render_camera;
 
 /* Zero means default. */
 typedef struct ch_light {
@@ -94,12 +94,12 @@ typedef struct ch_render_shader {
  * the truth of the curves a mesh was made from). stats may be NULL. Bad
  * cameras (zero view direction, up parallel to it, sizes out of range)
  * give CH_ERR_INPUT. */
-ch_status ch_render(const ch_trace *scene, const ch_truth *classifier, const ch_camera *camera,
+ch_status ch_render(const ch_trace *scene, const ch_truth *classifier, const ch_render_camera *camera,
                     const ch_light *light, ch_image *out, ch_render_stats *stats, ch_error *err);
 
 /* The same through a shader (NULL: ch_render). */
 ch_status ch_render_shaded(const ch_trace *scene, const ch_render_shader *shader, const ch_truth *classifier,
-                           const ch_camera *camera, const ch_light *light, ch_image *out, ch_render_stats *stats,
+                           const ch_render_camera *camera, const ch_light *light, ch_image *out, ch_render_stats *stats,
                            ch_error *err);
 
 /* The first shader: the base surface with the truth's exact normal at the
@@ -109,7 +109,7 @@ ch_render_shader ch_shader_exact_normals(const ch_truth *truth);
 
 /* The primary ray through image point (px, py) in pixels (0,0 the top-left
  * corner of the image): origin and unit direction. Exposed for tests. */
-ch_status ch_camera_ray(const ch_camera *camera, double px, double py, double org[3], double dir[3], ch_error *err);
+ch_status ch_camera_ray(const ch_render_camera *camera, double px, double py, double org[3], double dir[3], ch_error *err);
 
 #ifdef __cplusplus
 }
