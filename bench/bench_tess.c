@@ -21,7 +21,7 @@ static double time_build(const ch_surface *S, long target, int *tris) {
     ch_tess_result res;
     ch_error err = {0};
     double t0 = bench_now();
-    if (ch_tess_build(S, &(ch_tess_desc){0, target}, &res, &err) != CH_OK) {
+    if (ch_tess_build(S, &(ch_tess_desc){.target_triangles = target}, &res, &err) != CH_OK) {
       fprintf(stderr, "%s\n", err.message);
       exit(1);
     }

@@ -21,6 +21,7 @@
  * same facets need a second, face-varying, mapping.
  */
 #include "ch_surface.h"
+#include "ch_warp.h"
 
 #include <omp.h>
 
@@ -489,6 +490,13 @@ extern "C" ch_status ch_surface_eval(const ch_surface *S, int face, double s, do
 
 namespace {
 
+/* The UVs of the ends of edge k of face f (corner k, then corner k + 1). */
+void face_edge_uv(const ch_surface *S, int f, int k, const double **a, const double **b) {
+  int s = S->face_start[f], n = S->face_start[f + 1] - s;
+  *a = &S->uvs[2 * S->corner_uv[s + k]];
+  *b = &S->uvs[2 * S->corner_uv[s + (k + 1) % n]];
+}
+
 /* Outer and inner rates of face f from the edge rates (see the header). */
 int face_rates(const ch_surface *S, int f, const int *edge_rates, int *rates) {
   int a = S->face_start[f], n = S->face_start[f + 1] - a;
@@ -541,10 +549,10 @@ long count_triangles(const ch_surface *S, const int *edge_rates) {
 }
 
 /* Rates max(1, round(d L)); false when a rate would exceed kMaxRate. */
-bool rates_for_density(const ch_surface *S, double d, int *rates) {
+bool rates_for_density(const ch_surface *S, const double *length, double d, int *rates) {
   bool ok = true;
   for (int e = 0; e < S->num_edges; e++) {
-    double r = std::floor(d * S->edge_uv_length[e] + 0.5);
+    double r = std::floor(d * length[e] + 0.5);
     if (r > kMaxRate) {
       ok = false;
       r = kMaxRate;
@@ -554,8 +562,8 @@ bool rates_for_density(const ch_surface *S, double d, int *rates) {
   return ok;
 }
 
-ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, std::vector<int> &rates,
-                       ch_error *err) {
+ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const double *length,
+                       std::vector<int> &rates, ch_error *err) {
   const int ne = S->num_edges;
   rates.assign(ne, 1);
   if (desc->uniform_rate > 0) {
@@ -586,7 +594,7 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, std::vecto
   double lo = 0.0, hi = 1.0;
   long chi;
   for (;;) {
-    bool ok = rates_for_density(S, hi, rhi.data());
+    bool ok = rates_for_density(S, length, hi, rhi.data());
     chi = count_triangles(S, rhi.data());
     if (chi >= target) break;
     if (!ok)
@@ -596,12 +604,12 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, std::vecto
     lo = hi;
     hi *= 2.0;
   }
-  rates_for_density(S, lo, rlo.data());
+  rates_for_density(S, length, lo, rlo.data());
   long clo = count_triangles(S, rlo.data());
   for (int it = 0; it < 200 && hi - lo > 1e-13 * hi; it++) {
     double mid = 0.5 * (lo + hi);
     std::vector<int> &r = rates;
-    rates_for_density(S, mid, r.data());
+    rates_for_density(S, length, mid, r.data());
     long c = count_triangles(S, r.data());
     if (c < target) {
       lo = mid, clo = c, rlo.swap(r);
@@ -665,11 +673,40 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
       desc->uniform_rate < 0 || desc->target_triangles < 0)
     return ch_error_set(err, CH_ERR_INPUT,
                         "tessellation: give exactly one of a uniform rate or a triangle target");
+  const int nf = S->num_faces, ne = S->num_edges;
+  /* With a warp, edge lengths are measured in warped UV, and points go
+   * evenly in warped UV along edges whose faces are all quads and inside
+   * quads (a Coons blend of the four edges' placements, which is the exact
+   * warped grid where W is separable over the quad, as on the plane). */
+  const ch_warp *W = desc->warp;
+  std::vector<double> warped_length;
+  std::vector<unsigned char> remap;
+  const double *length = S->edge_uv_length.data();
+  if (W) {
+    warped_length.assign(ne, 0.0);
+    remap.assign(ne, 1);
+    for (int e = 0; e < ne; e++)
+      for (int i = S->edge_face_start[e]; i < S->edge_face_start[e + 1]; i++) {
+        int f = S->edge_face[i], k = S->edge_corner[i];
+        const double *a, *b;
+        face_edge_uv(S, f, k, &a, &b);
+        warped_length[e] = std::max(warped_length[e], ch_warp_arc(W, a, b, 1.0));
+        if (S->face_start[f + 1] - S->face_start[f] != 4) remap[e] = 0;
+      }
+    length = warped_length.data();
+  }
+  /* The fraction along edge k of face f at which the point of fraction x
+   * (unwarped) goes. */
+  auto edge_place = [&](int f, int k, double x) {
+    if (!W || !remap[S->face_edge[S->face_start[f] + k]]) return x;
+    const double *a, *b;
+    face_edge_uv(S, f, k, &a, &b);
+    return ch_warp_arc_inverse(W, a, b, x);
+  };
   std::vector<int> rates;
-  ch_status st = choose_rates(S, desc, rates, err);
+  ch_status st = choose_rates(S, desc, length, rates, err);
   if (st != CH_OK) return st;
 
-  const int nf = S->num_faces, ne = S->num_edges;
   const Bfr::Tessellation::Options opts = tess_options();
 
   /* Sizes: per face interior points and triangles; per edge points. */
@@ -760,7 +797,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
       Bfr::Parameterization param = S->pos[f].GetParameterization();
       for (int j = 0; j < r - 1; j++) {
         long o = nb + edge_pt[e] + j;
-        double x = fwd ? (double)(j + 1) / r : (double)(r - 1 - j) / r;
+        double x = edge_place(f, k, fwd ? (double)(j + 1) / r : (double)(r - 1 - j) / r);
         double st2[2], du[3], dv[3];
         param.GetEdgeCoord(k, x, st2);
         eval_point(S, f, st2, &M.positions[3 * o], du, dv, &M.normals[3 * o], nullptr);
@@ -775,7 +812,9 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
         Bfr::Parameterization gparam = S->pos[gf].GetParameterization();
         for (int j = 0; j < r - 1; j++) {
           long o = nuv0 + edge_uv[e] + (long)g * (r - 1) + j;
-          double x = gfwd ? (double)(j + 1) / r : (double)(r - 1 - j) / r;
+          /* the same point as the positions' (one fraction per edge point) */
+          double xf = edge_place(f, k, fwd ? (double)(j + 1) / r : (double)(r - 1 - j) / r);
+          double x = gfwd == fwd ? xf : 1.0 - xf;
           double st2[2];
           gparam.GetEdgeCoord(gk, x, st2);
           eval_uv(S, gf, st2, &M.uvs[2 * o]);
@@ -831,6 +870,16 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
         }
         /* Interior points. */
         tess.GetInteriorCoords(coords.data());
+        if (W && n == 4) {
+          for (int i = 0; i < nint; i++) {
+            double s0 = coords[2 * i], t0 = coords[2 * i + 1];
+            /* edges 0 and 2 run along s (2 backwards), 1 and 3 along t (3 backwards) */
+            double g0 = edge_place(f, 0, s0), g2 = 1.0 - edge_place(f, 2, 1.0 - s0);
+            double g1 = edge_place(f, 1, t0), g3 = 1.0 - edge_place(f, 3, 1.0 - t0);
+            coords[2 * i] = (1.0 - t0) * g0 + t0 * g2;
+            coords[2 * i + 1] = (1.0 - s0) * g3 + s0 * g1;
+          }
+        }
         for (int i = 0; i < nint; i++) {
           long o = nb + edge_pt[ne] + face_int[f] + i;
           long u = nuv0 + edge_uv[ne] + face_int[f] + i;

@@ -106,10 +106,19 @@ ch_status ch_surface_eval_uv(const ch_surface *surface, int face, double s, doub
 
 /* ---- tessellation ------------------------------------------------------ */
 
-/* Exactly one of the two must be > 0. */
+struct ch_warp;
+
+/* Exactly one of the two counts must be > 0. */
 typedef struct ch_tess_desc {
   int uniform_rate;      /* > 0: every base edge gets this rate (max 32767) */
   long target_triangles; /* > 0: rates chosen so the count lands within 5% */
+  /* NULL, or the view-dependent warp (ch_warp.h): the lengths L below are
+   * then lengths in warped UV (ch_warp_arc), the points of an edge whose
+   * faces are all quads are placed evenly in warped UV along it, and the
+   * interior points of a quad follow (a Coons blend of its four edges'
+   * placements, the exact warped grid where W is affine over the quad's UV
+   * rectangle). So the density follows the warp at the same count. */
+  const struct ch_warp *warp;
 } ch_tess_desc;
 
 /* Rates for target_triangles: the rate of a base edge is max(1, round(d *
@@ -157,6 +166,16 @@ ch_status ch_tess_build(const ch_surface *surface, const ch_tess_desc *desc,
 
 /* Releases every array of result and zeroes it. Safe on a zeroed struct. */
 void ch_tess_free(ch_tess_result *result);
+
+/* The cage of the view-dependent warp (ch_warp_cage's arrays): the surface
+ * tessellated at the uniform rate (at most 64) that gives at least
+ * min_triangles, per triangle its corners' UV (6) and positions (9). */
+typedef struct ch_tess_cage_arrays {
+  int num_triangles, rate;
+  double *uv, *position;
+} ch_tess_cage_arrays;
+ch_status ch_tess_cage(const ch_surface *surface, long min_triangles, ch_tess_cage_arrays *out, ch_error *err);
+void ch_tess_cage_free(ch_tess_cage_arrays *cage);
 
 #ifdef __cplusplus
 }

@@ -9,7 +9,9 @@
  * - watertightness, orientation and UVs of ch_tess_build on every bundled
  *   mesh (plus a cube and an n-gon fan) at several rates and targets;
  * - --target-tris accuracy at 130k / 520k / 2.1M on every bundled mesh;
- * - the same bytes with 1 and 2 threads; bad input. */
+ * - the same bytes with 1 and 2 threads; bad input;
+ * - warped tessellation: watertight on every mesh, on target, a regular
+ *   grid in warped UV on the plane, denser where the camera looks. */
 #define _POSIX_C_SOURCE 200809L
 #include <omp.h>
 #include <stdint.h>
@@ -18,6 +20,7 @@
 
 #include "ch_surface.h"
 #include "ch_test.h"
+#include "ch_warp.h"
 
 /* tests/tess_reference.cpp */
 typedef struct ref_catmark ref_catmark;
@@ -636,8 +639,8 @@ static void test_watertight(void) {
       make_fan(&m);
     }
     for (int sc = 0; sc < 2; sc++) {
-      for (int k = 0; k < 4; k++) tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){rates[k], 0});
-      tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){0, i < NUM_MODELS ? 30000 : 3000});
+      for (int k = 0; k < 4; k++) tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){rates[k], 0, NULL});
+      tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){0, i < NUM_MODELS ? 30000 : 3000, NULL});
     }
     ch_mesh_free(&m);
   }
@@ -656,7 +659,7 @@ static void test_targets(void) {
     for (int k = 0; k < ntargets; k++) {
       ch_tess_result r;
       ch_error err = {0};
-      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, targets[k]}, &r, &err);
+      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, targets[k], NULL}, &r, &err);
       CHECK_MSG(st == CH_OK, "%s", err.message);
       if (st != CH_OK) continue;
       double rel = (r.mesh.num_faces - (double)targets[k]) / targets[k];
@@ -689,7 +692,7 @@ static void test_target_between_steps(void) {
   ch_surface *S = surface_of(&m, CH_SCHEME_CATMARK);
   REQUIRE(S);
   ch_tess_result r;
-  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 80000}, &r, NULL) == CH_OK);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 80000, NULL}, &r, NULL) == CH_OK);
   int n12 = 0, n13 = 0;
   for (int e = 0; e < r.num_edges; e++) {
     n12 += r.edge_rates[e] == 12;
@@ -733,7 +736,7 @@ static void test_threads(void) {
       ch_surface *S = surface_of(&m, (ch_scheme)sc);
       REQUIRE(S);
       ch_tess_result r1, r2;
-      ch_tess_desc d = {0, 130000};
+      ch_tess_desc d = {0, 130000, NULL};
       omp_set_num_threads(1);
       REQUIRE(ch_tess_build(S, &d, &r1, NULL) == CH_OK);
       omp_set_num_threads(2);
@@ -757,7 +760,7 @@ static void test_write_obj(void) {
   ch_surface *S = surface_of(&m, CH_SCHEME_CATMARK);
   REQUIRE(S);
   ch_tess_result r;
-  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 20000}, &r, NULL) == CH_OK);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 20000, NULL}, &r, NULL) == CH_OK);
   const char *dir = getenv("TMPDIR");
   char path[1100];
   snprintf(path, sizeof path, "%s/tess_torus.obj", dir && *dir ? dir : "/tmp");
@@ -789,16 +792,16 @@ static void test_bad_input(void) {
   CHECK(ch_surface_create(&m, (ch_scheme)7, &S, &err) == CH_ERR_INPUT);
   REQUIRE(ch_surface_create(&m, CH_SCHEME_CATMARK, &S, &err) == CH_OK);
   ch_tess_result r;
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 0}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){2, 100}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){40000, 0}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){32767, 0}, &r, &err) == CH_ERR_INPUT); /* 1.3e10 */
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 0, NULL}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){2, 100, NULL}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){40000, 0, NULL}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){32767, 0, NULL}, &r, &err) == CH_ERR_INPUT); /* 1.3e10 */
   CHECK(strstr(err.message, "maximum") != NULL);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 3}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 3, NULL}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
   CHECK(strstr(err.message, "below") != NULL);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 12}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 12, NULL}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
   ch_tess_free(&r);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 1L << 40}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 1L << 40, NULL}, &r, &err) == CH_ERR_INPUT);
   CHECK(r.mesh.positions == NULL && r.edge_rates == NULL);
   ch_surface_destroy(S);
   ch_surface_destroy(NULL);
@@ -815,7 +818,7 @@ static void test_bad_input(void) {
   make_mesh(&m, 9, pos9, 6, cube_sizes, cube_idx, uvs, 4, cuv4);
   for (int sc = 0; sc < 2; sc++) {
     REQUIRE(ch_surface_create(&m, (ch_scheme)sc, &S, &err) == CH_OK);
-    REQUIRE(ch_tess_build(S, &(ch_tess_desc){3, 0}, &r, &err) == CH_OK);
+    REQUIRE(ch_tess_build(S, &(ch_tess_desc){3, 0, NULL}, &r, &err) == CH_OK);
     CHECK(r.mesh.num_positions == 8 + 12 * 2 + 6 * 4);
     CHECK(check_tess("cube with an unused position", &m, S, &r, 1) == 0);
     ch_tess_free(&r);
@@ -826,6 +829,126 @@ static void test_bad_input(void) {
 
 /* usage: test_tess [--quick] [TEST...]: --quick skips the 2.1M targets;
  * names run only those tests. */
+/* ---- the view-dependent warp (ch_tess_desc.warp) ---------------------------- */
+
+/* A warp for a camera close above (0.25, 0.25) of the unit square, over the
+ * surface's cage, with a curve there so that the need is not zero. */
+static int warp_for(const ch_surface *S, const double camera[7], ch_warp *w, ch_curve_set *set) {
+  static const char svg[] = "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 1 1'>"
+                            "<path data-kind='groove' data-profile='v' data-width='0.01' data-depth='0.01' "
+                            "d='M 0 0 L 1 1 M 0 1 L 1 0'/></svg>";
+  ch_error err = {0};
+  ch_camera cam;
+  ch_tess_cage_arrays cage;
+  if (ch_curves_parse_svg(svg, sizeof svg - 1, "test.svg", set, &err) || ch_camera_init(&cam, camera, &err) ||
+      ch_tess_cage(S, 2L * 64 * 64, &cage, &err)) {
+    fprintf(stderr, "  warp_for: %s\n", err.message);
+    return 0;
+  }
+  ch_warp_cage c = {.num_triangles = cage.num_triangles, .uv = cage.uv, .position = cage.position};
+  ch_warp_desc wd = {.intervals = 64};
+  ch_status st = ch_warp_build(&cam, &c, set, &wd, w, &err);
+  ch_tess_cage_free(&cage);
+  if (st) fprintf(stderr, "  warp_for: %s\n", err.message);
+  return st == CH_OK;
+}
+
+/* Every bundled mesh, both schemes, warped: still watertight, oriented, on
+ * target; on the plane the points of every face are a regular grid in
+ * warped UV (what the Coons blend gives when W is affine over the face) and
+ * the triangles crowd where the camera looks. */
+static void test_warped(void) {
+  static const double close_above[7] = {0.25, 0.2, 0.3, 0.25, 0.25, 0.0, 40.0};
+  for (int i = 0; i < NUM_MODELS; i++) {
+    ch_mesh m;
+    REQUIRE(load_model(models[i], &m));
+    for (int sc = 0; sc < 2; sc++) {
+      ch_surface *S = surface_of(&m, (ch_scheme)sc);
+      REQUIRE(S);
+      /* the plane: close above (0.25, 0.25); the others: a close view of
+       * their side from the front, half a diagonal away */
+      double cam[7];
+      memcpy(cam, close_above, sizeof cam);
+      if (i > 0) {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, diag = 0.0;
+        for (int v = 0; v < m.num_positions; v++)
+          for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], m.positions[3 * v + k]);
+            hi[k] = fmax(hi[k], m.positions[3 * v + k]);
+          }
+        for (int k = 0; k < 3; k++) diag += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+        diag = sqrt(diag);
+        static const double dir[3] = {0.3, -0.8, 0.5};
+        for (int k = 0; k < 3; k++) {
+          cam[3 + k] = 0.5 * (lo[k] + hi[k]);
+          cam[k] = cam[3 + k] + 0.6 * diag * dir[k];
+        }
+        cam[6] = 30.0;
+      }
+      ch_warp w;
+      ch_curve_set set;
+      REQUIRE(warp_for(S, cam, &w, &set));
+      ch_tess_result r, flat;
+      ch_error err = {0};
+      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, 30000, &w}, &r, &err);
+      CHECK_MSG(st == CH_OK, "%s: %s", models[i], err.message);
+      if (st == CH_OK) {
+        char what[256];
+        snprintf(what, sizeof what, "%s %s warped target 30000 (%d triangles, max slopes %.2f %.2f)", models[i],
+                 scheme_name((ch_scheme)sc), r.mesh.num_faces, w.stats.max_slope[0], w.stats.max_slope[1]);
+        int fails = check_tess(what, &m, S, &r, model_closed[i]);
+        fprintf(stderr, "  %-60s %s\n", what, fails ? "FAILED" : "watertight");
+        CHECK(labs(r.mesh.num_faces - 30000L) <= 1500);
+      }
+      if (st == CH_OK && i == 0 && sc == 0) {
+        /* plane: W(u) of every point is at k / rate of its face's warped span */
+        double worst = 0.0;
+        for (int v = 0; v < r.mesh.num_positions; v++) {
+          int f = r.vertex_face[v];
+          double uv[2], c0[2], c2[2];
+          ch_surface_eval_uv(S, f, r.vertex_st[2 * v], r.vertex_st[2 * v + 1], uv);
+          ch_surface_eval_uv(S, f, 0.0, 0.0, c0);
+          ch_surface_eval_uv(S, f, 1.0, 1.0, c2);
+          for (int axis = 0; axis < 2; axis++) {
+            /* the face's rate along this axis: edge 0 (s) or edge 1 (t) */
+            double rate = 0.0;
+            for (int e = 0; e < r.num_edges; e++) {
+              const double *pa = &r.mesh.positions[3 * r.edge_vertices[2 * e]];
+              const double *pb = &r.mesh.positions[3 * r.edge_vertices[2 * e + 1]];
+              int along = fabs(pa[1 - axis] - pb[1 - axis]) < 1e-12 && fabs(pa[1 - axis] - c0[1 - axis]) < 1e-12;
+              double lo = fmin(pa[axis], pb[axis]), hi = fmax(pa[axis], pb[axis]);
+              if (along && fabs(lo - c0[axis]) < 1e-12 && fabs(hi - c2[axis]) < 1e-12) rate = r.edge_rates[e];
+            }
+            double w0 = ch_warp_axis(&w, axis, c0[axis]), w1 = ch_warp_axis(&w, axis, c2[axis]);
+            double k = (ch_warp_axis(&w, axis, uv[axis]) - w0) / (w1 - w0) * rate;
+            worst = fmax(worst, fabs(k - round(k)));
+          }
+        }
+        fprintf(stderr, "  plane warped: points off the warped grid by at most %.3g of a step\n", worst);
+        CHECK(worst < 1e-6);
+        /* density: the quarter the camera looks at holds more triangles */
+        REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 30000, NULL}, &flat, &err) == CH_OK);
+        long near_w = 0, near_f = 0;
+        for (int pass = 0; pass < 2; pass++) {
+          const ch_mesh *M = pass ? &flat.mesh : &r.mesh;
+          for (int t = 0; t < M->num_faces; t++) {
+            const double *a = &M->uvs[2 * M->corner_uv[3 * t]];
+            if (a[0] < 0.4 && a[1] < 0.4) *(pass ? &near_f : &near_w) += 1;
+          }
+        }
+        fprintf(stderr, "  plane warped: %ld triangles in [0,0.4]^2 against %ld unwarped\n", near_w, near_f);
+        CHECK(near_w > 3 * near_f);
+        ch_tess_free(&flat);
+      }
+      ch_tess_free(&r);
+      ch_warp_free(&w);
+      ch_curves_free(&set);
+      ch_surface_destroy(S);
+    }
+    ch_mesh_free(&m);
+  }
+}
+
 static int want(int argc, char **argv, const char *name) {
   int any = 0;
   for (int i = 1; i < argc; i++) {
@@ -863,5 +986,6 @@ int main(int argc, char **argv) {
   RUN_IF(test_threads);
   RUN_IF(test_write_obj);
   RUN_IF(test_bad_input);
+  RUN_IF(test_warped);
   TEST_MAIN_END();
 }
