@@ -67,8 +67,8 @@ static void blur_pass(int W, int H, int channels, const float *sigma, const floa
 /* Blurs h (and rgb) where curves carry data-blur. values holds the diffused
  * channels interleaved (h, [r g b]); sigma is the diffused radius field,
  * capped here and kept as d->blur. */
-static ch_status reblur(const ch_curve_set *set, ch_dci *d, float *values, int channels, float *sigma,
-                        ch_error *err) {
+static ch_status reblur(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci *d, float *values, int channels,
+                        float *sigma, ch_error *err) {
   ch_samples *s = &d->samples;
   int W = s->width, H = s->height;
   size_t n = (size_t)W * H;
@@ -89,24 +89,38 @@ static ch_status reblur(const ch_curve_set *set, ch_dci *d, float *values, int c
     }
   }
   free(sharp);
+  /* In warped UV a radius in UV spans its axis' slope times as many texels
+   * along that axis: one radius field per pass, each capped. */
+  int scaled = desc->blur_scale[0] || desc->blur_scale[1];
   float *tmp = malloc(n * channels * sizeof *tmp);
-  if (!tmp) {
+  float *sigma_y = scaled ? malloc(n * sizeof *sigma_y) : NULL;
+  if (!tmp || (scaled && !sigma_y)) {
+    free(tmp);
+    free(sigma_y);
     ch_samples_free(&sharp_samples);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
   }
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; i++) {
-    float sg = sigma[i];
-    if (any_sharp && sharp_samples.curve[i] >= 0) {
-      float cap = sharp_samples.distance[i] / (3.0f * 1.41421356f);
-      if (sg > cap) sg = cap;
+    float cap = INFINITY;
+    if (any_sharp && sharp_samples.curve[i] >= 0) cap = sharp_samples.distance[i] / (3.0f * 1.41421356f);
+    float sx = sigma[i], sy = sigma[i];
+    if (scaled) {
+      if (desc->blur_scale[0]) sx *= desc->blur_scale[0][i % (size_t)W];
+      if (desc->blur_scale[1]) sy *= desc->blur_scale[1][i / (size_t)W];
     }
-    sigma[i] = sg > 0.0f ? sg : 0.0f;
+    sx = sx > cap ? cap : sx;
+    sy = sy > cap ? cap : sy;
+    sigma[i] = sx > 0.0f ? sx : 0.0f;
+    if (scaled) sigma_y[i] = sy > 0.0f ? sy : 0.0f;
   }
   ch_samples_free(&sharp_samples);
   d->blur = sigma;
-  blur_pass(W, H, channels, d->blur, values, tmp, 0);
-  blur_pass(W, H, channels, d->blur, tmp, values, 1);
+  blur_pass(W, H, channels, sigma, values, tmp, 0);
+  blur_pass(W, H, channels, scaled ? sigma_y : sigma, tmp, values, 1);
+  if (scaled) /* kept: the geometric mean of the two radii */
+    for (size_t i = 0; i < n; i++) sigma[i] = sqrtf(sigma[i] * sigma_y[i]);
+  free(sigma_y);
   free(tmp);
   return CH_OK;
 }
@@ -162,7 +176,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   d->seconds_diffuse = now_seconds() - t0;
   if (!st && any_blur) {
     t0 = now_seconds();
-    st = reblur(set, d, values, channels, sigma, err);
+    st = reblur(set, desc, d, values, channels, sigma, err);
     if (!st) sigma = NULL; /* now d->blur */
     d->seconds_blur = now_seconds() - t0;
   }

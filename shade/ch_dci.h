@@ -22,6 +22,10 @@ typedef struct ch_dci_desc {
   double tolerance;   /* diffusion relative residual; 0: 1e-6 */
   int no_colors;      /* 1: diffuse h only, even where curves have colours
                          (displacement needs no colour; rgb stays NULL) */
+  const float *blur_scale[2]; /* NULL, or per column (x) and per row (y):
+                         texels per texel-sized UV step along that axis (the
+                         warp's slope there), so data-blur radii, given in UV,
+                         are warped like the texture (diffusion-curves §3.2) */
 } ch_dci_desc;
 
 typedef struct ch_dci {

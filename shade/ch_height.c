@@ -1,5 +1,6 @@
 #include "ch_height.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 ch_status ch_height_init(ch_height *h, const ch_curve_set *set, const ch_height_desc *desc, ch_error *err) {
@@ -11,8 +12,28 @@ ch_status ch_height_init(ch_height *h, const ch_curve_set *set, const ch_height_
   if (st) return st;
   if (h->has_steps) {
     ch_dci_desc dd = {.resolution = desc->dci_resolution, .tolerance = desc->tolerance, .no_colors = 1};
-    st = ch_dci_build(set, &dd, &h->dci, err);
-    if (!st) st = ch_recon_init(&h->recon, &h->dci, set, err);
+    const ch_curve_set *steps = set;
+    float *scale = NULL;
+    if (desc->warp) {
+      h->warp = desc->warp;
+      st = ch_warp_curves(desc->warp, set, &h->warped, &h->warp_stats, err);
+      steps = &h->warped;
+      /* per column and row of warped texels: the slope of W there */
+      int R = desc->dci_resolution;
+      if (!st && !(scale = malloc(2 * (size_t)R * sizeof *scale)))
+        st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the warped blur");
+      for (int i = 0; !st && i < R; i++)
+        for (int axis = 0; axis < 2; axis++) {
+          double y = axis == 0 ? (i + 0.5) / R : 1.0 - (i + 0.5) / R; /* row 0 on top */
+          double x = ch_warp_axis_inverse(desc->warp, axis, y);
+          scale[axis * R + i] = (float)ch_warp_axis_slope(desc->warp, axis, x);
+        }
+      dd.blur_scale[0] = scale;
+      dd.blur_scale[1] = scale ? scale + R : NULL;
+    }
+    if (!st) st = ch_dci_build(steps, &dd, &h->dci, err);
+    if (!st) st = ch_recon_init(&h->recon, &h->dci, steps, err);
+    free(scale);
   }
   if (st) ch_height_free(h);
   return st;
@@ -21,21 +42,46 @@ ch_status ch_height_init(ch_height *h, const ch_curve_set *set, const ch_height_
 void ch_height_free(ch_height *h) {
   ch_recon_free(&h->recon);
   ch_dci_free(&h->dci);
+  ch_curves_free(&h->warped);
   ch_groove_field_free(&h->grooves);
   memset(h, 0, sizeof *h);
+}
+
+void ch_height_step(const ch_height *h, double u, double v, ch_recon_sample *out) {
+  if (h->warp) {
+    double uv[2] = {u, v}, w[2];
+    ch_warp_map(h->warp, uv, w);
+    u = w[0];
+    v = w[1];
+  }
+  ch_recon_eval(&h->recon, h->step_method, u, v, 0.0, out);
+}
+
+void ch_height_step_side(const ch_height *h, double u, double v, int curve, int side, ch_recon_sample *out) {
+  if (h->warp) {
+    double uv[2] = {u, v}, w[2];
+    ch_warp_map(h->warp, uv, w);
+    u = w[0];
+    v = w[1];
+  }
+  ch_recon_eval_side(&h->recon, h->step_method, u, v, curve, side, out);
 }
 
 double ch_height_eval(const ch_height *h, double u, double v) {
   double value = ch_groove_field_eval(&h->grooves, u, v, NULL);
   if (h->has_steps) {
     ch_recon_sample rs;
-    ch_recon_eval(&h->recon, h->step_method, u, v, 0.0, &rs);
+    ch_height_step(h, u, v, &rs);
     value += rs.value;
   }
   return value;
 }
 
 void ch_height_render(const ch_height *h, int R, int S, float *plane) {
+  ch_height_render_warped(h, NULL, R, S, plane);
+}
+
+void ch_height_render_warped(const ch_height *h, const ch_warp *warp, int R, int S, float *plane) {
   double inv = 1.0 / R, sub = 1.0 / S, norm = 1.0 / ((double)S * S);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int y = 0; y < R; y++) {
@@ -44,7 +90,11 @@ void ch_height_render(const ch_height *h, int R, int S, float *plane) {
       for (int j = 0; j < S; j++) {
         /* Row 0 is the top: v runs down from 1. */
         double v = 1.0 - (y + (j + 0.5) * sub) * inv;
-        for (int i = 0; i < S; i++) sum += ch_height_eval(h, (x + (i + 0.5) * sub) * inv, v);
+        for (int i = 0; i < S; i++) {
+          double q[2] = {(x + (i + 0.5) * sub) * inv, v}, uv[2] = {q[0], q[1]};
+          if (warp) ch_warp_unmap(warp, q, uv);
+          sum += ch_height_eval(h, uv[0], uv[1]);
+        }
       }
       plane[(size_t)y * R + x] = (float)(sum * norm);
     }

@@ -325,8 +325,21 @@ static void blend(const ch_dci *d, const int xs[2], const int ys[2], double fx, 
  * curves that clip a corner of the cell.) */
 #define NEAR_CELL 1.41422
 
+static void recon_eval(const ch_recon *r, ch_recon_method method, double u, double v, double footprint,
+                       int force_curve, int force_side, ch_recon_sample *out);
+
 void ch_recon_eval(const ch_recon *r, ch_recon_method method, double u, double v, double footprint,
                    ch_recon_sample *out) {
+  recon_eval(r, method, u, v, footprint, -1, 0, out);
+}
+
+void ch_recon_eval_side(const ch_recon *r, ch_recon_method method, double u, double v, int curve, int side,
+                        ch_recon_sample *out) {
+  recon_eval(r, method, u, v, 0.0, curve, side, out);
+}
+
+static void recon_eval(const ch_recon *r, ch_recon_method method, double u, double v, double footprint,
+                       int force_curve, int force_side, ch_recon_sample *out) {
   const ch_dci *d = r->dci;
   const ch_samples *s = &d->samples;
   int W = s->width, H = s->height;
@@ -371,10 +384,16 @@ void ch_recon_eval(const ch_recon *r, ch_recon_method method, double u, double v
       reconstruct(smp, m, t, method == CH_RECON_3X3, &cs.e[k]);
     }
   }
-  /* The edge that decides the point: the nearest of the curves' edges. */
+  /* The edge that decides the point: the nearest of the curves' edges, or
+   * the one the caller names, on the caller's side. */
   const edge *e = NULL;
   for (int k = 0; k < cs.n; k++)
     if (cs.e[k].found && (!e || cs.e[k].distance < e->distance)) e = &cs.e[k];
+  for (int k = 0; k < cs.n; k++)
+    if (cs.e[k].found && cs.curve[k] == force_curve) {
+      cs.e[k].side = force_side;
+      e = &cs.e[k];
+    }
   blend(d, xs, ys, fx, fy, e ? &cs : NULL, 0, &out->value, out->color);
   if (!e) return;
   out->curve = e->curve;

@@ -49,6 +49,14 @@ void ch_recon_free(ch_recon *r);
 void ch_recon_eval(const ch_recon *r, ch_recon_method method, double u, double v, double footprint,
                    ch_recon_sample *out);
 
+/* The same (crisp) with the side of one curve given: where the samples
+ * see that curve, the point is taken to lie on `side` (CH_SIDE_LEFT or
+ * CH_SIDE_RIGHT) of it, whatever its position says. For points on the
+ * curve itself (within rounding) whose side the caller knows better, e.g.
+ * from the curve in another parameterisation (the warp). */
+void ch_recon_eval_side(const ch_recon *r, ch_recon_method method, double u, double v, int curve, int side,
+                        ch_recon_sample *out);
+
 /* Parses "bilinear", "recon5", "recon3" or "exact"; -1 if unknown. */
 int ch_recon_method_parse(const char *name);
 
