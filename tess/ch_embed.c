@@ -14,6 +14,7 @@
 #include "ch_grid.h"
 #include "ch_math.h"
 #include "ch_samples.h"
+#include "ch_warp.h"
 
 enum { MAX_U_LINES = 60, MAX_LINES = 2 * MAX_U_LINES + 2, MAX_CURVES_LABELLED = 1 << 20, BISECTIONS = 46, JUNCTION_BISECTIONS = 30, MAX_EDGE_SAMPLES = 32 };
 #define MIN_SPLIT_LENGTH 1e-5
@@ -123,8 +124,34 @@ static int groove_lines(const ch_curve *c, double tolerance, double angle, doubl
   return n;
 }
 
-static ch_status labeler_init(labeler *lb, const ch_height *height, double radius, double curve_tolerance,
-                              double angle, double object_scale, double mean_edge, double reach, ch_error *err) {
+/* The warped mesh density along curve c: the mean over its length of
+ * sqrt(slope_u slope_v) (the warped edge is e / that); its length in *len.
+ * 1 without a warp. */
+static double warp_density(const ch_warp *w, const ch_curve_set *set, int c, double *len) {
+  const ch_curve *cv = &set->curves[c];
+  double sum = 0.0, total = 0.0;
+  for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++) {
+    const ch_segment *sg = &set->segments[i];
+    enum { SAMPLES = 16 };
+    double prev[2];
+    ch_segment_point(sg, 0.0, prev);
+    for (int k = 1; k <= SAMPLES; k++) {
+      double p[2], mid[2];
+      ch_segment_point(sg, (double)k / SAMPLES, p);
+      double l = hypot(p[0] - prev[0], p[1] - prev[1]);
+      ch_segment_point(sg, (k - 0.5) / SAMPLES, mid);
+      sum += l * (w ? sqrt(ch_warp_axis_slope(w, 0, mid[0]) * ch_warp_axis_slope(w, 1, mid[1])) : 1.0);
+      total += l;
+      prev[0] = p[0], prev[1] = p[1];
+    }
+  }
+  *len = total;
+  return total > 0.0 ? sum / total : 1.0;
+}
+
+static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_warp *warp, double radius,
+                              double curve_tolerance, double angle, double object_scale, double mean_edge,
+                              double reach, ch_error *err) {
   const ch_curve_set *set = height->set;
   memset(lb, 0, sizeof *lb);
   lb->height = height;
@@ -143,9 +170,34 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
   }
   int n = 0;
+  /* With a warp, a groove's lines and chords are as fine as the mesh
+   * along it, relative to the grooves' mean (so the triangles the lines
+   * take stay about the same in all: finer where the camera looks, coarser
+   * where it does not). Lines run a whole groove, so the density is its
+   * mean along the groove. */
+  const double global_edge = mean_edge, global_angle = angle;
+  double *density = calloc((size_t)(nc > 0 ? nc : 1), sizeof *density), mean_density = 1.0;
+  if (!density) {
+    labeler_free(lb);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
+  }
+  if (warp) {
+    double sum = 0.0, total = 0.0;
+    for (int c = 0; c < nc; c++) {
+      if (set->curves[c].kind != CH_CURVE_GROOVE) continue;
+      double len;
+      density[c] = warp_density(warp, set, c, &len);
+      sum += density[c] * len;
+      total += len;
+    }
+    if (sum > 0.0) mean_density = sum / total;
+  }
   for (int c = 0; c < nc; c++) {
     lb->crease_start[c] = n;
     if (set->curves[c].kind == CH_CURVE_GROOVE) {
+      double f = warp && density[c] > 0.0 ? fmin(4.0, fmax(0.125, mean_density / density[c])) : 1.0;
+      mean_edge = global_edge * f;
+      angle = warp ? fmin(CH_PI / 12.0, fmax(CH_PI / 180.0, global_angle * f)) : global_angle; /* 1 to 15 deg */
       /* By default as fine as the mesh itself would follow P across the
        * groove's middle (chord error (e/w)^2 P''/8, P'' = 4 there), so the
        * error keeps shrinking with density; never coarser than 1%. */
@@ -162,7 +214,7 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
          * densities refining every curved line to 1% would take more
          * triangles than a small target holds. */
         double r = mean_edge / cv->width / 0.25;
-        lb->chord_tol[c] = 0.01 * fmax(1.0, r * r * r * r) * fabs(cv->depth);
+        lb->chord_tol[c] = 0.01 * f * f * fmax(1.0, r * r * r * r) * fabs(cv->depth); /* sagittas go like e^2 */
       }
       double slope = fabs(cv->depth) / (cv->width * object_scale);
       /* Near the rim the lines crowd where P is vertical: down to 1/50 of
@@ -171,6 +223,7 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, double radiu
       n += groove_lines(cv, tol, angle, slope, spacing, lb->crease_t + n, MAX_LINES);
     }
   }
+  free(density);
   lb->crease_start[nc] = n;
   for (int i = 0; i < set->num_segments; i++) {
     const ch_segment *s = &set->segments[i];
@@ -270,7 +323,7 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
       if (lb->height->step_method != CH_RECON_EXACT) {
         /* Walls follow the reconstructed curve: its side where it is this curve. */
         ch_recon_sample rs;
-        ch_recon_eval(&lb->height->recon, lb->height->step_method, uv[0], uv[1], 0.0, &rs);
+        ch_height_step(lb->height, uv[0], uv[1], &rs);
         if (rs.curve == curve) left = rs.side == CH_SIDE_LEFT;
       }
       s = ((uint64_t)(curve + 1) << 1) | (uint64_t)left;
@@ -324,7 +377,12 @@ static double piece_height(const labeler *lb, uint64_t label, const double insid
   double value = 0.0;
   if (h->has_steps) {
     ch_recon_sample rs;
-    ch_recon_eval(&h->recon, h->step_method, inside[0], inside[1], 0.0, &rs);
+    uint32_t step = (uint32_t)label; /* (curve + 1) << 1 | left, 0 away from steps */
+    if (step && h->warp) /* the label knows the side; in warped UV a point a hair off the curve may not */
+      ch_height_step_side(h, inside[0], inside[1], (int)(step >> 1) - 1, (step & 1) ? CH_SIDE_LEFT : CH_SIDE_RIGHT,
+                          &rs);
+    else
+      ch_height_step(h, inside[0], inside[1], &rs);
     value = rs.value;
   }
   uint64_t g = label >> 32;
@@ -1630,6 +1688,9 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   }
   double mean_edge = sqrt(2.0 * uv_area / (w.ntris > 0 ? w.ntris : 1));
   double radius = desc && desc->step_radius > 0.0 ? desc->step_radius : 4.0 * mean_edge;
+  /* A warped mesh's edges vary about the mean by the warp's slopes: every
+   * corner of a triangle a step curve crosses must still see the curve. */
+  if (desc && desc->warp && !(desc->step_radius > 0.0)) radius = fmax(radius, 2.0 * longest_edge);
   double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.0;
   int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : 8;
   /* The angle step of the u lines: finer with density, as the mesh would
@@ -1652,8 +1713,8 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     area3 += 0.5 * sqrt(ch_dot3(n, n));
   }
   double object_scale = uv_area > 0.0 && area3 > 0.0 ? sqrt(area3 / uv_area) : 1.0;
-  if ((st = labeler_init(&lb, height, radius, curve_tolerance, angle, object_scale, reference_edge, longest_edge,
-                         err)))
+  if ((st = labeler_init(&lb, height, desc ? desc->warp : NULL, radius, curve_tolerance, angle, object_scale,
+                         reference_edge, longest_edge, err)))
     goto done;
   lb.junction_size = mean_edge / 8.0;
   lb.cap_angle = 4.0 * angle;
@@ -1932,7 +1993,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
   int auto_angle = !(d.normal_tolerance_deg > 0.0), coarsenings = 0;
   for (int pass = 0; pass < 8; pass++) {
-    ch_tess_desc td = {.target_triangles = base};
+    ch_tess_desc td = {.target_triangles = base, .warp = d.warp};
     if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
     if (pass == 0 && !(d.reference_edge > 0.0)) {
       /* The mean UV edge at the target's density, from this run's area. */
@@ -2028,7 +2089,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   ch_tess_free(&cur_tess);
   ch_mesh_free(&cur);
   if (!st && best_miss == INFINITY) { /* only pilots ran (the next base was a pilot's): that one in full */
-    ch_tess_desc td = {.target_triangles = base};
+    ch_tess_desc td = {.target_triangles = base, .warp = d.warp};
     d.count_only = 0;
     if (!(st = ch_tess_build(surface, &td, &best_tess, err)))
       st = ch_embed_build(surface, &best_tess, height, &d, &best, &best_stats, err);

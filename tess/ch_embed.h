@@ -61,6 +61,11 @@ typedef struct ch_embed_desc {
   double reference_edge;   /* e for that rule; 0 -> the tessellation's mean
                               UV edge (ch_embed_to_target sets the target's,
                               so the lines do not change between its runs) */
+  const struct ch_warp *warp; /* NULL, or the warp the tessellation follows
+                              (ch_embed_to_target passes it to ch_tess_build):
+                              a groove's lines and chords are then as fine as
+                              the mesh where the warp is densest over the
+                              curve (e / sqrt(slope_u slope_v) for e above) */
 } ch_embed_desc;
 
 typedef struct ch_embed_stats {

@@ -11,6 +11,7 @@
 #include "ch_alloc.h"
 #include "ch_image.h"
 #include "ch_math.h"
+#include "ch_warp.h"
 
 /* A bilinear patch of a face: (s, t) = origin + scale * (a, b) for local
  * (a, b) in [0,1]^2, with the UVs of its four corners (a, b) = (0,0),
@@ -135,9 +136,17 @@ void ch_geomimage_free(ch_geomimage *gi) {
 
 ch_status ch_geomimage_build(const ch_surface *s, int W, int H, const double rect_in[4], ch_geomimage *gi,
                              ch_error *err) {
+  return ch_geomimage_build_warped(s, W, H, rect_in, NULL, gi, err);
+}
+
+ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const double rect_in[4],
+                                    const ch_warp *warp, ch_geomimage *gi, ch_error *err) {
   memset(gi, 0, sizeof *gi);
   double rect[4] = {0, 0, 1, 1};
   if (rect_in) memcpy(rect, rect_in, sizeof rect);
+  if (warp && (rect[0] != 0.0 || rect[1] != 0.0 || rect[2] != 1.0 || rect[3] != 1.0))
+    return ch_error_set(err, CH_ERR_INPUT, "a warped geometry image covers the unit square, not %g,%g,%g,%g",
+                        rect[0], rect[1], rect[2], rect[3]);
   if (W < 1 || H < 1 || W > CH_IMAGE_MAX_SIDE || H > CH_IMAGE_MAX_SIDE || !(rect[2] > rect[0]) ||
       !(rect[3] > rect[1]))
     return ch_error_set(err, CH_ERR_INPUT, "geometry image %dx%d over %g,%g,%g,%g is empty or too large", W, H,
@@ -175,6 +184,12 @@ ch_status ch_geomimage_build(const ch_surface *s, int W, int H, const double rec
     ch_geomimage_free(gi);
     return ch_error_set(err, CH_ERR_INTERNAL, "geometry image: a face could not be evaluated");
   }
+  if (warp) /* texels of warped UV: a patch's texels lie in the warped box
+                of its UV box (C is W at the cage's corners, W is monotone) */
+    for (int k = 0; k < total; k++) {
+      double *b = ps[k].box;
+      for (int c = 0; c < 4; c++) b[c] = ch_warp_axis(warp, c & 1, b[c]);
+    }
   double tu = (rect[2] - rect[0]) / W, tv = (rect[3] - rect[1]) / H;
   /* Patches by texel row, in face order, so the first hit per texel is the
    * lowest-numbered face whatever the threads do. */
@@ -226,6 +241,10 @@ ch_status ch_geomimage_build(const ch_surface *s, int W, int H, const double rec
       for (int x = x0; x <= x1; x++) {
         if (row_face[x] >= 0) continue;
         double q[2] = {rect[0] + (x + 0.5) * tu, v}, ab[2];
+        if (warp) {
+          double w[2] = {q[0], q[1]};
+          ch_warp_unmap(warp, w, q);
+        }
         if (inverse_bilinear(p->uv, q, 1e-9, ab)) continue;
         double st2[2] = {p->origin[0] + p->scale * ab[0], p->origin[1] + p->scale * ab[1]};
         ch_surface_point sp;

@@ -36,6 +36,12 @@ typedef struct ch_geomimage {
 ch_status ch_geomimage_build(const ch_surface *surface, int width, int height, const double rect[4],
                              ch_geomimage *out, ch_error *err);
 
+/* The same over texels of warped UV (the unit square of ch_warp.h, rect
+ * must be NULL or the unit square): each texel centre is taken back to UV
+ * through C^-1 (ch_warp_unmap), so the image holds the surface with the
+ * warp's texel density. warp NULL: ch_geomimage_build. */
+ch_status ch_geomimage_build_warped(const ch_surface *surface, int width, int height, const double rect[4],
+                                    const struct ch_warp *warp, ch_geomimage *out, ch_error *err);
 void ch_geomimage_free(ch_geomimage *gi);
 
 /* The geometry image as EXR layers: P.x P.y P.z, N.x N.y N.z, face
