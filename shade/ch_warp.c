@@ -595,11 +595,14 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   double fl = d.floor != 0.0 ? d.floor : 0.1;
   double ms = d.max_slope != 0.0 ? d.max_slope : 64.0;
   double mr = d.max_ratio != 0.0 ? d.max_ratio : 1.25;
+  double ex = d.exponent != 0.0 ? d.exponent : CH_WARP_EXPONENT;
   if (n < 1 || n > MAX_INTERVALS)
     return ch_error_set(err, CH_ERR_INPUT, "warp: %d intervals outside [1, %d]", d.intervals, MAX_INTERVALS);
   if (!(fl >= 0.0 && fl < 1.0)) return ch_error_set(err, CH_ERR_INPUT, "warp: floor %g outside [0, 1)", fl);
   if (!(ms >= 1.0) || !isfinite(ms))
     return ch_error_set(err, CH_ERR_INPUT, "warp: max_slope %g is not a finite number >= 1", ms);
+  if (!(ex > 0.0 && ex <= 4.0))
+    return ch_error_set(err, CH_ERR_INPUT, "warp: exponent %g outside (0, 4]", ex);
   if (!(mr > 1.0) || !isfinite(mr))
     return ch_error_set(err, CH_ERR_INPUT, "warp: max_ratio %g is not a finite number > 1", mr);
   ch_status st = check_cage(cage, err);
@@ -637,6 +640,9 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
     analyse_triangle(cam, cage->uv + 6 * (size_t)t, cage->position + 9 * (size_t)t, near,
                      have_curves ? &curve_grid : NULL, (const double(*)[4])curve_boxes, &out->visible[t],
                      &holds[t], tri_need + 2 * (size_t)t);
+  if (ex != 1.0)
+    for (size_t i = 0; i < 2 * (size_t)nt; i++)
+      if (tri_need[i] > 0.0) tri_need[i] = pow(tri_need[i], ex);
   int nvis = 0, nneedy = 0;
   for (int t = 0; t < nt; t++) {
     nvis += out->visible[t];
