@@ -14,11 +14,13 @@
 #include "ch_mesh.h"
 #include "ch_png.h"
 #include "ch_surface.h"
+#include "ch_warp.h"
 #include "cli.h"
 
 static const char usage[] =
     "usage: chisel displace BASE.obj CURVES.svg -o OUT.obj [--target-tris N] [--res R]\n"
     "                      [--scheme bilinear|catmark] [--no-snap] [--exr MAPS.exr]\n"
+    "                      [--camera ex,ey,ez,ax,ay,az,fov]"
     "                      [--snap-to exact|recon5|recon3] [--png P.png] [--ply OUT.ply]\n"
     "                      [--stats]\n"
     "\n"
@@ -33,11 +35,18 @@ static const char usage[] =
     "  --snap-to C        where step walls go: the exact curves (default), or the\n"
     "                     curves reconstructed from the diffusion image (recon5,\n"
     "                     recon3), which h_step is then read through as well\n"
-    "  --camera ...       view-dependent warp (not available yet)\n"
-    "  --exr FILE         maps on an R x R grid over the UV square: h, and the\n"
-    "                     geometry image (P.x P.y P.z N.x N.y N.z face s t) of the\n"
-    "                     base surface, evaluated exactly at the texel centres\n"
-    "  --png FILE         a preview of h (false colour, hill shaded)\n"
+    "  --camera E,A,FOV   view-dependent texture warp for the camera at eye E\n"
+    "                     looking at A with vertical field of view FOV degrees\n"
+    "                     (object space; up +z, or +y when looking along z; a\n"
+    "                     square frustum): texels of the step curves' image and\n"
+    "                     triangles move to what the camera sees large; the\n"
+    "                     virtual resolution and the visible share go to stderr\n"
+    "  --exr FILE         maps on an R x R grid over the UV square (warped UV with\n"
+    "                     --camera, where u v give each texel's original UV): h,\n"
+    "                     and the geometry image (P.x P.y P.z N.x N.y N.z face s t)\n"
+    "                     of the base surface, evaluated exactly at the texel centres\n"
+    "  --png FILE         a preview of h (false colour, hill shaded), in warped UV\n"
+    "                     with --camera\n"
     "  --ply FILE         also write binary PLY\n"
     "  --stats            stage timings on stderr\n"
     "\n"
@@ -65,11 +74,73 @@ static void hold_warning(void *user, const char *message) {
   h->len += n + 1;
 }
 
+/* The cage of --camera's warp: the base surface tessellated finely enough
+ * that the cage map follows W's intervals (2 n^2 triangles). */
+enum { WARP_INTERVALS = 256 };
+/* Below this gain in texel density (the product of W's largest slopes) the
+ * warp is left out: on views of the whole surface it only trades accuracy
+ * in one part for another (measured: bench/warp.sh, full views). */
+#define WARP_LEAST_GAIN 1.5
+
+/* The EXR attributes of a warp: chisel:space, chisel:warp (the virtual
+ * resolution and visible share), chisel:warp_u and chisel:warp_v (W at the
+ * knots i / n), as four NUL-terminated strings in one block. */
+static char *warp_attributes(const ch_warp *w, int res) {
+  size_t cap = 256 + 2 * 24 * ((size_t)w->n + 1), len = 0;
+  char *text = malloc(cap);
+  if (!text) return NULL;
+  len += (size_t)snprintf(text + len, cap - len, "warped UV (u v layers: the original UV)") + 1;
+  len += (size_t)snprintf(text + len, cap - len,
+                          "virtual resolution %.0f x %.0f; visible share %.4f (unwarped %.4f); intervals %d",
+                          res * w->stats.max_slope[0], res * w->stats.max_slope[1], w->stats.visible_share,
+                          w->stats.unwarped_share, w->n) +
+         1;
+  for (int axis = 0; axis < 2; axis++) {
+    const double *k = axis == 0 ? w->wu : w->wv;
+    for (int i = 0; i <= w->n; i++) len += (size_t)snprintf(text + len, cap - len, i ? " %.9g" : "%.9g", k[i]);
+    len++;
+  }
+  return text;
+}
+
+/* The view-dependent warp of --camera: the cage, W from the camera. A
+ * camera that sees no part of the surface holding curves leaves out zeroed
+ * (out->n == 0: the run goes on unwarped) with a warning. */
+static ch_status build_warp(const ch_surface *surface, const ch_camera *cam, const ch_curve_set *set,
+                            const char *base, ch_warp *out, ch_error *err) {
+  ch_tess_cage_arrays arrays;
+  ch_status st = ch_tess_cage(surface, 2L * WARP_INTERVALS * WARP_INTERVALS, &arrays, err);
+  if (st) return st;
+  ch_warp_cage cage = {.num_triangles = arrays.num_triangles, .uv = arrays.uv, .position = arrays.position};
+  ch_warp_desc wd = {.intervals = WARP_INTERVALS};
+  st = ch_warp_build(cam, &cage, set, &wd, out, err);
+  ch_tess_cage_free(&arrays);
+  if (st) return st;
+  const ch_warp_stats *ws = &out->stats;
+  if (ws->needy_triangles == 0) {
+    ch_warn(err, "%s: --camera sees %s; no warp", base,
+            ws->visible_triangles == 0
+                ? "no part of the surface (all of it is behind the eye, outside the view or facing away)"
+                : "no curves on the surface");
+    ch_warp_free(out);
+  } else if (ws->max_slope[0] * ws->max_slope[1] < WARP_LEAST_GAIN) {
+    /* A view of the whole surface: even density serves all it sees best. */
+    ch_warn(err, "%s: --camera sees the surface about evenly (the warp would give %.2fx the texels at most); no warp",
+            base, ws->max_slope[0] * ws->max_slope[1]);
+    ch_warp_free(out);
+  } else if (ws->folded_triangles > 0) {
+    ch_warn(err, "%s: %d cage triangles fold over in warped UV (thin triangles across many warp intervals); the "
+            "lowest-numbered one decides there", base, ws->folded_triangles);
+  }
+  return CH_OK;
+}
+
 static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL;
   long target = 520000, res = 1024;
-  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT;
+  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT, has_camera = 0;
+  double camera_values[7];
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--target-tris")) {
@@ -88,7 +159,9 @@ static int run(int argc, char **argv) {
       else
         return cli_usage_error(cmd, "unknown scheme '%s' (bilinear or catmark)", v);
     } else if (!strcmp(a, "--camera")) {
-      return cli_usage_error(cmd, "--camera: the view-dependent warp is not available yet");
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_doubles(cmd, a, v, 7, camera_values)) return 2;
+      has_camera = 1;
     } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
       if (!(out = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--exr")) {
@@ -131,6 +204,8 @@ static int run(int argc, char **argv) {
   }
 
   ch_error err = cli_error();
+  ch_camera camera;
+  if (has_camera && ch_camera_init(&camera, camera_values, &err)) return cli_fail(&err);
   double t0 = omp_get_wtime();
   ch_mesh mesh;
   if (ch_mesh_read(base, &mesh, &err)) return cli_fail(&err);
@@ -177,9 +252,18 @@ static int run(int argc, char **argv) {
   cli_outputs outs = {0};
   double t_surface = 0, t_height = 0, t_disp = 0, t_write = 0;
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = (ch_recon_method)snap_to};
+  ch_warp warp_store = {0};
+  const ch_warp *warp = NULL; /* set when --camera gives a warp */
+  double t_warp = 0;
   ch_status st = ch_surface_create(&mesh, (ch_scheme)scheme, &surface, &err);
+  if (!st) t_surface = omp_get_wtime();
+  if (!st && has_camera) {
+    st = build_warp(surface, &camera, &set, base, &warp_store, &err);
+    if (!st && warp_store.n > 0) warp = &warp_store;
+    t_warp = omp_get_wtime() - t_surface;
+  }
   if (!st) {
-    t_surface = omp_get_wtime();
+    hd.warp = warp;
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime();
   }
@@ -191,13 +275,13 @@ static int run(int argc, char **argv) {
   int passes = 1;
   if (!st) {
     if (no_snap) {
-      ch_tess_desc td = {.target_triangles = target};
+      ch_tess_desc td = {.target_triangles = target, .warp = warp};
       st = ch_tess_build(surface, &td, &tess, &err);
       double t_d = omp_get_wtime();
       if (!st) st = ch_displace_apply(&tess, &height, &dstats, &err);
       t_disp = omp_get_wtime() - t_d;
     } else {
-      ch_embed_desc ed = {0};
+      ch_embed_desc ed = {.warp = warp};
       st = ch_embed_to_target(surface, &height, &ed, target, &tess, &embedded, &estats, &passes, &err);
       result = &embedded;
       dstats.min_h = estats.min_h;
@@ -224,26 +308,49 @@ static int run(int argc, char **argv) {
     ch_image hmap = {0}, maps = {0};
     const char *layer[] = {"h"};
     st = ch_image_init(&hmap, (int)res, (int)res, 1, layer, &err);
-    if (!st) ch_height_render(&height, (int)res, 1, ch_image_plane(&hmap, 0));
+    if (!st) ch_height_render_warped(&height, warp, (int)res, 1, ch_image_plane(&hmap, 0));
     if (!st && exr) {
       ch_geomimage gi;
-      st = ch_geomimage_build(surface, (int)res, (int)res, NULL, &gi, &err);
+      st = ch_geomimage_build_warped(surface, (int)res, (int)res, NULL, warp, &gi, &err);
       ch_image gimg = {0};
       if (!st) st = ch_geomimage_to_image(&gi, &gimg, &err);
+      int extra = warp ? 2 : 0; /* u v: each warped texel's original UV */
       if (!st) {
         const char *names[CH_IMAGE_MAX_CHANNELS];
         names[0] = "h";
         for (int c = 0; c < gimg.num_channels; c++) names[1 + c] = gimg.names[c];
-        st = ch_image_init(&maps, (int)res, (int)res, 1 + gimg.num_channels, names, &err);
+        names[1 + gimg.num_channels] = "u";
+        names[2 + gimg.num_channels] = "v";
+        st = ch_image_init(&maps, (int)res, (int)res, 1 + gimg.num_channels + extra, names, &err);
       }
       if (!st) {
         size_t plane = (size_t)res * (size_t)res * sizeof(float);
         memcpy(ch_image_plane(&maps, 0), ch_image_plane(&hmap, 0), plane);
         memcpy(ch_image_plane(&maps, 1), gimg.pixels, plane * (size_t)gimg.num_channels);
-        const ch_exr_attribute attrs[] = {{"chisel:command", "displace"}, {"chisel:rect", "0 0 1 1"}};
-        ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = 2};
-        st = ch_exr_write(exr, &maps, &wd, &err);
+        if (warp) {
+          float *pu = ch_image_plane(&maps, 1 + gimg.num_channels), *pv = ch_image_plane(&maps, 2 + gimg.num_channels);
+          for (long y = 0; y < res; y++)
+            for (long x = 0; x < res; x++) {
+              double w[2] = {(x + 0.5) / res, 1.0 - (y + 0.5) / res}, uv[2];
+              ch_warp_unmap(warp, w, uv);
+              pu[y * res + x] = (float)uv[0];
+              pv[y * res + x] = (float)uv[1];
+            }
+        }
+        char *warp_text = warp ? warp_attributes(warp, (int)res) : NULL;
+        ch_exr_attribute attrs[8] = {{"chisel:command", "displace"}, {"chisel:rect", "0 0 1 1"}};
+        int na = 2;
+        if (warp && !warp_text) {
+          st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory for the EXR's warp attributes");
+        } else if (warp) { /* four strings, one after the other */
+          const char *keys[] = {"chisel:space", "chisel:warp", "chisel:warp_u", "chisel:warp_v"};
+          const char *text = warp_text;
+          for (int k = 0; k < 4; k++, text += strlen(text) + 1) attrs[na++] = (ch_exr_attribute){keys[k], text};
+        }
+        ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = na};
+        if (!st) st = ch_exr_write(exr, &maps, &wd, &err);
         if (!st) cli_outputs_add(&outs, exr);
+        free(warp_text);
       }
       ch_image_free(&gimg);
       ch_geomimage_free(&gi);
@@ -256,11 +363,22 @@ static int run(int argc, char **argv) {
     ch_image_free(&hmap);
   }
   t_write = omp_get_wtime() - t_write;
+  if (!st && warp) {
+    const ch_warp_stats *ws = &warp->stats;
+    double total = omp_get_wtime() - t0, cost = t_warp + height.warp_stats.seconds;
+    fprintf(stderr,
+            "chisel: warp: virtual resolution %.0f x %.0f (%.2fx, %.2fx --res %ld); visible part %.1f%% of the "
+            "texels (%.1f%% unwarped); %d of %d cage triangles visible, %d with curves; warp %.0f ms (%.1f%% of "
+            "the run)\n",
+            res * ws->max_slope[0], res * ws->max_slope[1], ws->max_slope[0], ws->max_slope[1], res,
+            100.0 * ws->visible_share, 100.0 * ws->unwarped_share, ws->visible_triangles, warp->num_triangles,
+            ws->needy_triangles, 1e3 * cost, 100.0 * cost / total);
+  }
   if (!st && stats) {
     fprintf(stderr,
             "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, %s %.0f ms "
             "(%d pass%s; kept: %d base triangles, %s %.0f ms), write %.0f ms; h in [%.4g, %.4g]\n",
-            result->num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface),
+            result->num_faces, 1e3 * (t_read - t0), 1e3 * (t_surface - t_read), 1e3 * (t_height - t_surface - t_warp),
             no_snap ? "tessellate and displace" : "tessellate and embed", 1e3 * (t_passes - t_height), passes,
             passes > 1 ? "es" : "", tess.mesh.num_faces, no_snap ? "displace" : "embed", 1e3 * t_disp,
             1e3 * t_write, dstats.min_h, dstats.max_h);
@@ -276,6 +394,7 @@ static int run(int argc, char **argv) {
               1e3 * estats.seconds_normals);
   }
   if (st) cli_outputs_remove_all(&outs);
+  ch_warp_free(&warp_store);
   ch_tess_free(&tess);
   ch_mesh_free(&embedded);
   ch_height_free(&height);

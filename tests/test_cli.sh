@@ -243,6 +243,61 @@ expect 2 "$chisel" displace "$models/plane.obj" "$svg" && one_line_with "missing
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --exr "$tmp/x.obj" && one_line_with "name the same file"
 no_file "$tmp/x.obj"
 
+# ---- displace --camera: the view-dependent warp ----
+cam=0.25,0.2,0.3,0.25,0.25,0,40 # close above (0.25, 0.25)
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/w.obj" --target-tris 40000 --res 128 --camera $cam \
+  --exr "$tmp/w.exr" --png "$tmp/w.png" || true
+grep -q "^chisel: warp: virtual resolution" "$tmp/stderr" || fail "displace --camera: no warp line"
+[ -s "$tmp/w.obj" ] && [ -s "$tmp/w.png" ] && [ -s "$tmp/w.exr" ] || fail "displace --camera outputs"
+expect 0 "$chisel" info "$tmp/w.obj" && grep -q "edges *[0-9]* boundary, 0 non-manifold" "$tmp/stdout" ||
+  fail "displace --camera: non-manifold output"
+if command -v python3 >/dev/null; then
+  checks=$((checks + 1))
+  python3 - "$tmp/w.exr" "$tmp/w.obj" "$tmp/s.obj" "$tests/tools" <<'EOF' || fail "displace --camera: warped maps and density"
+import sys
+sys.path.insert(0, sys.argv[4])
+from exr_read import read_exr
+img = read_exr(sys.argv[1])
+for name in ("h", "P.x", "P.y", "u", "v"):
+    assert name in img, (name, list(img))
+u, v, px = img["u"], img["v"], img["P.x"]
+R = len(u)
+# u grows along a row, v falls down a column, and on the plane P.x is u
+assert all(u[R // 2][x] < u[R // 2][x + 1] for x in range(R - 1))
+assert all(v[y][R // 2] > v[y + 1][R // 2] for y in range(R - 1))
+assert max(abs(px[y][x] - u[y][x]) for y in range(R) for x in range(R)) < 1e-5
+# the camera looks at u = 0.25: that part gets more than its share of texels
+assert u[R // 2][R // 2] < 0.4, u[R // 2][R // 2]
+def near_share(path):  # share of triangles with a corner in [0, 0.4]^2
+    vt, n, near = [], 0, 0
+    for line in open(path):
+        if line.startswith("vt "):
+            vt.append(tuple(map(float, line.split()[1:3])))
+        elif line.startswith("f "):
+            n += 1
+            c = [vt[int(w.split("/")[1]) - 1] for w in line.split()[1:]]
+            near += any(a < 0.4 and b < 0.4 for a, b in c)
+    return near / n
+warped, flat = near_share(sys.argv[2]), near_share(sys.argv[3])
+assert warped > 2 * flat, (warped, flat)
+EOF
+fi
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 1,2,3 && one_line_with "--camera expects 7"
+no_file "$tmp/x.obj"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 0.5,0.5,1,0.5,0.5,1,40 &&
+  one_line_with "camera"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 0.5,0.5,1,0.5,0.5,0,0 &&
+  one_line_with "field of view"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 0.5,0.5,1,0.5,0.5,0,180 &&
+  one_line_with "field of view"
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 0.5,0.5,1,0.5,0.5,0,nan &&
+  one_line_with "--camera"
+no_file "$tmp/x.obj"
+# looking away from the plane: a warning, and the unwarped mesh
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/away.obj" --target-tris 40000 \
+  --camera 0.5,0.5,1,0.5,0.5,2,40 && one_line_with "no warp"
+cmp -s "$tmp/away.obj" "$tmp/s.obj" || fail "displace --camera looking away: not the unwarped mesh"
+
 # ---- info ----
 expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
 expect 0 "$chisel" info "$models/plane.obj" && grep -q "UV charts *1" "$tmp/stdout" || fail "info plane.obj"
