@@ -485,7 +485,7 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
   double hmax = ref->max_abs_h > 0.0 ? ref->max_abs_h : 1.0;
   double wrong_tol = 0.1 * hmax;
   double *row = calloc(4 * (size_t)G, sizeof *row);  /* l1 sum, angle sum per row */
-  long *cnt = calloc(4 * (size_t)G, sizeof *cnt);    /* covered, band, wrong, normal */
+  long *cnt = calloc(5 * (size_t)G, sizeof *cnt);    /* covered, band, wrong, normal, counted */
   double *angles = malloc(n * sizeof *angles);
   if (!row || !cnt || !angles) {
     free(row);
@@ -498,10 +498,16 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
 #pragma omp parallel for schedule(dynamic, 8)
   for (int j = 0; j < G; j++) {
     double l1 = 0.0, asum = 0.0;
-    long covered = 0, band = 0, wrong = 0, nn = 0;
+    long covered = 0, band = 0, wrong = 0, nn = 0, counted = 0;
     double *arow = angles + (size_t)j * G;
     for (int i = 0; i < G; i++) {
       size_t k = (size_t)j * G + i;
+      if (ref->mask && !ref->mask[k]) {
+        if (ref->error_map) ref->error_map[k] = NAN;
+        if (ref->normal_map) ref->normal_map[k] = NAN;
+        continue;
+      }
+      counted++;
       int t = r.tri[k];
       double h = ref->h[k], d = ref->dist[k];
       double err_h = t >= 0 ? fabs(r.z[k] - h) : INFINITY;
@@ -531,20 +537,22 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
     }
     row[2 * (size_t)j] = l1;
     row[2 * (size_t)j + 1] = asum;
-    cnt[4 * (size_t)j] = covered;
-    cnt[4 * (size_t)j + 1] = band;
-    cnt[4 * (size_t)j + 2] = wrong;
-    cnt[4 * (size_t)j + 3] = nn;
+    cnt[5 * (size_t)j] = covered;
+    cnt[5 * (size_t)j + 1] = band;
+    cnt[5 * (size_t)j + 2] = wrong;
+    cnt[5 * (size_t)j + 3] = nn;
+    cnt[5 * (size_t)j + 4] = counted;
   }
   double l1 = 0.0, asum = 0.0;
-  long covered = 0, band = 0, wrong = 0, nn = 0;
+  long covered = 0, band = 0, wrong = 0, nn = 0, counted = 0;
   for (int j = 0; j < G; j++) {
     l1 += row[2 * (size_t)j];
     asum += row[2 * (size_t)j + 1];
-    covered += cnt[4 * (size_t)j];
-    band += cnt[4 * (size_t)j + 1];
-    wrong += cnt[4 * (size_t)j + 2];
-    long rn = cnt[4 * (size_t)j + 3];
+    covered += cnt[5 * (size_t)j];
+    band += cnt[5 * (size_t)j + 1];
+    wrong += cnt[5 * (size_t)j + 2];
+    counted += cnt[5 * (size_t)j + 4];
+    long rn = cnt[5 * (size_t)j + 3];
     /* Compact the rows' angles to the front, in row order. */
     memmove(angles + nn, angles + (size_t)j * G, (size_t)rn * sizeof *angles);
     nn += rn;
@@ -554,7 +562,8 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
   out->normal_samples = nn;
   out->l1 = covered > 0 ? l1 / (double)covered / hmax : 0.0;
   out->band = band > 0 ? (double)wrong / (double)band : 0.0;
-  out->holes = (double)((long)n - covered) / (double)n;
+  out->holes = counted > 0 ? (double)(counted - covered) / (double)counted : 0.0;
+  out->counted = counted;
   out->normal_mean_deg = nn > 0 ? asum / (double)nn : 0.0;
   if (nn > 0) {
     long rank = (long)ceil(0.95 * (double)nn) - 1;

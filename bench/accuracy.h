@@ -64,6 +64,7 @@ typedef struct ch_accuracy {
   long triangles;      /* fan triangles of the mesh, vertical ones included */
   double edge_length;  /* e = sqrt(2 / triangles) */
   double max_abs_h;    /* max |h| over the samples */
+  long counted;        /* samples the figures count (all, or the mask's) */
 } ch_accuracy;
 
 /* Distances to walls and creases count when below this bound (UV); the
@@ -89,6 +90,9 @@ typedef struct ch_accuracy_reference {
   float *normal_map;         /* optional, likewise: the normal error in degrees
                                 on the samples the normal figures use, NaN
                                 elsewhere */
+  const unsigned char *mask; /* optional, set by the caller: grid^2 bytes
+                                (row j major); samples with 0 are left out of
+                                every figure (what a camera does not see) */
 } ch_accuracy_reference;
 
 ch_status ch_accuracy_reference_init(ch_accuracy_reference *ref, const ch_height *height,

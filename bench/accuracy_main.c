@@ -17,10 +17,11 @@
 
 #include "accuracy.h"
 #include "ch_png.h"
+#include "ch_warp.h"
 
 static const char usage[] =
     "usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid G] [--dci-res R] [--json] [--verbose]\n"
-    "                       [--error-png PREFIX] [--normal-png PREFIX]\n"
+    "                       [--error-png PREFIX] [--normal-png PREFIX] [--camera E,A,FOV]\n"
     "\n"
     "Rasterises each mesh's non-vertical triangles in xy on the cell centres of a\n"
     "G x G grid over the unit square (planar base: z should be h(x, y)) and prints\n"
@@ -32,7 +33,10 @@ static const char usage[] =
     "  --error-png P writes P<k>.png per mesh k (from 0): the error (z - h) / max|h|\n"
     "                in false colour (blue below, red above), uncovered samples 0\n"
     "  --normal-png P writes P<k>.png: the normal error (degrees, 10 full blue) on\n"
-    "                the samples the normal figures use\n";
+    "                the samples the normal figures use\n"
+    "  --camera ex,ey,ez,ax,ay,az,fov  count only the samples this camera sees\n"
+    "                (chisel displace --camera): (u, v, 0) inside its square frustum\n"
+    "                and in front of it, from above the plane (issue 5's figures)\n";
 
 static void print_warning(void *user, const char *message) {
   (void)user;
@@ -226,6 +230,7 @@ int main(int argc, char **argv) {
   int npaths = 0, json = 0, verbose = 0;
   const char *error_png = NULL, *normal_png = NULL;
   long grid = 2048, dci_res = 4096;
+  const char *camera_text = NULL;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
@@ -243,6 +248,9 @@ int main(int argc, char **argv) {
     } else if (!strcmp(a, "--error-png")) {
       if (i + 1 >= argc) return usage_error("missing the value of", a);
       error_png = argv[++i];
+    } else if (!strcmp(a, "--camera")) {
+      if (i + 1 >= argc) return usage_error("missing the value of", a);
+      camera_text = argv[++i];
     } else if (!strcmp(a, "--json")) {
       json = 1;
     } else if (!strcmp(a, "--verbose") || !strcmp(a, "-v")) {
@@ -259,6 +267,17 @@ int main(int argc, char **argv) {
 
   ch_error err = {0};
   err.warn = print_warning;
+  ch_camera camera;
+  if (camera_text) {
+    double v[7];
+    char *end = NULL;
+    const char *p = camera_text;
+    for (int k = 0; k < 7; k++, p = end + 1) {
+      v[k] = strtod(p, &end);
+      if (end == p || (k < 6 ? *end != ',' : *end != '\0')) return usage_error("bad value (7 numbers) for", "--camera");
+    }
+    if (ch_camera_init(&camera, v, &err)) return fail(&err);
+  }
   ch_curve_set set;
   double t0 = now();
   if (ch_curves_read_svg(svg, &set, &err)) return fail(&err);
@@ -274,6 +293,24 @@ int main(int argc, char **argv) {
     ch_height_free(&height);
     ch_curves_free(&set);
     return fail(&err);
+  }
+  unsigned char *mask = NULL;
+  if (camera_text) { /* the plane's samples the camera sees: in front, in the frustum, from above */
+    if (!(mask = malloc((size_t)grid * (size_t)grid))) {
+      fprintf(stderr, "chisel-accuracy: out of memory for the camera mask\n");
+      return 1;
+    }
+    long seen = 0;
+    for (long j = 0; j < grid; j++)
+      for (long i = 0; i < grid; i++) {
+        double p[3] = {(i + 0.5) / grid, (j + 0.5) / grid, 0.0}, ndc[2], depth;
+        int in = camera.eye[2] > 0.0 && ch_camera_project(&camera, p, ndc, &depth) && fabs(ndc[0]) <= 1.0 &&
+                 fabs(ndc[1]) <= 1.0;
+        mask[j * grid + i] = (unsigned char)in;
+        seen += in;
+      }
+    ref.mask = mask;
+    if (verbose) fprintf(stderr, "chisel-accuracy: the camera sees %.2f%% of the samples\n", 100.0 * seen / ((double)grid * grid));
   }
   double t2 = now();
   if (verbose)
@@ -329,9 +366,9 @@ int main(int argc, char **argv) {
       printf(", \"grid\": %ld, \"dci_res\": %ld, \"triangles\": %ld, \"edge_length\": %.9g, "
              "\"max_abs_h\": %.9g, \"l1\": %.9g, \"band\": %.9g, \"normal_mean_deg\": %.9g, "
              "\"normal_p95_deg\": %.9g, \"holes\": %.9g, \"samples\": %ld, \"band_samples\": %ld, "
-             "\"normal_samples\": %ld}\n",
+             "\"normal_samples\": %ld, \"counted\": %ld}\n",
              grid, dci_res, a.triangles, a.edge_length, a.max_abs_h, a.l1, a.band, a.normal_mean_deg,
-             a.normal_p95_deg, a.holes, a.samples, a.band_samples, a.normal_samples);
+             a.normal_p95_deg, a.holes, a.samples, a.band_samples, a.normal_samples, a.counted);
     } else {
       printf("%s: triangles %ld e %.4g L1 %.4g band %.4g (%ld samples) normal mean %.3g p95 %.3g deg (%ld "
              "samples) holes %.4g max|h| %.4g\n",
@@ -342,6 +379,7 @@ int main(int argc, char **argv) {
   }
   free(ref.error_map);
   free(ref.normal_map);
+  free(mask);
   ch_accuracy_reference_free(&ref);
   ch_height_free(&height);
   ch_curves_free(&set);

@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# Issue 5's figures: the view-dependent warp (chisel displace --camera) on
+# every bundled curve set over the planar base, for two close views and a
+# full view, against the unwarped run at the same --res and --target-tris,
+# snapped and --no-snap: the accuracy figures of issue 4 counted only on
+# what the camera sees (chisel-accuracy --camera), the virtual resolution
+# and visible share the warp reports, and the warp's share of the run.
+#
+# Usage: bench/warp.sh [BUILD_DIR] [TARGET_TRIS] [RES]   (default: build 130000 1024)
+# WARP_SETS="glyphs star" limits the run to those curve sets.
+# Prints a markdown table and writes it, with the JSON lines, under out/warp/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${1:-build}
+n=${2:-130000}
+res=${3:-1024}
+dir=out/warp
+mkdir -p "$dir"
+json="$dir/warp.jsonl"
+: >"$json"
+# close: a quarter of a unit up, looking down at 45 degrees onto (0.35, 0.35)
+# (sees 12% of the plane); closer: 0.08 up (2%); full: the whole plane.
+declare -A cameras=(
+  [close]="0.35,0.1,0.25,0.35,0.35,0,40"
+  [closer]="0.35,0.25,0.08,0.35,0.35,0,40"
+  [full]="0.5,-0.55,1.3,0.5,0.5,0,50"
+)
+for svg in models/curves/*.svg; do
+  name=$(basename "$svg" .svg)
+  if [ -n "${WARP_SETS:-}" ] && ! [[ " $WARP_SETS " == *" $name "* ]]; then continue; fi
+  for view in close closer full; do
+    cam=${cameras[$view]}
+    for method in snap naive; do
+      flag=()
+      [ $method = naive ] && flag=(--no-snap)
+      base="$dir/$name-$view-$method"
+      "$build/chisel" displace models/plane.obj "$svg" -o "$base-flat.obj" --target-tris "$n" --res "$res" \
+        "${flag[@]}" 2>/dev/null
+      log=$("$build/chisel" displace models/plane.obj "$svg" -o "$base-warp.obj" --target-tris "$n" --res "$res" \
+        "${flag[@]}" --camera "$cam" 2>&1 >/dev/null | grep '^chisel: warp' | tr '\n' ' ' || true)
+      "$build/bench/chisel-accuracy" "$base-flat.obj" "$base-warp.obj" "$svg" --camera "$cam" --json |
+        python3 -c 'import json,sys
+for line in sys.stdin:
+    r = json.loads(line); r["warp_log"] = sys.argv[1]; print(json.dumps(r))' "$log" >>"$json"
+      rm -f "$base-flat.obj" "$base-warp.obj"
+    done
+    echo "warp: $name $view done" >&2
+  done
+done
+python3 - "$json" <<'PY' | tee "$dir/warp.md"
+import json, os, re, sys
+rows = [json.loads(l) for l in open(sys.argv[1])]
+by = {}
+for r in rows:
+    b = os.path.basename(r["mesh"])[:-4]
+    name, view, method, kind = b.rsplit("-", 3)
+    by[(name, view, method, kind)] = r
+print("| curves | view | method | triangles flat / warped | L1 flat | L1 warped | flat / warped | band flat / warped | "
+      "normal p95 flat / warped | holes | virtual resolution | visible share (unwarped) | warp cost |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+order = {"close": 0, "closer": 1, "full": 2}
+for (name, view, method, kind), r in sorted(by.items(), key=lambda kv: (kv[0][0], order[kv[0][1]], kv[0][2])):
+    if kind != "flat":
+        continue
+    w = by.get((name, view, method, "warp"))
+    if not w:
+        continue
+    log = w["warp_log"]
+    m = re.search(r"virtual resolution (\d+) x (\d+) \(([\d.]+)x, ([\d.]+)x", log)
+    vr = f"{m.group(1)} x {m.group(2)} ({m.group(3)}x, {m.group(4)}x)" if m else "no warp"
+    m = re.search(r"visible part ([\d.]+)% of the texels \(([\d.]+)% unwarped\)", log)
+    share = f"{m.group(1)}% ({m.group(2)}%)" if m else "-"
+    m = re.search(r"warp (\d+) ms \(([\d.]+)% of the run\)", log)
+    cost = f"{m.group(1)} ms ({m.group(2)}%)" if m else "-"
+    ratio = r["l1"] / w["l1"] if w["l1"] > 0 else float("inf")
+    print(f"| {name} | {view} | {method} | {r['triangles']} / {w['triangles']} | {r['l1']:.3g} | {w['l1']:.3g} | "
+          f"{ratio:.2f} | {100 * r['band']:.2f}% / {100 * w['band']:.2f}% | "
+          f"{r['normal_p95_deg']:.2f} / {w['normal_p95_deg']:.2f} | {max(r['holes'], w['holes']):.2g} | {vr} | "
+          f"{share} | {cost} |")
+PY
