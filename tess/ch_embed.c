@@ -45,6 +45,9 @@ typedef struct labeler {
   double wall_tol;     /* a jump of h above this is a wall */
   double junction_size; /* triangles holding a junction are refined to this */
   double cap_angle;     /* around an open end, edges span at most this angle */
+  const ch_warp *warp;  /* or NULL: then caps and junctions are sized by the
+                           warped density there over the grooves' mean */
+  double mean_density;
 } labeler;
 
 static void labeler_free(labeler *lb) {
@@ -192,6 +195,8 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
     }
     if (sum > 0.0) mean_density = sum / total;
   }
+  lb->warp = warp;
+  lb->mean_density = mean_density;
   for (int c = 0; c < nc; c++) {
     lb->crease_start[c] = n;
     if (set->curves[c].kind == CH_CURVE_GROOVE) {
@@ -213,8 +218,10 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
          * bundled sets), fast coarser beyond (like (e/w)^4): at low
          * densities refining every curved line to 1% would take more
          * triangles than a small target holds. */
-        double r = mean_edge / cv->width / 0.25;
-        lb->chord_tol[c] = 0.01 * f * f * fmax(1.0, r * r * r * r) * fabs(cv->depth); /* sagittas go like e^2 */
+        double r = global_edge / cv->width / 0.25;
+        /* (with a warp, scaled where it is checked by the local factor
+         * squared: sagittas go like e^2) */
+        lb->chord_tol[c] = 0.01 * fmax(1.0, r * r * r * r) * fabs(cv->depth);
       }
       double slope = fabs(cv->depth) / (cv->width * object_scale);
       /* Near the rim the lines crowd where P is vertical: down to 1/50 of
@@ -1431,6 +1438,14 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
  * rounded cap of a groove's open end and is too coarse for it: there the
  * profile is swept around the end point, a cone (or dome) whose facets must
  * span at most cap_angle around it, so edges up to cap_angle * w / 2. */
+/* How much finer than the mean the warped mesh is at uv (relative to the
+ * grooves' mean density, within [1/8, 4]); 1 without a warp. */
+static double local_factor(const labeler *lb, const double uv[2]) {
+  if (!lb->warp) return 1.0;
+  double d = sqrt(ch_warp_axis_slope(lb->warp, 0, uv[0]) * ch_warp_axis_slope(lb->warp, 1, uv[1]));
+  return fmin(4.0, fmax(0.125, lb->mean_density / d));
+}
+
 static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
   const ch_groove_field *gf = &lb->height->grooves;
   const int *items;
@@ -1442,11 +1457,12 @@ static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
     double half = 0.5 * cv->width;
     /* A u cap is already cut into rings by its lines; refining under all
      * of them costs more than it gains. */
-    if (longest <= lb->cap_angle * half || cv->profile.kind == CH_PROFILE_U) continue;
+    if (cv->profile.kind == CH_PROFILE_U) continue;
     for (int end = 0; end < 2; end++) {
       if ((end == 0 ? sg->prev : sg->next) >= 0) continue;
       const double *q = sg->p[end == 0 ? 0 : 2];
-      if (hypot(c[0] - q[0], c[1] - q[1]) <= half + longest) return 1;
+      if (longest > lb->cap_angle * local_factor(lb, q) * half && hypot(c[0] - q[0], c[1] - q[1]) <= half + longest)
+        return 1;
     }
   }
   return 0;
@@ -1474,7 +1490,7 @@ static int needs_refinement(const labeler *lb, const work *w, int t) {
       double longest = 0.0;
       for (int k = 0; k < 3; k++)
         longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
-      return longest > lb->junction_size;
+      return longest > lb->junction_size * local_factor(lb, nodes[i].uv);
     }
   /* A groove's lines curve away from the chords that follow them (by
    * len^2 / 8r): where h at a chord's middle leaves the mesh's h there
@@ -1504,7 +1520,8 @@ static int needs_refinement(const labeler *lb, const work *w, int t) {
       double mesh_h = 0.25 * (p->hprev + p->hnext + q->hprev + q->hnext);
       err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) - mesh_h);
     }
-    if (err > lb->chord_tol[c]) return 1;
+    double lf = local_factor(lb, mid);
+    if (err > lb->chord_tol[c] * lf * lf) return 1;
   }
   double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
   uint64_t l = label_at(lb, c);
