@@ -20,7 +20,7 @@
 static const char usage[] =
     "usage: chisel displace BASE.obj CURVES.svg -o OUT.obj [--target-tris N] [--res R]\n"
     "                      [--scheme bilinear|catmark] [--no-snap] [--exr MAPS.exr]\n"
-    "                      [--camera ex,ey,ez,ax,ay,az,fov]"
+    "                      [--camera ex,ey,ez,ax,ay,az,fov [--warp-dci]]\n"
     "                      [--snap-to exact|recon5|recon3] [--png P.png] [--ply OUT.ply]\n"
     "                      [--stats]\n"
     "\n"
@@ -38,9 +38,12 @@ static const char usage[] =
     "  --camera E,A,FOV   view-dependent texture warp for the camera at eye E\n"
     "                     looking at A with vertical field of view FOV degrees\n"
     "                     (object space; up +z, or +y when looking along z; a\n"
-    "                     square frustum): texels of the step curves' image and\n"
-    "                     triangles move to what the camera sees large; the\n"
+    "                     square frustum): triangles (and, with --exr/--png, the\n"
+    "                     maps' texels) move to what the camera sees large; the\n"
     "                     virtual resolution and the visible share go to stderr\n"
+    "  --warp-dci         with --camera, also diffuse the step curves in warped UV\n"
+    "                     (the paper's way: R x R warped texels; the warp bends the\n"
+    "                     diffusion, so smooth steps come out less exact)\n"
     "  --exr FILE         maps on an R x R grid over the UV square (warped UV with\n"
     "                     --camera, where u v give each texel's original UV): h,\n"
     "                     and the geometry image (P.x P.y P.z N.x N.y N.z face s t)\n"
@@ -139,7 +142,7 @@ static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL;
   long target = 520000, res = 1024;
-  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT, has_camera = 0;
+  int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT, has_camera = 0, warp_dci = 0;
   double camera_values[7];
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
@@ -178,6 +181,8 @@ static int run(int argc, char **argv) {
         return cli_usage_error(cmd, "--snap-to: unknown curves '%s' (exact, recon5 or recon3)", v);
     } else if (!strcmp(a, "--no-snap")) {
       no_snap = 1;
+    } else if (!strcmp(a, "--warp-dci")) {
+      warp_dci = 1;
     } else if (!strcmp(a, "--stats")) {
       stats = 1;
     } else if (a[0] == '-' && a[1]) {
@@ -193,6 +198,7 @@ static int run(int argc, char **argv) {
   if (!base) return cli_usage_error(cmd, "missing the base mesh BASE.obj");
   if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
+  if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
   const char *outputs[4] = {out, exr, png, ply}, *names[4] = {"-o", "--exr", "--png", "--ply"};
   for (int i = 0; i < 4; i++) {
     if (!outputs[i]) continue;
@@ -263,7 +269,7 @@ static int run(int argc, char **argv) {
     t_warp = omp_get_wtime() - t_surface;
   }
   if (!st) {
-    hd.warp = warp;
+    hd.warp = warp_dci ? warp : NULL;
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime();
   }

@@ -282,6 +282,10 @@ warped, flat = near_share(sys.argv[2]), near_share(sys.argv[3])
 assert warped > 2 * flat, (warped, flat)
 EOF
 fi
+expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --warp-dci && one_line_with "--warp-dci needs --camera"
+expect 0 "$chisel" displace "$models/plane.obj" "$models/curves/steps_simple.svg" -o "$tmp/wd.obj" --target-tris 20000 \
+  --res 128 --camera $cam --warp-dci && grep -q "^chisel: warp: virtual resolution" "$tmp/stderr" ||
+  fail "displace --camera --warp-dci"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 1,2,3 && one_line_with "--camera expects 7"
 no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --camera 0.5,0.5,1,0.5,0.5,1,40 &&
