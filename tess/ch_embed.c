@@ -219,8 +219,10 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
          * densities refining every curved line to 1% would take more
          * triangles than a small target holds. */
         double r = global_edge / cv->width / 0.25;
-        /* (with a warp, scaled where it is checked by the local factor
-         * squared: sagittas go like e^2) */
+        /* (with a warp, scaled where it is checked by the local factor:
+         * sagittas go like e^2, but a tolerance that falls as fast has the
+         * chords of a close view take most of the triangles, and the
+         * count from the base stops being monotone) */
         lb->chord_tol[c] = 0.01 * fmax(1.0, r * r * r * r) * fabs(cv->depth);
       }
       double slope = fabs(cv->depth) / (cv->width * object_scale);
@@ -1521,7 +1523,7 @@ static int needs_refinement(const labeler *lb, const work *w, int t) {
       err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) - mesh_h);
     }
     double lf = local_factor(lb, mid);
-    if (err > lb->chord_tol[c] * lf * lf) return 1;
+    if (err > lb->chord_tol[c] * lf) return 1;
   }
   double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
   uint64_t l = label_at(lb, c);
