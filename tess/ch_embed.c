@@ -1473,9 +1473,14 @@ static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
 /* Whether triangle t needs splitting: its crossings do not make chords and
  * one junction, or a piece that none of its boundary touches hides inside,
  * or it is coarse over a rounded cap. */
-static int needs_refinement(const labeler *lb, const work *w, int t) {
+static int needs_refinement(const labeler *lb, const work *w, int t, int only_uncut) {
   const wtri *T = &w->tris[t];
   if (quiet(lb, T->uv[0]) && quiet(lb, T->uv[1]) && quiet(lb, T->uv[2])) return 0;
+  if (only_uncut) { /* the extra rounds of a warped mesh: what cannot be cut yet, nothing else */
+    bnode nodes[MAX_NODES];
+    int m = gather_nodes(w, t, nodes);
+    return m < 0 || classify(nodes, m) == CUT_COMPLEX;
+  }
   if (lb->cap_angle > 0.0) {
     double longest = 0.0;
     for (int k = 0; k < 3; k++)
@@ -1711,7 +1716,11 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
    * corner of a triangle a step curve crosses must still see the curve. */
   if (desc && desc->warp && !(desc->step_radius > 0.0)) radius = fmax(radius, 2.0 * longest_edge);
   double curve_tolerance = desc && desc->curve_tolerance > 0.0 ? desc->curve_tolerance : 0.0;
-  int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : 8;
+  /* A warped mesh's coarse parts have edges up to 1 / floor = 10x the
+   * mean: four halvings more to bring them down to the features (only
+   * for triangles that cannot be cut yet: refining the rest there spends
+   * triangles the camera does not see). */
+  int max_rounds = desc && desc->max_refine_rounds > 0 ? desc->max_refine_rounds : desc && desc->warp ? 12 : 8;
   /* The angle step of the u lines: finer with density, as the mesh would
    * be, about 7 degrees at 130k triangles over the UV square, 3.5 at 520k
    * (measured on the bundled curve sets: finer steps starve the rest of
@@ -1780,7 +1789,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
      * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
     for (int t = 0; t < w.ntris; t++)
-      refine[t] = (unsigned char)((!fresh || fresh[t]) && needs_refinement(&lb, &w, t));
+      refine[t] = (unsigned char)((!fresh || fresh[t]) && needs_refinement(&lb, &w, t, round >= 8));
     double te = omp_get_wtime();
     stats.seconds_classify += te - td;
     int split = 0;

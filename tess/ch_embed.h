@@ -39,7 +39,7 @@ extern "C" {
 #endif
 
 typedef struct ch_embed_desc {
-  int max_refine_rounds;   /* local refinement rounds; 0 -> 8 */
+  int max_refine_rounds;   /* local refinement rounds; 0 -> 8 (12 with a warp) */
   double step_radius;      /* UV distance within which the side of a step
                               curve is part of the label; 0 -> 4 mean edges */
   double curve_tolerance;  /* curved profiles (u) are cut along extra lines

@@ -398,9 +398,9 @@ static void test_cap_walls(void) {
 
 /* The view-dependent warp: a close camera over the plane. For steps
  * (walls exact, also with the DCI diffused in warped UV) the warped mesh is
- * as exact as the unwarped one; for glyphs the visible part is at least
- * 1.5x more accurate in L1 at the same count (1.7x at 60k; bench/warp.sh:
- * 2.8x at 130k). */
+ * as exact as the unwarped one; for glyphs at 130k triangles the visible
+ * part is at least 2x more accurate in L1 at the same count (the issue's
+ * target; bench/warp.sh measures every set). */
 static void test_warped(void) {
   static const double camera[7] = {0.35, 0.1, 0.25, 0.35, 0.35, 0.0, 40.0};
   static const char *sets[] = {"steps_simple", "glyphs"};
@@ -408,7 +408,8 @@ static void test_warped(void) {
     char path[1024];
     snprintf(path, sizeof path, "%s/curves/%s.svg", CHISEL_MODELS, sets[i]);
     scene s;
-    REQUIRE(scene_load(&s, "plane", NULL, path, CH_SCHEME_BILINEAR, 60000));
+    const long tris = i == 0 ? 60000 : 130000;
+    REQUIRE(scene_load(&s, "plane", NULL, path, CH_SCHEME_BILINEAR, tris));
     ch_error err = {0};
     ch_camera cam;
     ch_tess_cage_arrays cage;
@@ -441,21 +442,22 @@ static void test_warped(void) {
       ch_embed_stats stats;
       ch_tess_free(&s.tess);
       ch_embed_desc ed = {.warp = run ? &w : NULL};
-      REQUIRE(ch_embed_to_target(s.surface, run == 2 ? &warped_h : &s.height, &ed, 60000, &s.tess, &out, &stats,
+      REQUIRE(ch_embed_to_target(s.surface, run == 2 ? &warped_h : &s.height, &ed, tris, &s.tess, &out, &stats,
                                  NULL, &err) == CH_OK);
       ch_accuracy a;
       REQUIRE(ch_accuracy_measure_reference(&ref, &out, &a, &err) == CH_OK);
       printf("  %s %s: %d triangles, in view L1 %.3g band %.4f holes %g\n", sets[i],
              run == 0 ? "unwarped" : run == 1 ? "warped" : "warped, warped DCI", out.num_faces, a.l1, a.band, a.holes);
       CHECK(a.holes == 0.0);
-      CHECK(fabs((double)out.num_faces - 60000.0) <= 0.05 * 60000.0);
+      CHECK(fabs((double)out.num_faces - (double)tris) <= 0.05 * (double)tris);
+      CHECK(stats.unresolved == 0);
       l1[run] = a.l1;
       ch_mesh_free(&out);
     }
     if (i == 0) {
       CHECK_MSG(l1[1] <= 1e-6 && l1[2] <= 1e-6, "steps: warped L1 %g, warped DCI %g", l1[1], l1[2]);
     } else {
-      CHECK_MSG(l1[1] <= l1[0] / 1.5, "glyphs in view: warped L1 %g vs unwarped %g", l1[1], l1[0]);
+      CHECK_MSG(l1[1] <= l1[0] / 2.0, "glyphs in view: warped L1 %g vs unwarped %g", l1[1], l1[0]);
     }
     ch_accuracy_reference_free(&ref);
     free(mask);
