@@ -47,6 +47,25 @@ for line in sys.stdin:
     echo "warp: $name $view done" >&2
   done
 done
+# The virtual resolution of a close view of each bundled base mesh (glyphs
+# on it): R times the warp's largest slopes, and the visible share.
+scenes="$dir/scenes.txt"
+: >"$scenes"
+declare -A close_views=(
+  [plane]="0.35,0.25,0.08,0.35,0.35,0,40"
+  [tablet]="-0.1,0.1,0.35,-0.15,-0.1,0.06,40"
+  [vase]="0,-1.1,1.1,0,-0.45,0.9,30"
+  [torus]="0,-2.1,0.3,0,-1.35,0,30"
+  [obelisk]="0.1,-1.4,1.5,0,-0.45,1.2,30"
+)
+if [ -z "${WARP_SETS:-}" ]; then
+  for model in plane tablet vase torus obelisk; do
+    line=$("$build/chisel" displace "models/$model.obj" models/curves/glyphs.svg -o "$dir/scene.obj" --target-tris "$n" \
+      --res "$res" --camera "${close_views[$model]}" 2>&1 >/dev/null | grep '^chisel: warp' || echo "no warp")
+    echo "$model: $line" >>"$scenes"
+    rm -f "$dir/scene.obj"
+  done
+fi
 python3 - "$json" <<'PY' | tee "$dir/warp.md"
 import json, os, re, sys
 rows = [json.loads(l) for l in open(sys.argv[1])]
@@ -78,3 +97,6 @@ for (name, view, method, kind), r in sorted(by.items(), key=lambda kv: (kv[0][0]
           f"{r['normal_p95_deg']:.2f} / {w['normal_p95_deg']:.2f} | {max(r['holes'], w['holes']):.2g} | {vr} | "
           f"{share} | {cost} |")
 PY
+if [ -s "$scenes" ]; then
+  { echo; echo "Close views of the bundled base meshes (glyphs):"; sed 's/^/    /' "$scenes"; } | tee -a "$dir/warp.md"
+fi

@@ -13,3 +13,7 @@ build/chisel info models/tablet.obj models/curves/glyphs.svg
 build/chisel displace models/tablet.obj models/curves/glyphs.svg -o out/tablet_glyphs.obj \
   --exr out/tablet_glyphs.exr --png out/tablet_glyphs.png --stats
 build/chisel info out/tablet_glyphs.obj
+# The same seen from close by a camera (--camera): triangles and the maps' texels move to what it sees;
+# the PNG shows h in warped UV, the glyphs near the camera magnified.
+build/chisel displace models/tablet.obj models/curves/glyphs.svg -o out/tablet_glyphs_close.obj --target-tris 130000 \
+  --camera -0.1,0.1,0.35,-0.15,-0.1,0.06,40 --png out/tablet_glyphs_close.png
