@@ -13,6 +13,21 @@ void ch_curves_free(ch_curve_set *set) {
   memset(set, 0, sizeof *set);
 }
 
+void ch_curve_update_box(ch_curve_set *set, int c) {
+  ch_curve *cv = &set->curves[c];
+  double *b = cv->bbox;
+  b[0] = b[1] = INFINITY;
+  b[2] = b[3] = -INFINITY;
+  for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++)
+    for (int k = 0; k < 3; k++) {
+      const double *q = set->segments[i].p[k];
+      b[0] = fmin(b[0], q[0]);
+      b[1] = fmin(b[1], q[1]);
+      b[2] = fmax(b[2], q[0]);
+      b[3] = fmax(b[3], q[1]);
+    }
+}
+
 void ch_segment_point(const ch_segment *s, double t, double out[2]) {
   if (s->is_line) {
     out[0] = s->p[0][0] + t * (s->p[2][0] - s->p[0][0]);

@@ -114,6 +114,10 @@ int ch_profile_parse(const char *text, ch_profile *out, char *why, size_t why_si
  * crease lines: e.g. -1/2, 0, 1/2 for v. Returns the count (<= max). */
 int ch_profile_creases(const ch_profile *profile, double *t, int max);
 
+/* Sets the box of curve c (umin vmin umax vmax of its segments' control
+ * points) from its segments. */
+void ch_curve_update_box(ch_curve_set *set, int c);
+
 /* The point of segment s at parameter t (exact on the straight branch). */
 void ch_segment_point(const ch_segment *s, double t, double out[2]);
 

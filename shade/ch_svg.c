@@ -711,17 +711,8 @@ static ch_status end_curve(svg_parser *ps) {
   ch_curve_set *set = ps->set;
   ch_curve *c = ps->curve;
   if (c->num_segments == 0) return fail_curve(ps, "curve has zero length%s", "");
-  double *b = c->bbox;
-  b[0] = b[1] = INFINITY;
-  b[2] = b[3] = -INFINITY;
-  for (int i = c->first_segment; i < c->first_segment + c->num_segments; i++)
-    for (int k = 0; k < 3; k++) {
-      const double *q = set->segments[i].p[k];
-      b[0] = fmin(b[0], q[0]);
-      b[1] = fmin(b[1], q[1]);
-      b[2] = fmax(b[2], q[0]);
-      b[3] = fmax(b[3], q[1]);
-    }
+  ch_curve_update_box(set, (int)(c - set->curves));
+  const double *b = c->bbox;
   double r = c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : 0.0;
   if (b[2] + r <= 0.0 || b[0] - r >= 1.0 || b[3] + r <= 0.0 || b[1] - r >= 1.0) {
     char what[160];

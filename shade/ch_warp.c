@@ -1071,17 +1071,7 @@ ch_status ch_warp_curves(const ch_warp *w, const ch_curve_set *in, ch_curve_set 
     const ch_curve *src = &in->curves[c];
     cv->first_segment = first[src->first_segment];
     cv->num_segments = first[src->first_segment + src->num_segments] - cv->first_segment;
-    double *b = cv->bbox;
-    b[0] = b[1] = INFINITY;
-    b[2] = b[3] = -INFINITY;
-    for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++)
-      for (int k = 0; k < 3; k++) {
-        const double *q = out->segments[i].p[k];
-        b[0] = fmin(b[0], q[0]);
-        b[1] = fmin(b[1], q[1]);
-        b[2] = fmax(b[2], q[0]);
-        b[3] = fmax(b[3], q[1]);
-      }
+    ch_curve_update_box(out, c);
   }
   out->num_subpaths = in->num_subpaths;
   for (int i = 0; i < in->num_subpaths; i++) {
