@@ -343,6 +343,13 @@ int main(int argc, char **argv) {
     }
     if (verbose) {
       fprintf(stderr, "chisel-accuracy: %s: read %.2f s, measure %.2f s\n", paths[m], t4 - t3, t5 - t4);
+      long worst = -1;
+      for (long k = 0; k < grid * grid; k++)
+        if (ref.error_map[k] == ref.error_map[k] && (worst < 0 || fabsf(ref.error_map[k]) > fabsf(ref.error_map[worst])))
+          worst = k;
+      if (worst >= 0)
+        fprintf(stderr, "chisel-accuracy: %s: largest error %.4g of max |h| at uv (%.6f, %.6f)\n", paths[m],
+                ref.error_map[worst], (worst % grid + 0.5) / grid, (worst / grid + 0.5) / grid);
       int shown = 0;
       for (long k = 0; k < grid * grid && shown < 8; k++)
         if (ref.error_map[k] != ref.error_map[k]) /* uncovered */

@@ -1470,6 +1470,36 @@ static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
   return 0;
 }
 
+/* Whether a sharp corner of a step curve (a joint turning by more than 30
+ * degrees, as at a polygon's vertices) lies in the triangle of corners uv
+ * and longest edge `longest` above the junction size there: such a corner
+ * can poke into a triangle through one edge, crossing it twice between two
+ * of its samples, and be missed whole (relief's roof: a region of the
+ * wrong height one triangle wide). */
+static int coarse_at_step_corner(const labeler *lb, const double uv[3][2], double longest) {
+  if (!lb->has_steps) return 0;
+  double c[2] = {(uv[0][0] + uv[1][0] + uv[2][0]) / 3.0, (uv[0][1] + uv[1][1] + uv[2][1]) / 3.0};
+  const int *items;
+  int n = ch_grid_query(&lb->step_grid, c[0], c[1], &items);
+  for (int k = 0; k < n; k++) {
+    const ch_segment *sg = &lb->set->segments[items[k]];
+    if (sg->prev < 0) continue;
+    const double *q = sg->p[0];
+    double d0 = (uv[1][0] - uv[0][0]) * (q[1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (q[0] - uv[0][0]);
+    double d1 = (uv[2][0] - uv[1][0]) * (q[1] - uv[1][1]) - (uv[2][1] - uv[1][1]) * (q[0] - uv[1][0]);
+    double d2 = (uv[0][0] - uv[2][0]) * (q[1] - uv[2][1]) - (uv[0][1] - uv[2][1]) * (q[0] - uv[2][0]);
+    if (!((d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0))) continue;
+    if (longest <= lb->junction_size * local_factor(lb, q)) continue;
+    double ta[2], tb[2], pa[3][2], pb[3][2];
+    memcpy(pa, lb->set->segments[sg->prev].p, sizeof pa);
+    memcpy(pb, sg->p, sizeof pb);
+    ch_bezier_tangent(pa, 1.0, ta);
+    ch_bezier_tangent(pb, 0.0, tb);
+    if (ta[0] * tb[0] + ta[1] * tb[1] < 0.8660254037844387) return 1; /* cos 30 degrees */
+  }
+  return 0;
+}
+
 /* Whether triangle t needs splitting: its crossings do not make chords and
  * one junction, or a piece that none of its boundary touches hides inside,
  * or it is coarse over a rounded cap. */
@@ -1487,6 +1517,12 @@ static int needs_refinement(const labeler *lb, const work *w, int t, int only_un
       longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
     double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
     if (coarse_at_cap(lb, c, longest)) return 1;
+  }
+  {
+    double longest = 0.0;
+    for (int k = 0; k < 3; k++)
+      longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+    if (coarse_at_step_corner(lb, T->uv, longest)) return 1;
   }
   bnode nodes[MAX_NODES];
   int m = gather_nodes(w, t, nodes);
