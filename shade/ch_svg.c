@@ -297,8 +297,10 @@ static int near_equal(const double a[2], const double b[2]) {
 
 /* Appends a segment already in UV; drops segments of zero length. */
 static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line) {
+  /* A line's control point is not set by its caller (it becomes the
+   * midpoint below): only the ends are checked then. */
   for (int i = 0; i < 3; i++)
-    if (!ch_finite2(q[i])) return fail_curve(ps, "coordinates out of range%s", "");
+    if ((i != 1 || !is_line) && !ch_finite2(q[i])) return fail_curve(ps, "coordinates out of range%s", "");
   if (near_equal(q[0], q[2]) && (is_line || near_equal(q[0], q[1]))) return CH_OK;
   ch_curve_set *set = ps->set;
   if (set->num_segments >= CH_CURVES_MAX_SEGMENTS)
@@ -331,6 +333,8 @@ static ch_status line_to(geom_ctx *g, double x, double y) {
   double q[3][2];
   mat_apply(g->ctm, g->cur[0], g->cur[1], q[0]);
   mat_apply(g->ctm, x, y, q[2]);
+  q[1][0] = 0.5 * (q[0][0] + q[2][0]);
+  q[1][1] = 0.5 * (q[0][1] + q[2][1]);
   g->cur[0] = x;
   g->cur[1] = y;
   return add_quad_uv(g->ps, q, 1);
