@@ -21,9 +21,10 @@ enum { MAX_U_LINES = 60, MAX_LINES = 2 * MAX_U_LINES + 2, MAX_CURVES_LABELLED = 
 #define WALL_GROUP (UINT64_C(1) << 62)
 
 /* ---- piece labels ---------------------------------------------------------
- * label = groove part << 32 | step part. Groove part: (active curve + 1) << 8
- * | index of the profile segment (break points below t = s / w), 0 where no
- * groove decides h. Step part: (nearest step curve within the radius + 1)
+ * label = groove part << 32 | step part. Groove part: (line set << 20 |
+ * (active curve + 1)) << 8 | index of the profile segment (break points
+ * below t = s / w), 0 where no groove decides h; the line set is 0 but
+ * for u grooves under a warp (level_at). Step part: (nearest step curve within the radius + 1)
  * << 1 | (side is left), 0 when none is that near. */
 typedef struct labeler {
   const ch_height *height;
@@ -48,10 +49,29 @@ typedef struct labeler {
   const ch_warp *warp;  /* or NULL: then caps and junctions are sized by the
                            warped density there over the grooves' mean */
   double mean_density;
+  /* With a warp, u grooves have a finer line set (level 1: the angle step
+   * halved) where the warped mesh is at least twice as dense as along the
+   * groove on average: a groove's lines run its whole length, so one step
+   * for all of it serves only its mean. Where the level changes the labels
+   * change across the groove: the cut runs there too (h is continuous),
+   * the lines of one side ending on it. level_start[c * LEVELS + L] into
+   * level_t. (Three levels measured worse: the junctions where lines end
+   * took the triangles.) */
+  int *level_start;
+  double *level_t;
+  double *curve_density; /* per curve: the mean warped density along it */
 } labeler;
+
+enum { LEVELS = 2 };
+/* The groove part g of a label: (level << 20 | (curve + 1)) << 8 | k. */
+#define GROOVE_CURVE(g) ((int)(((g) >> 8) & 0xfffff) - 1)
+#define GROOVE_LEVEL(g) ((int)(((g) >> 28) & 3))
 
 static void labeler_free(labeler *lb) {
   free(lb->busy);
+  free(lb->level_start);
+  free(lb->level_t);
+  free(lb->curve_density);
   free(lb->crease_start);
   free(lb->crease_t);
   free(lb->chord_tol);
@@ -197,6 +217,17 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
   }
   lb->warp = warp;
   lb->mean_density = mean_density;
+  if (warp) {
+    lb->level_start = calloc((size_t)nc * LEVELS + 1, sizeof *lb->level_start);
+    lb->level_t = malloc(((size_t)nc * (LEVELS - 1) * MAX_LINES + 1) * sizeof *lb->level_t);
+    lb->curve_density = malloc((size_t)(nc > 0 ? nc : 1) * sizeof *lb->curve_density);
+    if (!lb->level_start || !lb->level_t || !lb->curve_density) {
+      free(density);
+      labeler_free(lb);
+      return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
+    }
+  }
+  int nl = 0; /* lines of the finer sets */
   for (int c = 0; c < nc; c++) {
     lb->crease_start[c] = n;
     if (set->curves[c].kind == CH_CURVE_GROOVE) {
@@ -230,8 +261,20 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
        * the mean edge (about 8e-5 UV at 130k triangles, 2e-5 at 2.1M). */
       double spacing = fmax(2.0 * MIN_SPLIT_LENGTH, mean_edge / 50.0);
       n += groove_lines(cv, tol, angle, slope, spacing, lb->crease_t + n, MAX_LINES);
+      /* the finer sets of a u groove (level L: the angle step / 2^L) */
+      for (int L = 1; lb->level_t && cv->profile.kind == CH_PROFILE_U && L < LEVELS; L++) {
+        lb->level_start[c * LEVELS + L] = nl;
+        double a = fmax(CH_PI / 180.0, angle / (double)(1 << L));
+        nl += groove_lines(cv, tol, a, slope, spacing, lb->level_t + nl, MAX_LINES);
+      }
+    }
+    if (lb->level_t) {
+      if (!(set->curves[c].kind == CH_CURVE_GROOVE && set->curves[c].profile.kind == CH_PROFILE_U))
+        for (int L = 1; L < LEVELS; L++) lb->level_start[c * LEVELS + L] = nl;
+      lb->level_start[c * LEVELS + LEVELS] = nl; /* the end of its last set */
     }
   }
+  if (lb->curve_density) memcpy(lb->curve_density, density, (size_t)nc * sizeof *density);
   free(density);
   lb->crease_start[nc] = n;
   for (int i = 0; i < set->num_segments; i++) {
@@ -289,6 +332,31 @@ static int quiet(const labeler *lb, const double uv[2]) {
   return !lb->busy[(size_t)fy * lb->mask_res + (size_t)fx];
 }
 
+/* The break lines of groove c at level L (the finer sets of u grooves). */
+static const double *lines_of(const labeler *lb, int c, int L, int *nb) {
+  if (L == 0 || !lb->level_t) {
+    *nb = lb->crease_start[c + 1] - lb->crease_start[c];
+    return lb->crease_t + lb->crease_start[c];
+  }
+  int a = lb->level_start[c * LEVELS + L], b = lb->level_start[c * LEVELS + L + 1];
+  *nb = b - a;
+  return lb->level_t + a;
+}
+
+/* The line set a point of u groove c takes: level L where the warped mesh
+ * there is 2^L times denser than along the groove on average (the lines
+ * were set for that average), at most LEVELS - 1; 0 without a warp. */
+static int level_at(const labeler *lb, int c, const double uv[2]) {
+  if (!lb->level_t || lb->set->curves[c].profile.kind != CH_PROFILE_U) return 0;
+  double d = sqrt(ch_warp_axis_slope(lb->warp, 0, uv[0]) * ch_warp_axis_slope(lb->warp, 1, uv[1]));
+  double r = d / lb->curve_density[c];
+  int L = 0;
+  while (L + 1 < LEVELS && r >= (double)(2 << L)) L++;
+  int nb;
+  lines_of(lb, c, L, &nb);
+  return nb > 0 ? L : 0;
+}
+
 static uint64_t label_at(const labeler *lb, const double uv[2]) {
   const ch_curve_set *set = lb->set;
   ch_groove_sample gs;
@@ -296,18 +364,17 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
   uint64_t g = 0;
   if (gs.active >= 0) {
     double t = gs.active_signed_distance / set->curves[gs.active].width;
-    int k = 0;
+    int k = 0, L = level_at(lb, gs.active, uv), nb;
+    const double *br = lines_of(lb, gs.active, L, &nb);
     /* Points within rounding of a line belong to the piece below it, so
      * a path's own points do not flip sides with the noise of s. */
-    for (int i = lb->crease_start[gs.active]; i < lb->crease_start[gs.active + 1]; i++)
-      k += lb->crease_t[i] < t - 1e-13;
+    for (int i = 0; i < nb; i++) k += br[i] < t - 1e-13;
     /* An active groove is inside its support: the shift above must not
      * make a piece of the hair between the support's edge and the shifted
      * one. */
-    int nb = lb->crease_start[gs.active + 1] - lb->crease_start[gs.active];
     if (k < 1) k = 1;
     if (nb > 1 && k > nb - 1) k = nb - 1;
-    g = ((uint64_t)(gs.active + 1) << 8) | (uint64_t)k;
+    g = ((uint64_t)L << 28) | ((uint64_t)(gs.active + 1) << 8) | (uint64_t)k;
   }
   uint64_t s = 0;
   if (lb->has_steps) {
@@ -396,7 +463,7 @@ static double piece_height(const labeler *lb, uint64_t label, const double insid
   }
   uint64_t g = label >> 32;
   if (!g) return value;
-  int curve = (int)(g >> 8) - 1, k = (int)(g & 0xff);
+  int curve = GROOVE_CURVE(g), k = (int)(g & 0xff);
   const ch_curve *c = &lb->set->curves[curve];
   double t = groove_distance(lb, curve, at) / c->width;
   if (c->profile.kind == CH_PROFILE_U) {
@@ -405,8 +472,8 @@ static double piece_height(const labeler *lb, uint64_t label, const double insid
   }
   /* Piece k lies between break points k-1 and k: a line through two
    * points well inside it. */
-  const double *br = lb->crease_t + lb->crease_start[curve];
-  int nb = lb->crease_start[curve + 1] - lb->crease_start[curve];
+  int nb;
+  const double *br = lines_of(lb, curve, GROOVE_LEVEL(g), &nb);
   double a = k > 0 ? br[k - 1] : br[0] - 1.0, b = k < nb ? br[k] : br[nb - 1] + 1.0;
   double t1 = a + 0.25 * (b - a), t2 = a + 0.75 * (b - a);
   /* Beyond an open end the side, so the sign of s, flips across the line
@@ -653,15 +720,14 @@ static int line_crossing(const labeler *lb, const work *w, const wedge *e, uint6
                          double x1, double *lo, double *hi, uint64_t *lhi) {
   uint64_t g0 = l0 >> 32, g1 = l1 >> 32;
   if ((l0 & 0xffffffffu) != (l1 & 0xffffffffu) || !g0) return 0;
-  int c = (int)(g0 >> 8) - 1, k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff);
-  const double *br = lb->crease_t + lb->crease_start[c];
+  int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
+  const double *br = lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
   if (g1 && (g0 >> 8) != (g1 >> 8)) return 0;
   int sa = -1, sb = -1;
   double a = x0, b = x1, ta = edge_t(lb, w, e, c, a, &sa), tb = edge_t(lb, w, e, c, b, &sb);
   if (!g1) {
     /* Out of the groove: through its lines to the rim first, one at a
      * time, towards the side x1 lies on; the rim itself is bisected. */
-    int nb = lb->crease_start[c + 1] - lb->crease_start[c];
     k1 = k0 + (tb > ta ? 1 : -1);
     if (k1 < 1 || k1 > nb - 1) return 0;
     g1 = (g0 & ~(uint64_t)0xff) | (uint64_t)k1;
@@ -694,7 +760,7 @@ static void rim_bracket(const labeler *lb, const work *w, const wedge *e, uint64
                         double *hi, uint64_t *lhi) {
   uint64_t g0 = l0 >> 32, g1 = l1 >> 32;
   if ((l0 & 0xffffffffu) != (l1 & 0xffffffffu) || (g0 && g1) || (!g0 && !g1)) return;
-  int c = (int)((g0 ? g0 : g1) >> 8) - 1, sa = -1, sb = -1;
+  int c = GROOVE_CURVE(g0 ? g0 : g1), sa = -1, sb = -1;
   double a = *lo, b = *hi;
   double fa = fabs(edge_t(lb, w, e, c, a, &sa)) - 0.5, fb = fabs(edge_t(lb, w, e, c, b, &sb)) - 0.5;
   if (!(fa * fb < 0.0)) return;
@@ -1547,7 +1613,7 @@ static int needs_refinement(const labeler *lb, const work *w, int t, int only_un
     if (!(fabs(p->hprev - p->hnext) <= lb->wall_tol && fabs(q->hprev - q->hnext) <= lb->wall_tol)) continue;
     uint64_t g = (p->lprev >> 32) ? p->lprev >> 32 : p->lnext >> 32;
     if (!g) continue; /* between step pieces: h is smooth across */
-    int c = (int)(g >> 8) - 1;
+    int c = GROOVE_CURVE(g);
     const ch_curve *cv = &lb->set->curves[c];
     double mid[2] = {0.5 * (p->uv[0] + q->uv[0]), 0.5 * (p->uv[1] + q->uv[1])}, err;
     if (cv->profile.kind == CH_PROFILE_U) {
@@ -1970,8 +2036,9 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
   for (int t = 0; t < o.ntri; t++) {
     uint64_t gr = o.group[t], g = gr >> 32;
     if (gr == WALL_GROUP || !g) continue;
-    const ch_curve *cv = &lb.set->curves[(g >> 8) - 1];
-    if (cv->profile.kind == CH_PROFILE_U) o.group[t] = (gr & ~(UINT64_C(0xff) << 32)) | (UINT64_C(1) << 32);
+    const ch_curve *cv = &lb.set->curves[GROOVE_CURVE(g)];
+    if (cv->profile.kind == CH_PROFILE_U) /* one group over its slices and line sets */
+      o.group[t] = (gr & ~((UINT64_C(0xff) | (UINT64_C(3) << 28)) << 32)) | (UINT64_C(1) << 32);
   }
   if ((st = build_mesh(&o, out, err))) goto done;
   o.pos = NULL; /* now out's */
