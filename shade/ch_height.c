@@ -47,24 +47,26 @@ void ch_height_free(ch_height *h) {
   memset(h, 0, sizeof *h);
 }
 
-void ch_height_step(const ch_height *h, double u, double v, ch_recon_sample *out) {
+/* Where the DCI is read for UV (u, v): through the warp when there is one. */
+static void dci_point(const ch_height *h, double u, double v, double out[2]) {
+  out[0] = u;
+  out[1] = v;
   if (h->warp) {
-    double uv[2] = {u, v}, w[2];
-    ch_warp_map(h->warp, uv, w);
-    u = w[0];
-    v = w[1];
+    double uv[2] = {u, v};
+    ch_warp_map(h->warp, uv, out);
   }
-  ch_recon_eval(&h->recon, h->step_method, u, v, 0.0, out);
+}
+
+void ch_height_step(const ch_height *h, double u, double v, ch_recon_sample *out) {
+  double q[2];
+  dci_point(h, u, v, q);
+  ch_recon_eval(&h->recon, h->step_method, q[0], q[1], 0.0, out);
 }
 
 void ch_height_step_side(const ch_height *h, double u, double v, int curve, int side, ch_recon_sample *out) {
-  if (h->warp) {
-    double uv[2] = {u, v}, w[2];
-    ch_warp_map(h->warp, uv, w);
-    u = w[0];
-    v = w[1];
-  }
-  ch_recon_eval_side(&h->recon, h->step_method, u, v, curve, side, out);
+  double q[2];
+  dci_point(h, u, v, q);
+  ch_recon_eval_side(&h->recon, h->step_method, q[0], q[1], curve, side, out);
 }
 
 double ch_height_eval(const ch_height *h, double u, double v) {

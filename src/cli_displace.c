@@ -337,13 +337,10 @@ static int run(int argc, char **argv) {
         memcpy(ch_image_plane(&maps, 1), gimg.pixels, plane * (size_t)gimg.num_channels);
         if (warp) {
           float *pu = ch_image_plane(&maps, 1 + gimg.num_channels), *pv = ch_image_plane(&maps, 2 + gimg.num_channels);
-          for (long y = 0; y < res; y++)
-            for (long x = 0; x < res; x++) {
-              double w[2] = {(x + 0.5) / res, 1.0 - (y + 0.5) / res}, uv[2];
-              ch_warp_unmap(warp, w, uv);
-              pu[y * res + x] = (float)uv[0];
-              pv[y * res + x] = (float)uv[1];
-            }
+          for (size_t i = 0; i < (size_t)res * (size_t)res; i++) {
+            pu[i] = gi.uv[2 * i];
+            pv[i] = gi.uv[2 * i + 1];
+          }
         }
         char *warp_text = warp ? warp_attributes(warp, (int)res) : NULL;
         ch_exr_attribute attrs[8] = {{"chisel:command", "displace"}, {"chisel:rect", "0 0 1 1"}};

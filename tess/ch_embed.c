@@ -1542,9 +1542,8 @@ static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
  * can poke into a triangle through one edge, crossing it twice between two
  * of its samples, and be missed whole (relief's roof: a region of the
  * wrong height one triangle wide). */
-static int coarse_at_step_corner(const labeler *lb, const double uv[3][2], double longest) {
+static int coarse_at_step_corner(const labeler *lb, const double uv[3][2], const double c[2], double longest) {
   if (!lb->has_steps) return 0;
-  double c[2] = {(uv[0][0] + uv[1][0] + uv[2][0]) / 3.0, (uv[0][1] + uv[1][1] + uv[2][1]) / 3.0};
   const int *items;
   int n = ch_grid_query(&lb->step_grid, c[0], c[1], &items);
   for (int k = 0; k < n; k++) {
@@ -1572,35 +1571,21 @@ static int coarse_at_step_corner(const labeler *lb, const double uv[3][2], doubl
 static int needs_refinement(const labeler *lb, const work *w, int t, int only_uncut) {
   const wtri *T = &w->tris[t];
   if (quiet(lb, T->uv[0]) && quiet(lb, T->uv[1]) && quiet(lb, T->uv[2])) return 0;
-  if (only_uncut) { /* the extra rounds of a warped mesh: what cannot be cut yet, nothing else */
-    bnode nodes[MAX_NODES];
-    int m = gather_nodes(w, t, nodes);
-    return m < 0 || classify(nodes, m) == CUT_COMPLEX;
-  }
-  if (lb->cap_angle > 0.0) {
-    double longest = 0.0;
-    for (int k = 0; k < 3; k++)
-      longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
-    double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
-    if (coarse_at_cap(lb, c, longest)) return 1;
-  }
-  {
-    double longest = 0.0;
-    for (int k = 0; k < 3; k++)
-      longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
-    if (coarse_at_step_corner(lb, T->uv, longest)) return 1;
-  }
+  double longest = 0.0;
+  for (int k = 0; k < 3; k++)
+    longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+  const double centre[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0,
+                            (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
+  /* (the extra rounds of a warped mesh, only_uncut: what cannot be cut yet, nothing else) */
+  if (!only_uncut && lb->cap_angle > 0.0 && coarse_at_cap(lb, centre, longest)) return 1;
+  if (!only_uncut && coarse_at_step_corner(lb, T->uv, centre, longest)) return 1;
   bnode nodes[MAX_NODES];
   int m = gather_nodes(w, t, nodes);
   if (m < 0 || classify(nodes, m) == CUT_COMPLEX) return 1;
+  if (only_uncut) return 0;
   /* Junctions are placed by estimate: keep their triangles small. */
   for (int i = 0; i < m; i++)
-    if (nodes[i].corner < 0 && nodes[i].pair < 0) {
-      double longest = 0.0;
-      for (int k = 0; k < 3; k++)
-        longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
-      return longest > lb->junction_size * local_factor(lb, nodes[i].uv);
-    }
+    if (nodes[i].corner < 0 && nodes[i].pair < 0) return longest > lb->junction_size * local_factor(lb, nodes[i].uv);
   /* A groove's lines curve away from the chords that follow them (by
    * len^2 / 8r): where h at a chord's middle leaves the mesh's h there
    * (the mean of its ends) by more than the groove's tolerance, the chords
@@ -1632,8 +1617,7 @@ static int needs_refinement(const labeler *lb, const work *w, int t, int only_un
     double lf = local_factor(lb, mid);
     if (err > lb->chord_tol[c] * lf) return 1;
   }
-  double c[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
-  uint64_t l = label_at(lb, c);
+  uint64_t l = label_at(lb, centre);
   for (int i = 0; i < m; i++)
     if (nodes[i].lprev == l || nodes[i].lnext == l) return 0;
   return 1;

@@ -129,6 +129,7 @@ ch_status ch_surface_locate(const ch_surface *s, int face, const double uv[2], d
 void ch_geomimage_free(ch_geomimage *gi) {
   free(gi->face);
   free(gi->st);
+  free(gi->uv);
   free(gi->position);
   free(gi->normal);
   memset(gi, 0, sizeof *gi);
@@ -161,9 +162,10 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
   int *first = malloc((size_t)(nf + 1) * sizeof *first);
   gi->face = ch_alloc_large(n, sizeof *gi->face, 0);
   gi->st = ch_alloc_large(2 * n, sizeof *gi->st, 1);
+  gi->uv = ch_alloc_large(2 * n, sizeof *gi->uv, 0);
   gi->position = ch_alloc_large(3 * n, sizeof *gi->position, 1);
   gi->normal = ch_alloc_large(3 * n, sizeof *gi->normal, 1);
-  if (!ps || !first || !gi->face || !gi->st || !gi->position || !gi->normal) {
+  if (!ps || !first || !gi->face || !gi->st || !gi->uv || !gi->position || !gi->normal) {
     free(ps);
     free(first);
     ch_geomimage_free(gi);
@@ -228,11 +230,29 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
 #undef ROW_RANGE
   free(fill);
   long covered = 0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : covered)
+  int out_of_memory = 0;
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : covered) reduction(| : out_of_memory)
   for (int y = 0; y < H; y++) {
     double v = rect[3] - (y + 0.5) * tv;
     int *row_face = gi->face + (size_t)y * W;
     for (int x = 0; x < W; x++) row_face[x] = -1;
+    /* The UV of the row's texel centres, taken back through the warp once
+     * (patches overlap in their boxes: a texel is tried by several). */
+    double *row_uv = warp ? malloc(2 * (size_t)W * sizeof *row_uv) : NULL;
+    if (warp && !row_uv) {
+      out_of_memory = 1;
+      continue;
+    }
+    for (int x = 0; x < W; x++) {
+      double q[2] = {rect[0] + (x + 0.5) * tu, v};
+      if (warp) {
+        ch_warp_unmap(warp, q, &row_uv[2 * x]);
+        q[0] = row_uv[2 * x];
+        q[1] = row_uv[2 * x + 1];
+      }
+      gi->uv[2 * ((size_t)y * W + x)] = (float)q[0];
+      gi->uv[2 * ((size_t)y * W + x) + 1] = (float)q[1];
+    }
     for (int it = row_count[y]; it < row_count[y + 1]; it++) {
       const patch *p = &ps[row_items[it]];
       int x0 = (int)ceil((p->box[0] - rect[0]) / tu - 0.5), x1 = (int)floor((p->box[2] - rect[0]) / tu - 0.5);
@@ -241,10 +261,7 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
       for (int x = x0; x <= x1; x++) {
         if (row_face[x] >= 0) continue;
         double q[2] = {rect[0] + (x + 0.5) * tu, v}, ab[2];
-        if (warp) {
-          double w[2] = {q[0], q[1]};
-          ch_warp_unmap(warp, w, q);
-        }
+        if (warp) q[0] = row_uv[2 * x], q[1] = row_uv[2 * x + 1];
         if (inverse_bilinear(p->uv, q, 1e-9, ab)) continue;
         double st2[2] = {p->origin[0] + p->scale * ab[0], p->origin[1] + p->scale * ab[1]};
         ch_surface_point sp;
@@ -260,11 +277,16 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
         covered++;
       }
     }
+    free(row_uv);
   }
   gi->covered = covered;
   free(row_items);
   free(row_count);
   free(ps);
+  if (out_of_memory) {
+    ch_geomimage_free(gi);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a warped geometry image");
+  }
   return CH_OK;
 }
 

@@ -23,6 +23,8 @@ typedef struct ch_geomimage {
   double rect[4];     /* u0 v0 u1 v1 */
   int *face;          /* W*H: base face covering the texel centre, -1 if none */
   float *st;          /* 2 per texel: its (s, t) in that face */
+  float *uv;          /* 2 per texel: the UV of its centre (in warped images
+                         taken back through the warp), for every texel */
   float *position;    /* 3 per texel: B */
   float *normal;      /* 3 per texel: N */
   long covered;       /* texels with a face */

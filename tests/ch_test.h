@@ -5,7 +5,18 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdint.h>
 #include <stdlib.h>
+
+/* Uniform in [0, 1), xorshift64*: the same sequence in every test file
+ * (each has its own state). */
+static inline double ch_test_rnd(void) {
+  static uint64_t state = 0x9e3779b97f4a7c15ull;
+  state ^= state >> 12;
+  state ^= state << 25;
+  state ^= state >> 27;
+  return (double)((state * 0x2545f4914f6cdd1dull) >> 11) * (1.0 / 9007199254740992.0);
+}
 
 static int ch_test_failures = 0;
 static int ch_test_checks = 0;

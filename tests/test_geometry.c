@@ -11,13 +11,6 @@
 #include "ch_groove.h"
 #include "ch_test.h"
 
-static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
-static double rnd(void) { /* xorshift64*, uniform in [0, 1) */
-  rng_state ^= rng_state >> 12;
-  rng_state ^= rng_state << 25;
-  rng_state ^= rng_state >> 27;
-  return (double)((rng_state * 0x2545f4914f6cdd1dull) >> 11) * (1.0 / 9007199254740992.0);
-}
 
 /* Independent closest point: 4096 samples, then bisection on the sign of
  * the derivative of the squared distance around the best sample (both
@@ -60,14 +53,14 @@ static double brute_d2(const double p[3][2], const double q[2], double *t_best) 
 }
 
 static void random_quad(double p[3][2], int kind) {
-  for (int i = 0; i < 3; i++) p[i][0] = rnd(), p[i][1] = rnd();
+  for (int i = 0; i < 3; i++) p[i][0] = ch_test_rnd(), p[i][1] = ch_test_rnd();
   switch (kind) {
   case 1: /* nearly straight: control point 1e-9 off the chord's middle */
-    p[1][0] = 0.5 * (p[0][0] + p[2][0]) + 1e-9 * (rnd() - 0.5);
-    p[1][1] = 0.5 * (p[0][1] + p[2][1]) + 1e-9 * (rnd() - 0.5);
+    p[1][0] = 0.5 * (p[0][0] + p[2][0]) + 1e-9 * (ch_test_rnd() - 0.5);
+    p[1][1] = 0.5 * (p[0][1] + p[2][1]) + 1e-9 * (ch_test_rnd() - 0.5);
     break;
   case 2: /* control point on an end */
-    memcpy(p[1], p[rnd() < 0.5 ? 0 : 2], sizeof p[1]);
+    memcpy(p[1], p[ch_test_rnd() < 0.5 ? 0 : 2], sizeof p[1]);
     break;
   case 3: /* folded: collinear, control point beyond the end */
     p[1][0] = p[0][0] + 1.7 * (p[2][0] - p[0][0]);
@@ -77,7 +70,7 @@ static void random_quad(double p[3][2], int kind) {
     memcpy(p[2], p[0], sizeof p[2]);
     break;
   case 5: /* tiny segment */
-    for (int i = 1; i < 3; i++) p[i][0] = p[0][0] + 1e-7 * rnd(), p[i][1] = p[0][1] + 1e-7 * rnd();
+    for (int i = 1; i < 3; i++) p[i][0] = p[0][0] + 1e-7 * ch_test_rnd(), p[i][1] = p[0][1] + 1e-7 * ch_test_rnd();
     break;
   default: break;
   }
@@ -87,7 +80,7 @@ static void test_closest_vs_brute_force(void) {
   double max_err = 0.0;
   int n = 100000;
   for (int i = 0; i < n; i++) {
-    double p[3][2], q[2] = {rnd() * 1.4 - 0.2, rnd() * 1.4 - 0.2};
+    double p[3][2], q[2] = {ch_test_rnd() * 1.4 - 0.2, ch_test_rnd() * 1.4 - 0.2};
     random_quad(p, i % 6);
     double t, tb;
     double d = sqrt(ch_bezier_closest(p, 0, q, &t));
@@ -120,7 +113,7 @@ static void test_length(void) {
 static void test_line_closest(void) {
   double max_err = 0.0;
   for (int i = 0; i < 100000; i++) {
-    double p[3][2], q[2] = {rnd(), rnd()}, t, tb;
+    double p[3][2], q[2] = {ch_test_rnd(), ch_test_rnd()}, t, tb;
     random_quad(p, 0);
     p[1][0] = 0.5 * (p[0][0] + p[2][0]);
     p[1][1] = 0.5 * (p[0][1] + p[2][1]);
@@ -219,7 +212,7 @@ static void test_signed_distance_and_caps(void) {
   set = make_set(sq, 4, 1, 1);
   int inside_ok = 1, outside_ok = 1;
   for (int i = 0; i < 2000; i++) {
-    double q[2] = {rnd(), rnd()};
+    double q[2] = {ch_test_rnd(), ch_test_rnd()};
     ch_curve_closest(&set, 0, q, &cp);
     int inside = q[0] > 0.2 && q[0] < 0.8 && q[1] > 0.2 && q[1] < 0.8;
     if (inside && cp.signed_distance <= 0) inside_ok = 0;
@@ -279,7 +272,7 @@ static void test_cubic_split(void) {
   double max_dev = 0.0;
   for (int trial = 0; trial < 50; trial++) {
     double c[4][2];
-    for (int i = 0; i < 4; i++) c[i][0] = rnd(), c[i][1] = rnd();
+    for (int i = 0; i < 4; i++) c[i][0] = ch_test_rnd(), c[i][1] = ch_test_rnd();
     int count = 0;
     void *user[2] = {quads, &count};
     ch_cubic_to_quads(c, 1e-6, collect_quads, user);
@@ -331,7 +324,7 @@ static void test_field_vs_scan(void) {
   REQUIRE(ch_groove_field_init(&field, &set, &err) == CH_OK);
   int mismatches = 0;
   for (int i = 0; i < 20000; i++) {
-    double q[2] = {rnd() * 1.2 - 0.1, rnd() * 1.2 - 0.1};
+    double q[2] = {ch_test_rnd() * 1.2 - 0.1, ch_test_rnd() * 1.2 - 0.1};
     double min_carve = 0, max_raise = 0;
     for (int c = 0; c < set.num_curves; c++) {
       if (set.curves[c].kind != CH_CURVE_GROOVE) continue;

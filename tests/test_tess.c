@@ -38,13 +38,6 @@ static const char *models[] = {"plane", "torus", "obelisk", "vase", "tablet"};
 enum { NUM_MODELS = 5 };
 static const int model_closed[] = {0, 1, 1, 0, 1};
 
-static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
-static double rnd(void) {
-  rng_state ^= rng_state >> 12;
-  rng_state ^= rng_state << 25;
-  rng_state ^= rng_state >> 27;
-  return (double)((rng_state * 0x2545f4914f6cdd1dull) >> 11) / 9007199254740992.0;
-}
 
 static int load_model(const char *name, ch_mesh *m) {
   char path[1024];
@@ -140,14 +133,14 @@ static void make_fan(ch_mesh *m) {
 static void random_param(const ch_surface *S, int f, double st[2]) {
   int n = ch_surface_face_size(S, f);
   if (n == 4) {
-    st[0] = rnd(), st[1] = rnd();
+    st[0] = ch_test_rnd(), st[1] = ch_test_rnd();
     return;
   }
-  int k = (int)(rnd() * n) % n;
+  int k = (int)(ch_test_rnd() * n) % n;
   double c[2];
   ch_surface_corner_param(S, f, k, c);
-  st[0] = c[0] + 0.5 * rnd();
-  st[1] = c[1] + 0.5 * rnd();
+  st[0] = c[0] + 0.5 * ch_test_rnd();
+  st[1] = c[1] + 0.5 * ch_test_rnd();
 }
 
 static double dist3(const double a[3], const double b[3]) {
@@ -174,7 +167,7 @@ static void test_plane(void) {
     REQUIRE(S);
     double maxp = 0, maxn = 0;
     for (int i = 0; i < 5000; i++) {
-      int f = (int)(rnd() * m.num_faces) % m.num_faces;
+      int f = (int)(ch_test_rnd() * m.num_faces) % m.num_faces;
       double st[2];
       random_param(S, f, st);
       if (i < 200) st[i % 2] = (i / 2) % 2; /* on face edges too */
@@ -204,10 +197,10 @@ static void test_bilinear_weights(void) {
   REQUIRE(S);
   double maxe = 0;
   for (int i = 0; i < 3000; i++) {
-    int f = (int)(rnd() * m.num_faces) % m.num_faces;
+    int f = (int)(ch_test_rnd() * m.num_faces) % m.num_faces;
     int n = m.face_start[f + 1] - m.face_start[f];
-    int k = (int)(rnd() * n) % n;
-    double c[2], a = rnd(), b = rnd();
+    int k = (int)(ch_test_rnd() * n) % n;
+    double c[2], a = ch_test_rnd(), b = ch_test_rnd();
     ch_surface_corner_param(S, f, k, c);
     ch_surface_point p;
     REQUIRE(ch_surface_eval(S, f, c[0] + 0.5 * a, c[1] + 0.5 * b, &p) == CH_OK);
@@ -262,8 +255,8 @@ static void test_cube_catmark(void) {
   REQUIRE(ref);
   double ep = 0, ed = 0, en = 0;
   for (int i = 0; i < 3000; i++) {
-    int f = (int)(rnd() * 6) % 6;
-    double s = rnd(), t = rnd();
+    int f = (int)(ch_test_rnd() * 6) % 6;
+    double s = ch_test_rnd(), t = ch_test_rnd();
     ch_surface_point p;
     double P[3], Ds[3], Dt[3], N[3];
     REQUIRE(ch_surface_eval(S, f, s, t, &p) == CH_OK);

@@ -17,13 +17,6 @@
 #include "ch_test.h"
 #include "ch_warp.h"
 
-static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
-static double rnd(void) { /* xorshift64*, uniform in [0, 1) */
-  rng_state ^= rng_state >> 12;
-  rng_state ^= rng_state << 25;
-  rng_state ^= rng_state >> 27;
-  return (double)((rng_state * 0x2545f4914f6cdd1dull) >> 11) * (1.0 / 9007199254740992.0);
-}
 
 /* An N x N grid of quads over [0, u_max] x [0, 1], each split along its
  * diagonal into two counter-clockwise triangles, at positions (u, v, 0).
@@ -256,7 +249,7 @@ static void test_axis_inverse(void) {
     CHECK(ch_warp_axis(&w, axis, -0.5) == 0.0 && ch_warp_axis(&w, axis, 1.5) == 1.0);
     double worst = 0.0, prev = -1.0;
     for (int i = 0; i < 2000; i++) {
-      double x = rnd(), y = ch_warp_axis(&w, axis, x);
+      double x = ch_test_rnd(), y = ch_warp_axis(&w, axis, x);
       worst = fmax(worst, fabs(ch_warp_axis_inverse(&w, axis, y) - x));
       worst = fmax(worst, fabs(ch_warp_axis(&w, axis, ch_warp_axis_inverse(&w, axis, x)) - x));
     }
@@ -309,7 +302,7 @@ static void test_cage_map_on_knots(void) {
   double worst_w = 0.0, worst_inv = 0.0;
   int outside = 0;
   for (int i = 0; i < 5000; i++) {
-    double q[2] = {rnd(), rnd()}, m[2], back[2];
+    double q[2] = {ch_test_rnd(), ch_test_rnd()}, m[2], back[2];
     outside += ch_warp_map(&w, q, m) < 0;
     worst_w = fmax(worst_w, fmax(fabs(m[0] - ch_warp_axis(&w, 0, q[0])), fabs(m[1] - ch_warp_axis(&w, 1, q[1]))));
     outside += ch_warp_unmap(&w, m, back) < 0;
@@ -370,7 +363,7 @@ static void test_cage_map_jittered(void) {
   REQUIRE(w.stats.folded_triangles == 0 && count_folds(&w) == 0);
   double worst = 0.0;
   for (int i = 0; i < 5000; i++) {
-    double q[2] = {rnd(), rnd()}, m[2], back[2];
+    double q[2] = {ch_test_rnd(), ch_test_rnd()}, m[2], back[2];
     int t = ch_warp_map(&w, q, m);
     CHECK(t >= 0);
     CHECK(ch_warp_unmap(&w, m, back) >= 0);
@@ -405,7 +398,7 @@ static void test_arc(void) {
   CHECK_MSG(total >= poly && total - poly <= 1e-7, "arc %.17g polyline %.17g", total, poly);
   double worst = 0.0;
   for (int i = 0; i < 500; i++) {
-    double x = rnd();
+    double x = ch_test_rnd();
     double y = ch_warp_arc(&w, c, d, x) / total;
     worst = fmax(worst, fabs(ch_warp_arc_inverse(&w, c, d, y) - x));
   }
