@@ -96,7 +96,7 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
                          const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err);
 
 /* Tessellates surface and embeds the features so that the output lands
- * within 4% of target_triangles where the base mesh allows: what the cut
+ * within 5% of target_triangles where the base mesh allows: what the cut
  * adds grows like the number of edges the feature lines cross, so like
  * sqrt(base), plus what does not grow with the base (refinement at
  * junctions and ends, the rims' slices); pilot runs at 1/64 and 1/16 of
