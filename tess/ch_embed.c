@@ -763,10 +763,12 @@ static double level_value(const labeler *lb, const work *w, const wedge *e, leve
 
 /* A level set of a level function f - target along edge e, bracketed by
  * [*a, *b] with f(a) = *fa and f(b) = *fb of opposite signs, by false
- * position (Illinois) until the bracket is below tol. One segment of c
- * (seg >= 0: both ends are nearest it) is enough for the search; callers
- * check the answer by the labels. On return [*a, *b] brackets the root
- * (in either order) and *fa is f(*a). */
+ * position (Illinois) until the bracket is below tol, or until the last
+ * estimate m is within tol / 4 of the root by the secant's slope: then
+ * [*a, *b] = m -+ tol / 2 (unchecked: callers check the answer by the
+ * labels). One segment of c (seg >= 0: both ends are nearest it) is
+ * enough for the search. On return [*a, *b] brackets the root (in either
+ * order) and *fa is f(*a)'s sign. */
 static void level_root(const labeler *lb, const work *w, const wedge *e, level_kind kind, int c, int seg,
                        double target, double tol, double *a, double *b, double *fa, double *fb) {
   int side = 0;
@@ -777,6 +779,16 @@ static void level_root(const labeler *lb, const work *w, const wedge *e, level_k
     /* On the level itself a line's label is still the lower piece's:
      * keep bracketing. */
     if (fm == 0.0) fm = -1e-300;
+    double slope = (fm - *fb) / (m - *b);
+    if (fabs(fm) <= 0.25 * tol * fabs(slope)) {
+      /* the side of m - tol / 2 is the one opposite to fm's along the slope */
+      double lo = m - 0.5 * tol, hi = m + 0.5 * tol, flo = (slope > 0.0) == (fm > 0.0) ? -fm : fm;
+      *a = lo;
+      *fa = flo;
+      *b = hi;
+      *fb = -flo;
+      return;
+    }
     if (fm * *fb < 0.0) {
       *a = *b;
       *fa = *fb;
