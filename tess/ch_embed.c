@@ -1868,8 +1868,68 @@ static ch_status build_mesh(const out_mesh *o, ch_mesh *m, ch_error *err) {
 /* ---- the whole embedding ------------------------------------------------- */
 double ch_embed_angle_deg(double reference_edge) { return fmin(10.0, fmax(1.0, 1800.0 * reference_edge)); }
 
-ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
-                         const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats_out, ch_error *err) {
+/* What a count-only run leaves for embed_finish: its cut. */
+typedef struct embed_kept {
+  out_mesh o;
+  ch_embed_stats stats;
+} embed_kept;
+
+/* From the cut to the displaced mesh: positions, normals by group, the
+ * collapse of zero-length edges. On return o's positions are out's (the
+ * caller still frees o with out_free). */
+static ch_status embed_finish(const ch_surface *surface, const ch_curve_set *set, out_mesh *o, ch_embed_stats *stats,
+                              ch_mesh *out, ch_error *err) {
+  double t_start = omp_get_wtime();
+  ch_status st;
+  if ((st = evaluate_positions(surface, o, err))) return st;
+  double t2 = omp_get_wtime();
+  stats->seconds_cut += t2 - t_start;
+  stats->min_h = INFINITY;
+  stats->max_h = -INFINITY;
+  for (int i = 0; i < o->npos; i++) {
+    stats->min_h = fmin(stats->min_h, o->h[i]);
+    stats->max_h = fmax(stats->max_h, o->h[i]);
+  }
+  /* Normals are shared within a group. The pieces of a u groove between
+   * its rims meet at lines where the surface is smooth (its slices exist
+   * only so that facets follow P): one group for them all, so shading is
+   * smooth across them and split only at its rims. */
+#pragma omp parallel for schedule(static)
+  for (int t = 0; t < o->ntri; t++) {
+    uint64_t gr = o->group[t], g = gr >> 32;
+    if (gr == WALL_GROUP || !g) continue;
+    const ch_curve *cv = &set->curves[GROOVE_CURVE(g)];
+    if (cv->profile.kind == CH_PROFILE_U) /* one group over its slices and line sets */
+      o->group[t] = (gr & ~((UINT64_C(0xff) | (UINT64_C(3) << 28)) << 32)) | (UINT64_C(1) << 32);
+  }
+  if ((st = build_mesh(o, out, err))) return st;
+  o->pos = NULL; /* now out's */
+  {
+    /* A line through a vertex of the tessellation puts its boundary point
+     * within rounding of that vertex: collapse those zero-length edges
+     * (where the mesh stays manifold) rather than keep zero-area slivers. */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int v = 0; v < out->num_positions; v++)
+      for (int k = 0; k < 3; k++) {
+        lo[k] = fmin(lo[k], out->positions[3 * (size_t)v + k]);
+        hi[k] = fmax(hi[k], out->positions[3 * (size_t)v + k]);
+      }
+    double span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+    double diag = out->num_positions ? sqrt(ch_dot3(span, span)) : 0.0;
+    if (ch_mesh_collapse_short_edges(out, 1e-12 * diag) < 0 || ch_mesh_remove_pillows(out) < 0) {
+      ch_mesh_free(out);
+      return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
+    }
+  }
+  stats->triangles = out->num_faces;
+  stats->seconds_normals = omp_get_wtime() - t2;
+  return CH_OK;
+}
+
+/* ch_embed_build; a count-only run hands its cut to *kept if asked. */
+static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
+                           const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats_out, embed_kept *kept,
+                           ch_error *err) {
   memset(out, 0, sizeof *out);
   ch_embed_stats stats = {0};
   const ch_mesh *tm = &tess->mesh;
@@ -2123,57 +2183,20 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
     free(pstats);
     if (oom) goto nomem;
   }
+  stats.seconds_refine = t1 - t0;
+  stats.seconds_cut = omp_get_wtime() - t1;
   if (desc && desc->count_only) {
     stats.triangles = o.ntri;
-    stats.seconds_refine = t1 - t0;
-    stats.seconds_cut = omp_get_wtime() - t1;
     if (stats_out) *stats_out = stats;
+    if (kept) { /* the caller may finish it */
+      kept->o = o;
+      kept->stats = stats;
+      memset(&o, 0, sizeof o);
+    }
     goto done;
   }
-  if ((st = evaluate_positions(surface, &o, err))) goto done;
-  double t2 = omp_get_wtime();
-  stats.min_h = INFINITY;
-  stats.max_h = -INFINITY;
-  for (int i = 0; i < o.npos; i++) {
-    stats.min_h = fmin(stats.min_h, o.h[i]);
-    stats.max_h = fmax(stats.max_h, o.h[i]);
-  }
-  /* Normals are shared within a group. The pieces of a u groove between
-   * its rims meet at lines where the surface is smooth (its slices exist
-   * only so that facets follow P): one group for them all, so shading is
-   * smooth across them and split only at its rims. */
-#pragma omp parallel for schedule(static)
-  for (int t = 0; t < o.ntri; t++) {
-    uint64_t gr = o.group[t], g = gr >> 32;
-    if (gr == WALL_GROUP || !g) continue;
-    const ch_curve *cv = &lb.set->curves[GROOVE_CURVE(g)];
-    if (cv->profile.kind == CH_PROFILE_U) /* one group over its slices and line sets */
-      o.group[t] = (gr & ~((UINT64_C(0xff) | (UINT64_C(3) << 28)) << 32)) | (UINT64_C(1) << 32);
-  }
-  if ((st = build_mesh(&o, out, err))) goto done;
-  o.pos = NULL; /* now out's */
-  {
-    /* A line through a vertex of the tessellation puts its boundary point
-     * within rounding of that vertex: collapse those zero-length edges
-     * (where the mesh stays manifold) rather than keep zero-area slivers. */
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (int v = 0; v < out->num_positions; v++)
-      for (int k = 0; k < 3; k++) {
-        lo[k] = fmin(lo[k], out->positions[3 * (size_t)v + k]);
-        hi[k] = fmax(hi[k], out->positions[3 * (size_t)v + k]);
-      }
-    double span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
-    double diag = out->num_positions ? sqrt(ch_dot3(span, span)) : 0.0;
-    if (ch_mesh_collapse_short_edges(out, 1e-12 * diag) < 0 || ch_mesh_remove_pillows(out) < 0) {
-      ch_mesh_free(out);
-      goto nomem;
-    }
-  }
-  stats.triangles = out->num_faces;
-  stats.seconds_refine = t1 - t0;
-  stats.seconds_cut = t2 - t1;
-  stats.seconds_normals = omp_get_wtime() - t2;
-  if (stats_out) *stats_out = stats;
+  st = embed_finish(surface, height->set, &o, &stats, out, err);
+  if (!st && stats_out) *stats_out = stats;
   goto done;
 nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
@@ -2186,6 +2209,11 @@ done:
   free(w.tri_edge);
   free(fresh);
   return st;
+}
+
+ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
+                         const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err) {
+  return embed_run(surface, tess, height, desc, out, stats, NULL, err);
 }
 
 /* The base count b with b + c0 + c1 sqrt(b) = target (bisection; 1 if
@@ -2248,20 +2276,25 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       }
       d.reference_edge = sqrt(2.0 * area / (double)target);
     }
-    /* Pilots only count; one that lands is run again in full. */
+    /* Pilots only count; one that lands is finished from its cut. */
     d.count_only = pass < pilots;
-    if ((st = ch_embed_build(surface, &cur_tess, height, &d, &cur, &cur_stats, err))) break;
+    embed_kept kept = {0};
+    st = embed_run(surface, &cur_tess, height, &d, &cur, &cur_stats, d.count_only ? &kept : NULL, err);
+    if (st) break;
     runs++;
     double nb = cur_tess.mesh.num_faces, no = (double)cur_stats.triangles, miss = fabs(no - (double)target);
     xs[pass] = nb;
     ys[pass] = no;
     if (d.count_only && miss <= 0.04 * (double)target) {
       d.count_only = 0;
-      if ((st = ch_embed_build(surface, &cur_tess, height, &d, &cur, &cur_stats, err))) break;
-      runs++;
+      cur_stats = kept.stats;
+      st = embed_finish(surface, height->set, &kept.o, &cur_stats, &cur, err);
+      out_free(&kept.o);
+      if (st) break;
       no = ys[pass] = (double)cur_stats.triangles; /* the cleanup's count */
       miss = fabs(no - (double)target);
     }
+    out_free(&kept.o);
     if (!d.count_only && miss < best_miss) { /* keep the closest full run */
       ch_tess_free(&best_tess);
       ch_mesh_free(&best);

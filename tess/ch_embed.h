@@ -104,7 +104,8 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
  * model predicts, and more follow the secant through the last two runs.
  * Where the model says the u lines would take more than 7/8 of the
  * target, their angle step is coarsened (by 1.5, up to 4 times) and the
- * pilots rerun. The run closest to the target is kept: tess receives its
+ * pilots rerun. A pilot that lands is finished from its cut (not run
+ * again). The run closest to the target is kept: tess receives its
  * tessellation (free it with ch_tess_free), out its embedded mesh; passes
  * the number of runs. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
