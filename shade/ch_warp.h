@@ -62,7 +62,9 @@ typedef struct ch_warp_cage {
  * seen (1) gives the nearest part of a view the most, but accuracy over
  * all that is seen is best with even density over it: 1/2 keeps the
  * perspective's ordering at half its contrast (measured: bench/warp.sh). */
+#ifndef CH_WARP_EXPONENT
 #define CH_WARP_EXPONENT 0.5
+#endif
 
 /* Zero means default. */
 typedef struct ch_warp_desc {
