@@ -2337,7 +2337,6 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
         d.normal_tolerance_deg = (coarsenings == 0 ? ch_embed_angle_deg(d.reference_edge) : d.normal_tolerance_deg) * 1.5;
         coarsenings++;
         pass = -1;
-        runs = 0;
         base = first_base;
         ch_tess_free(&best_tess);
         ch_mesh_free(&best);

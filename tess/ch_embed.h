@@ -107,7 +107,8 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
  * pilots rerun. A pilot that lands is finished from its cut (not run
  * again). The run closest to the target is kept: tess receives its
  * tessellation (free it with ch_tess_free), out its embedded mesh; passes
- * the number of runs. */
+ * the number of embedding runs, pilots and reruns after a coarsening
+ * included. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);
