@@ -350,6 +350,28 @@ int main(int argc, char **argv) {
       if (worst >= 0)
         fprintf(stderr, "chisel-accuracy: %s: largest error %.4g of max |h| at uv (%.6f, %.6f)\n", paths[m],
                 ref.error_map[worst], (worst % grid + 0.5) / grid, (worst / grid + 0.5) / grid);
+      /* Where the error lives: its share of the L1 sum (and of the samples)
+       * by distance to the nearest wall or crease, in mean edges e. */
+      static const double edges[] = {0.25, 1.0, 2.0, 4.0, INFINITY};
+      double part[5] = {0}, total = 0.0;
+      long cnt[5] = {0}, all = 0;
+      for (long k = 0; k < grid * grid; k++) {
+        float x = ref.error_map[k];
+        if (x != x) continue;
+        int b = 0;
+        while (b < 4 && !(ref.dist[k] < edges[b] * a.edge_length)) b++;
+        part[b] += fabsf(x);
+        total += fabsf(x);
+        cnt[b]++;
+        all++;
+      }
+      if (total > 0.0)
+        fprintf(stderr,
+                "chisel-accuracy: %s: L1 by distance to the features (e): < 1/4 %.1f%% (%.1f%% of samples), < 1 "
+                "%.1f%% (%.1f%%), < 2 %.1f%% (%.1f%%), < 4 %.1f%% (%.1f%%), beyond %.1f%% (%.1f%%)\n",
+                paths[m], 100 * part[0] / total, 100.0 * cnt[0] / all, 100 * part[1] / total, 100.0 * cnt[1] / all,
+                100 * part[2] / total, 100.0 * cnt[2] / all, 100 * part[3] / total, 100.0 * cnt[3] / all,
+                100 * part[4] / total, 100.0 * cnt[4] / all);
       int shown = 0;
       for (long k = 0; k < grid * grid && shown < 8; k++)
         if (ref.error_map[k] != ref.error_map[k]) /* uncovered */
