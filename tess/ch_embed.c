@@ -892,7 +892,8 @@ static void narrow_crossing(const labeler *lb, const work *w, const wedge *e, ui
     int c = (int)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int)((s1 >> 1) - 1);
     double fa = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x0, NULL);
     double fb = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x1, NULL);
-    if (fa != 0.0 && fa * fb < 0.0) narrow_to_level(lb, w, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+    if (fa != 0.0 && fa * fb < 0.0)
+      narrow_to_level(lb, w, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
   }
 }
 
