@@ -408,55 +408,54 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
   return g << 32 | s;
 }
 
-/* Signed distance s from uv to groove curve c: over c's segments in the
- * grooves' grid cell, which hold its closest one wherever |s| <= w/2 (each
- * box is grown by w/2); beyond, over all of c's segments, or with
- * `cell_beyond` the closest of those in the cell if there are any (a
- * distance beyond w/2 still, not always the least: enough to bracket a
- * level inside the groove, and a scan of a long curve less). Ties go to
- * the first segment, as in ch_curve_closest. */
-static double groove_distance_in(const labeler *lb, int c, const double uv[2], int *segment, int cell_beyond) {
-  const ch_groove_field *gf = &lb->height->grooves;
-  const int *items;
-  int n = ch_grid_query(&gf->grid, uv[0], uv[1], &items);
-  double best = INFINITY, best_t = 0.0, half = 0.5 * lb->set->curves[c].width;
-  int best_seg = -1, others = 0;
-  /* Within w/2 only segments whose grown box holds uv can be closest. */
-  for (int k = 0; k < n; k++) {
-    const ch_segment *sg = &lb->set->segments[items[k]];
-    if (sg->curve != c) continue;
-    const double *b = gf->boxes[items[k]];
-    if (uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]) {
-      others = 1;
-      continue;
-    }
-    double t, d2 = ch_bezier_closest(sg->p, sg->is_line, uv, &t);
-    if (d2 < best) {
-      best = d2;
-      best_t = t;
-      best_seg = items[k];
-    }
-  }
-  if (!(best <= half * half) && cell_beyond && others) {
-    for (int k = 0; k < n; k++) { /* beyond: the closest in the cell */
-      const ch_segment *sg = &lb->set->segments[items[k]];
+/* The segment of curve c closest to uv among those in uv's cell of grid
+ * whose box (grown by reach) holds uv: they hold the closest one wherever
+ * it is within reach. With `beyond`, if none is within reach, the closest
+ * of c's other segments in the cell (not always the least distance, but
+ * one beyond reach still). Ties go to the first segment, as in
+ * ch_curve_closest. Returns the segment (-1: none in the cell), its
+ * squared distance and parameter in *d2 and *t. */
+static int closest_in_cell(const ch_curve_set *set, const ch_grid *grid, const double (*boxes)[4], int c,
+                           const double uv[2], double reach, int beyond, double *d2, double *t) {
+  const int *items = NULL;
+  int n = ch_grid_query(grid, uv[0], uv[1], &items), best_seg = -1;
+  double best = INFINITY, best_t = 0.0;
+  for (int pass = 0; pass < (beyond ? 2 : 1) && !(best <= reach * reach); pass++)
+    for (int k = 0; k < n; k++) {
+      const ch_segment *sg = &set->segments[items[k]];
       if (sg->curve != c) continue;
-      double t, d2 = ch_bezier_closest(sg->p, sg->is_line, uv, &t);
-      if (d2 < best || (d2 == best && items[k] < best_seg)) {
-        best = d2;
-        best_t = t;
+      const double *b = boxes[items[k]];
+      int inside = !(uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]);
+      if (inside != (pass == 0)) continue;
+      double tk, dk = ch_bezier_closest(sg->p, sg->is_line, uv, &tk);
+      if (dk < best || (dk == best && items[k] < best_seg)) {
+        best = dk;
+        best_t = tk;
         best_seg = items[k];
       }
     }
-  }
-  if (best_seg < 0 || (!(best <= half * half) && !cell_beyond)) {
+  *d2 = best;
+  *t = best_t;
+  return best_seg;
+}
+
+/* Signed distance s from uv to groove curve c: over c's segments in the
+ * grooves' grid cell (boxes grown by w/2); beyond w/2, over all of c's
+ * segments, or with `cell_beyond` the closest of those in the cell if
+ * there are any (enough to bracket a level inside the groove, and a scan
+ * of a long curve less). */
+static double groove_distance_in(const labeler *lb, int c, const double uv[2], int *segment, int cell_beyond) {
+  const ch_groove_field *gf = &lb->height->grooves;
+  double half = 0.5 * lb->set->curves[c].width, d2, t;
+  int seg = closest_in_cell(lb->set, &gf->grid, (const double(*)[4])gf->boxes, c, uv, half, cell_beyond, &d2, &t);
+  if (seg < 0 || (!(d2 <= half * half) && !cell_beyond)) {
     ch_curve_point cp;
     ch_curve_closest(lb->set, c, uv, &cp);
     if (segment) *segment = cp.segment;
     return cp.signed_distance;
   }
-  if (segment) *segment = best_seg;
-  return sqrt(best) * ch_curve_side(lb->set, best_seg, best_t, uv);
+  if (segment) *segment = seg;
+  return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
 }
 
 static double groove_distance(const labeler *lb, int c, const double uv[2]) {
@@ -682,38 +681,21 @@ static double edge_length(const work *w, const wedge *e) {
 }
 
 /* Signed distance from uv to step curve c over c's segments in the step
- * grid's cell whose boxes (grown by the radius) hold uv: they hold the
- * closest one wherever it is within the radius; beyond, the closest of c's
- * segments in the cell (the level functions only need a distance beyond
- * the radius there), or over all of c's segments if the cell has none. */
+ * grid's cell (boxes grown by the radius); beyond the radius, the closest
+ * of c's segments in the cell (the level functions only need a distance
+ * beyond the radius there), or over all of c's segments if the cell has
+ * none. */
 static double step_distance_at(const labeler *lb, int c, const double uv[2], int *segment) {
-  const ch_curve_set *set = lb->set;
-  const int *items = NULL;
-  int n = ch_grid_query(&lb->step_grid, uv[0], uv[1], &items);
-  double best = INFINITY, best_t = 0.0;
-  int best_seg = -1;
-  for (int pass = 0; pass < 2 && !(best <= lb->radius * lb->radius); pass++)
-    for (int k = 0; k < n; k++) {
-      const ch_segment *sg = &set->segments[items[k]];
-      if (sg->curve != c) continue;
-      const double *b = lb->step_boxes[items[k]];
-      int inside = !(uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]);
-      if (inside != (pass == 0)) continue;
-      double t, d2 = ch_bezier_closest(sg->p, sg->is_line, uv, &t);
-      if (d2 < best || (d2 == best && items[k] < best_seg)) {
-        best = d2;
-        best_t = t;
-        best_seg = items[k];
-      }
-    }
-  if (best_seg < 0) {
+  double d2, t;
+  int seg = closest_in_cell(lb->set, &lb->step_grid, (const double(*)[4])lb->step_boxes, c, uv, lb->radius, 1, &d2, &t);
+  if (seg < 0) {
     ch_curve_point cp;
-    ch_curve_closest(set, c, uv, &cp);
+    ch_curve_closest(lb->set, c, uv, &cp);
     if (segment) *segment = cp.segment;
     return cp.signed_distance;
   }
-  if (segment) *segment = best_seg;
-  return sqrt(best) * ch_curve_side(set, best_seg, best_t, uv);
+  if (segment) *segment = seg;
+  return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
 }
 
 /* The level functions the crossing search follows along an edge: t = s / w
