@@ -390,13 +390,14 @@ static int run(int argc, char **argv) {
     if (!no_snap)
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
-              "junctions, %d wall triangles, %d unresolved; refine %.0f ms (setup %.0f, labels %.0f, edges %.0f, "
-              "crossings %.0f, classify %.0f, split %.0f), cut %.0f ms, normals %.0f ms\n",
+              "junctions, %d wall triangles, %d unresolved, u lines every %.2f deg, %d vertices thinned; refine %.0f ms "
+              "(setup %.0f, labels %.0f, edges %.0f, crossings %.0f, classify %.0f, split %.0f), cut %.0f ms (thin "
+              "%.0f), normals %.0f ms\n",
               estats.refine_rounds, estats.refined_edges, estats.crossings, estats.wall_points, estats.junctions,
-              estats.wall_triangles, estats.unresolved, 1e3 * estats.seconds_refine, 1e3 * estats.seconds_setup,
-              1e3 * estats.seconds_labels, 1e3 * estats.seconds_edges, 1e3 * estats.seconds_crossings,
-              1e3 * estats.seconds_classify, 1e3 * estats.seconds_split, 1e3 * estats.seconds_cut,
-              1e3 * estats.seconds_normals);
+              estats.wall_triangles, estats.unresolved, estats.angle_deg, estats.thinned, 1e3 * estats.seconds_refine,
+              1e3 * estats.seconds_setup, 1e3 * estats.seconds_labels, 1e3 * estats.seconds_edges,
+              1e3 * estats.seconds_crossings, 1e3 * estats.seconds_classify, 1e3 * estats.seconds_split,
+              1e3 * estats.seconds_cut, 1e3 * estats.seconds_thin, 1e3 * estats.seconds_normals);
   }
   if (st) cli_outputs_remove_all(&outs);
   ch_warp_free(&warp_store);

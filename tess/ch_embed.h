@@ -55,6 +55,8 @@ typedef struct ch_embed_desc {
                               most 4 times this around the end point; 0 ->
                               1800 e degrees within [1, 10], e the reference
                               edge below in UV */
+  int no_thinning;         /* keep every vertex the cut makes inside a groove
+                              (by default its layers are thinned: ch_thin.h) */
   int count_only;          /* only count the triangles the cut makes
                               (stats->triangles; out stays empty): the
                               pilots of ch_embed_to_target */
@@ -75,12 +77,15 @@ typedef struct ch_embed_stats {
   int junctions;           /* triangles where three pieces meet */
   int wall_triangles;
   int unresolved;          /* triangles left uncut after refinement (0 expected) */
+  int thinned;             /* vertices the thinning of the grooves' layers removed */
+  double angle_deg;        /* the angle step of the u lines the run used */
   long triangles;          /* output triangles (with count_only: before the
                               cleanup, which removes a fraction of a percent) */
   double min_h, max_h;
   double seconds_refine, seconds_cut, seconds_normals;
   /* parts of seconds_refine: */
   double seconds_setup, seconds_labels, seconds_edges, seconds_crossings, seconds_classify, seconds_split;
+  double seconds_thin;     /* part of seconds_cut */
 } ch_embed_stats;
 
 /* The default normal_tolerance_deg for a reference edge e (UV). */

@@ -1,0 +1,318 @@
+/* Thinning the bands of a layered cut by half-edge collapses (see
+ * ch_thin.h). Greedy, as in mesh decimation (Hoppe et al. 1993, Garland
+ * and Heckbert 1997), but with no error quadric: which collapses are
+ * allowed is decided by the bands' structure and the caller's edge test,
+ * and among the allowed ones the first wins (for a vertex inside a layer,
+ * the nearest neighbour). */
+#include "ch_thin.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { MAX_RING = 48, PASSES = 3 };
+
+typedef struct thin {
+  int nt;
+  int *tri;
+  double *uv;
+  const ch_thin_rules *rules;
+  int *family, *layer;   /* per triangle */
+  int *head, *next;      /* per vertex its corners (3 t + k), linked; dead triangles' too */
+  unsigned char *dead;   /* per triangle */
+  int64_t *key;          /* per vertex: the line it lies on, or -1 */
+  int *stamp, generation; /* per vertex: = generation while it is a marked neighbour */
+} thin;
+
+/* The ring of v: its live triangles with the corner after v (nxt) and the
+ * one before (prv), counter-clockwise. Returns their number, -1 if above
+ * MAX_RING. */
+typedef struct ring {
+  int n;
+  int tri[MAX_RING], corner[MAX_RING];
+  int nxt[MAX_RING], prv[MAX_RING];
+} ring;
+
+static int gather_ring(const thin *th, int v, ring *r) {
+  r->n = 0;
+  for (int c = th->head[v]; c >= 0; c = th->next[c]) {
+    int t = c / 3, k = c % 3;
+    if (th->dead[t]) continue;
+    if (r->n == MAX_RING) return -1;
+    r->tri[r->n] = t;
+    r->corner[r->n] = c;
+    r->nxt[r->n] = th->tri[3 * t + (k + 1) % 3];
+    r->prv[r->n] = th->tri[3 * t + (k + 2) % 3];
+    r->n++;
+  }
+  return r->n;
+}
+
+/* Whether the ring closes once around v: every neighbour follows one
+ * triangle and precedes another, and none twice. */
+static int closed_fan(const ring *r) {
+  if (r->n < 3) return 0;
+  for (int i = 0; i < r->n; i++) {
+    int as_prv = 0, as_nxt = 0;
+    for (int j = 0; j < r->n; j++) {
+      as_prv += r->prv[j] == r->nxt[i];
+      as_nxt += r->nxt[j] == r->nxt[i];
+    }
+    if (as_prv != 1 || as_nxt != 1) return 0;
+  }
+  return 1;
+}
+
+static const double *corner_uv(const thin *th, int c) { return &th->uv[2 * (size_t)c]; }
+
+static double cross2(const double o[2], const double a[2], const double b[2]) {
+  return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+}
+
+/* The UV of corner x of triangle t (x one of its vertices). */
+static const double *vertex_uv_in(const thin *th, int t, int x) {
+  for (int k = 0; k < 3; k++)
+    if (th->tri[3 * t + k] == x) return corner_uv(th, 3 * t + k);
+  return NULL;
+}
+
+/* Marks w's neighbours through live triangles (stamp = a new generation). */
+static void mark_neighbours(thin *th, int w) {
+  th->generation++;
+  for (int c = th->head[w]; c >= 0; c = th->next[c]) {
+    int t = c / 3;
+    if (th->dead[t]) continue;
+    for (int k = 0; k < 3; k++) th->stamp[th->tri[3 * t + k]] = th->generation;
+  }
+}
+
+/* Collapses v into its neighbour w if every rule allows it. */
+static int try_collapse(thin *th, int v, const ring *r, int w, int family) {
+  int iw = -1, jw = -1; /* the triangles (v, w, .) and (v, ., w) */
+  for (int i = 0; i < r->n; i++) {
+    if (r->nxt[i] == w) iw = i;
+    if (r->prv[i] == w) jw = i;
+  }
+  if (iw < 0 || jw < 0) return 0;
+  int y1 = r->prv[iw], y2 = r->nxt[jw];
+  if (y1 == y2) return 0;
+  const double *uw = vertex_uv_in(th, r->tri[iw], w);
+  const double *uv_v = corner_uv(th, r->corner[0]);
+  for (int i = 0; i < r->n; i++) { /* the new edges' lengths first: the cheapest test */
+    int x = r->nxt[i];
+    if (x == w || x == y1 || x == y2) continue;
+    const double *ux = vertex_uv_in(th, r->tri[i], x), mid[2] = {0.5 * (ux[0] + uw[0]), 0.5 * (ux[1] + uw[1])};
+    if (hypot(ux[0] - uw[0], ux[1] - uw[1]) > th->rules->max_edge(th->rules->ctx, mid)) return 0;
+  }
+  mark_neighbours(th, w);
+  for (int i = 0; i < r->n; i++) {
+    if (i == iw || i == jw) continue;
+    int t = r->tri[i], x = r->nxt[i], y = r->prv[i];
+    /* the link condition: w's only common neighbours with v are y1, y2 */
+    if (x != y1 && x != y2 && th->stamp[x] == th->generation) return 0;
+    const double *ux = vertex_uv_in(th, t, x), *uy = vertex_uv_in(th, t, y);
+    double before = cross2(uv_v, ux, uy), after = cross2(uw, ux, uy);
+    double lx = hypot(ux[0] - uw[0], ux[1] - uw[1]), ly = hypot(uy[0] - uw[0], uy[1] - uw[1]);
+    /* keeps its orientation, and is not a needle of no angle */
+    if (!(after * before > 0.0) || fabs(after) <= 1e-9 * lx * ly) return 0;
+    if (th->key[w] >= 0 && th->key[w] == th->key[x] && th->key[x] == th->key[y]) return 0;
+  }
+  for (int i = 0; i < r->n; i++) { /* then the caller's tests, dearer */
+    if (i == iw || i == jw) continue;
+    int t = r->tri[i], x = r->nxt[i], y = r->prv[i];
+    const int tv[3] = {w, x, y};
+    const double *tuv[3] = {uw, vertex_uv_in(th, t, x), vertex_uv_in(th, t, y)};
+    if (th->rules->triangle_ok && !th->rules->triangle_ok(th->rules->ctx, family, th->layer[t], tv, tuv)) return 0;
+  }
+  for (int i = 0; i < r->n; i++) {
+    int x = r->nxt[i];
+    if (x == w || x == y1 || x == y2) continue;
+    if (!th->rules->edge_ok(th->rules->ctx, family, w, x, uw, vertex_uv_in(th, r->tri[i], x))) return 0;
+  }
+  double uwc[2] = {uw[0], uw[1]};
+  th->dead[r->tri[iw]] = th->dead[r->tri[jw]] = 1;
+  /* w's corners: its live ones, then v's (now w's); dead ones dropped */
+  int head = -1, *tail = &head;
+  for (int pass = 0; pass < 2; pass++)
+    for (int c = pass ? th->head[v] : th->head[w], nx; c >= 0; c = nx) {
+      nx = th->next[c];
+      if (th->dead[c / 3]) continue;
+      if (pass) {
+        th->tri[c] = w;
+        memcpy(&th->uv[2 * (size_t)c], uwc, sizeof uwc);
+      }
+      *tail = c;
+      tail = &th->next[c];
+    }
+  *tail = -1;
+  th->head[w] = head;
+  th->head[v] = -1;
+  return 1;
+}
+
+/* Classifies v: its family (or -1: it stays) and its lowest and highest
+ * layer; whether its corners agree in UV. */
+static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
+  if (r->n < 3) return -1;
+  int f = th->family[r->tri[0]];
+  *lo = *hi = th->layer[r->tri[0]];
+  const double *u0 = corner_uv(th, r->corner[0]);
+  for (int i = 0; i < r->n; i++) {
+    int t = r->tri[i];
+    if (th->family[t] != f || f < 0) return -1;
+    if (th->layer[t] < *lo) *lo = th->layer[t];
+    if (th->layer[t] > *hi) *hi = th->layer[t];
+    const double *u = corner_uv(th, r->corner[i]);
+    if (u[0] != u0[0] || u[1] != u0[1]) return -1;
+  }
+  return *hi - *lo <= 1 ? f : -1;
+}
+
+/* The two neighbours of line vertex v along its line (the edges with
+ * different layers on their two sides); 0 if not two. */
+static int line_neighbours(const thin *th, const ring *r, int out[2]) {
+  int nc = 0;
+  for (int i = 0; i < r->n; i++) {
+    int x = r->nxt[i];
+    for (int j = 0; j < r->n; j++)
+      if (r->prv[j] == x && th->layer[r->tri[j]] != th->layer[r->tri[i]]) {
+        if (nc == 2) return 0;
+        out[nc++] = x;
+      }
+  }
+  return nc == 2;
+}
+
+static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *removed, unsigned char *dirty) {
+  ring r;
+  int lo, hi;
+  if (gather_ring(th, v, &r) < 0) return;
+  int f = classify_vertex(th, &r, &lo, &hi);
+  if (f < 0 || !closed_fan(&r)) return;
+  int cand[MAX_RING], nc = 0;
+  if (hi > lo) {
+    /* On line lo: it moves along the line, to one of the two neighbours
+     * the line's edges lead to. */
+    if (!line_neighbours(th, &r, cand)) return;
+    nc = 2;
+  } else {
+    /* Inside a layer: to the nearest neighbour that works. */
+    const double *u = corner_uv(th, r.corner[0]);
+    double d[MAX_RING];
+    for (int i = 0; i < r.n; i++) {
+      const double *ux = vertex_uv_in(th, r.tri[i], r.nxt[i]);
+      double di = hypot(ux[0] - u[0], ux[1] - u[1]);
+      int j = nc++;
+      while (j > 0 && d[j - 1] > di) {
+        d[j] = d[j - 1];
+        cand[j] = cand[j - 1];
+        j--;
+      }
+      d[j] = di;
+      cand[j] = r.nxt[i];
+    }
+  }
+  for (int i = 0; i < nc; i++)
+    if (try_collapse(th, v, &r, cand[i], f)) {
+      removed[v] = 1;
+      (*removed_count)++;
+      for (int j = 0; j < r.n; j++) dirty[r.nxt[j]] = 1; /* their rings changed */
+      return;
+    }
+}
+
+int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, uint64_t *group,
+                  const ch_thin_rules *rules, unsigned char *removed) {
+  int nv = num_vertices, nt = *num_triangles;
+  if (nv <= 0 || nt <= 0) return 0;
+  thin th = {.nt = nt, .tri = tri, .uv = uv, .rules = rules};
+  unsigned char *dirty = NULL, *visit = NULL;
+  th.family = malloc((size_t)nt * sizeof *th.family);
+  th.layer = malloc((size_t)nt * sizeof *th.layer);
+  th.head = malloc((size_t)nv * sizeof *th.head);
+  th.next = malloc(3 * (size_t)nt * sizeof *th.next);
+  th.dead = calloc((size_t)nt, 1);
+  th.key = malloc((size_t)nv * sizeof *th.key);
+  th.stamp = calloc((size_t)nv, sizeof *th.stamp);
+  dirty = calloc((size_t)nv, 1);
+  visit = malloc((size_t)nv);
+  int count = -1;
+  if (!th.family || !th.layer || !th.head || !th.next || !th.dead || !th.key || !th.stamp || !dirty || !visit)
+    goto done;
+  count = 0;
+  int any = 0;
+  for (int t = 0; t < nt; t++) {
+    th.layer[t] = 0;
+    th.family[t] = rules->band(rules->ctx, group[t], &th.layer[t]);
+    any |= th.family[t] >= 0;
+  }
+  if (!any) goto done;
+  for (int v = 0; v < nv; v++) th.head[v] = -1;
+  for (int c = 3 * nt - 1; c >= 0; c--) { /* each list in corner order */
+    th.next[c] = th.head[tri[c]];
+    th.head[tri[c]] = c;
+  }
+  /* Keys: a vertex between layers k and k + 1 of family f lies on line k;
+   * one between layer k and what is not f's (a rim) on that layer's edge.
+   * Three corners with one key make a triangle along a line. */
+  for (int v = 0; v < nv; v++) {
+    ring r;
+    th.key[v] = -1;
+    if (gather_ring(&th, v, &r) <= 0) continue;
+    int f = -1, lo = 0, hi = 0, other = 0;
+    for (int i = 0; i < r.n; i++) {
+      int t = r.tri[i];
+      if (th.family[t] < 0) {
+        other = 1;
+        continue;
+      }
+      if (f < 0) {
+        f = th.family[t];
+        lo = hi = th.layer[t];
+      } else if (th.family[t] != f) {
+        f = -2;
+        break;
+      }
+      lo = th.layer[t] < lo ? th.layer[t] : lo;
+      hi = th.layer[t] > hi ? th.layer[t] : hi;
+    }
+    if (f < 0) continue;
+    if (!other && hi == lo + 1) th.key[v] = ((int64_t)f << 21) | ((int64_t)lo << 1);
+    if (other && hi == lo) th.key[v] = ((int64_t)f << 21) | ((int64_t)lo << 1) | 1;
+    /* Only a vertex inside one family's band, inside a layer or on a
+     * line, ever moves (collapses keep every triangle's band). */
+    dirty[v] = !other && hi <= lo + 1;
+  }
+  /* Later passes revisit only the vertices whose rings changed. */
+  for (int pass = 0; pass < PASSES; pass++) {
+    int before = count;
+    memcpy(visit, dirty, (size_t)nv);
+    memset(dirty, 0, (size_t)nv);
+    for (int v = 0; v < nv; v++)
+      if (visit[v] && !removed[v]) collapse_vertex(&th, v, &count, removed, dirty);
+    if (count == before) break;
+  }
+  /* Compact the live triangles in order. */
+  int n = 0;
+  for (int t = 0; t < nt; t++) {
+    if (th.dead[t]) continue;
+    if (n != t) {
+      memmove(&tri[3 * (size_t)n], &tri[3 * (size_t)t], 3 * sizeof *tri);
+      memmove(&uv[6 * (size_t)n], &uv[6 * (size_t)t], 6 * sizeof *uv);
+      group[n] = group[t];
+    }
+    n++;
+  }
+  *num_triangles = n;
+done:
+  free(th.family);
+  free(th.layer);
+  free(th.head);
+  free(th.next);
+  free(th.dead);
+  free(th.key);
+  free(th.stamp);
+  free(dirty);
+  free(visit);
+  return count;
+}
