@@ -7,6 +7,7 @@
 #include "ch_thin.h"
 
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -22,6 +23,8 @@ typedef struct thin {
   unsigned char *dead;   /* per triangle */
   int64_t *key;          /* per vertex: the line it lies on, or -1 */
   int *stamp, generation; /* per vertex: = generation while it is a marked neighbour */
+  int *tile;             /* per vertex: its tile of UV (see ch_thin_bands) */
+  unsigned char *deferred; /* per vertex: its collapse reached beyond its tile */
 } thin;
 
 /* The ring of v: its live triangles with the corner after v (nxt) and the
@@ -76,18 +79,28 @@ static const double *vertex_uv_in(const thin *th, int t, int x) {
   return NULL;
 }
 
-/* Marks w's neighbours through live triangles (stamp = a new generation). */
-static void mark_neighbours(thin *th, int w) {
-  th->generation++;
+/* Marks w's neighbours through live triangles (stamp = a new generation,
+ * returned). 0 if one lies outside tile `in` (when in >= 0). */
+static int mark_neighbours(thin *th, int w, int in) {
+  int g;
+#pragma omp atomic capture
+  g = ++th->generation;
   for (int c = th->head[w]; c >= 0; c = th->next[c]) {
     int t = c / 3;
     if (th->dead[t]) continue;
-    for (int k = 0; k < 3; k++) th->stamp[th->tri[3 * t + k]] = th->generation;
+    for (int k = 0; k < 3; k++) {
+      int x = th->tri[3 * t + k];
+      if (in >= 0 && th->tile[x] != in) return 0;
+      th->stamp[x] = g;
+    }
   }
+  return g;
 }
 
-/* Collapses v into its neighbour w if every rule allows it. */
-static int try_collapse(thin *th, int v, const ring *r, int w, int family) {
+/* Collapses v into its neighbour w if every rule allows it: 1; 0 if not;
+ * -1 if w's neighbours reach beyond tile `in` (in >= 0: only what lies
+ * in one tile is touched, so tiles of one colour run side by side). */
+static int try_collapse(thin *th, int v, const ring *r, int w, int family, int in) {
   int iw = -1, jw = -1; /* the triangles (v, w, .) and (v, ., w) */
   for (int i = 0; i < r->n; i++) {
     if (r->nxt[i] == w) iw = i;
@@ -104,12 +117,13 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family) {
     const double *ux = vertex_uv_in(th, r->tri[i], x), mid[2] = {0.5 * (ux[0] + uw[0]), 0.5 * (ux[1] + uw[1])};
     if (hypot(ux[0] - uw[0], ux[1] - uw[1]) > th->rules->max_edge(th->rules->ctx, mid)) return 0;
   }
-  mark_neighbours(th, w);
+  int g = mark_neighbours(th, w, in);
+  if (!g) return -1;
   for (int i = 0; i < r->n; i++) {
     if (i == iw || i == jw) continue;
     int t = r->tri[i], x = r->nxt[i], y = r->prv[i];
     /* the link condition: w's only common neighbours with v are y1, y2 */
-    if (x != y1 && x != y2 && th->stamp[x] == th->generation) return 0;
+    if (x != y1 && x != y2 && th->stamp[x] == g) return 0;
     const double *ux = vertex_uv_in(th, t, x), *uy = vertex_uv_in(th, t, y);
     double before = cross2(uv_v, ux, uy), after = cross2(uw, ux, uy);
     double lx = hypot(ux[0] - uw[0], ux[1] - uw[1]), ly = hypot(uy[0] - uw[0], uy[1] - uw[1]);
@@ -183,10 +197,16 @@ static int line_neighbours(const thin *th, const ring *r, int out[2]) {
   return nc == 2;
 }
 
-static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *removed, unsigned char *dirty) {
+static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *removed, unsigned char *dirty,
+                            int in) {
   ring r;
   int lo, hi;
   if (gather_ring(th, v, &r) < 0) return;
+  for (int i = 0; i < r.n && in >= 0; i++)
+    if (th->tile[r.nxt[i]] != in) {
+      th->deferred[v] = 1;
+      return;
+    }
   int f = classify_vertex(th, &r, &lo, &hi);
   if (f < 0 || !closed_fan(&r)) return;
   int cand[MAX_RING], nc = 0;
@@ -212,13 +232,19 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
       cand[j] = r.nxt[i];
     }
   }
-  for (int i = 0; i < nc; i++)
-    if (try_collapse(th, v, &r, cand[i], f)) {
+  for (int i = 0; i < nc; i++) {
+    int done = try_collapse(th, v, &r, cand[i], f, in);
+    if (done < 0) { /* left for the sequential sweep, in the same order */
+      th->deferred[v] = 1;
+      return;
+    }
+    if (done) {
       removed[v] = 1;
       (*removed_count)++;
       for (int j = 0; j < r.n; j++) dirty[r.nxt[j]] = 1; /* their rings changed */
       return;
     }
+  }
 }
 
 int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, uint64_t *group,
@@ -227,6 +253,7 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
   if (nv <= 0 || nt <= 0) return 0;
   thin th = {.nt = nt, .tri = tri, .uv = uv, .rules = rules};
   unsigned char *dirty = NULL, *visit = NULL;
+  int *tile_start = NULL, *tile_list = NULL;
   th.family = malloc((size_t)nt * sizeof *th.family);
   th.layer = malloc((size_t)nt * sizeof *th.layer);
   th.head = malloc((size_t)nv * sizeof *th.head);
@@ -236,8 +263,11 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
   th.stamp = calloc((size_t)nv, sizeof *th.stamp);
   dirty = calloc((size_t)nv, 1);
   visit = malloc((size_t)nv);
+  th.tile = malloc((size_t)nv * sizeof *th.tile);
+  th.deferred = calloc((size_t)nv, 1);
   int count = -1;
-  if (!th.family || !th.layer || !th.head || !th.next || !th.dead || !th.key || !th.stamp || !dirty || !visit)
+  if (!th.family || !th.layer || !th.head || !th.next || !th.dead || !th.key || !th.stamp || !dirty || !visit ||
+      !th.tile || !th.deferred)
     goto done;
   count = 0;
   int any = 0;
@@ -283,13 +313,69 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
      * line, ever moves (collapses keep every triangle's band). */
     dirty[v] = !other && hi <= lo + 1;
   }
+  /* Tiles of UV eight mean band edges wide (at most 64 a side), coloured like a 2 x 2
+   * checkerboard: tiles of one colour share no triangle a collapse inside
+   * one of them touches, so they run side by side; a collapse reaching
+   * into another tile is deferred to a sequential sweep in index order.
+   * The result does not depend on the number of threads. */
+  double sum = 0.0;
+  long edges = 0;
+  for (int t = 0; t < nt; t++)
+    if (th.family[t] >= 0)
+      for (int k = 0; k < 3; k++, edges++) {
+        const double *a = &uv[6 * (size_t)t + 2 * k], *b = &uv[6 * (size_t)t + 2 * ((k + 1) % 3)];
+        sum += hypot(b[0] - a[0], b[1] - a[1]);
+      }
+  int tiles = (int)fmin(64.0, fmax(2.0, floor(edges > 0 ? 0.125 * edges / sum : 2.0))); /* 8 mean edges */
+  int ntiles = tiles * tiles;
+  tile_start = calloc((size_t)ntiles + 1, sizeof *tile_start);
+  tile_list = malloc((size_t)nv * sizeof *tile_list);
+  if (!tile_start || !tile_list) {
+    count = -1;
+    goto done;
+  }
+  for (int v = 0; v < nv; v++) {
+    th.tile[v] = -1;
+    if (th.head[v] < 0) continue;
+    const double *u = corner_uv(&th, th.head[v]);
+    int tx = (int)fmin(tiles - 1, fmax(0.0, floor(u[0] * tiles))), ty = (int)fmin(tiles - 1, fmax(0.0, floor(u[1] * tiles)));
+    th.tile[v] = ty * tiles + tx;
+    tile_start[th.tile[v] + 1]++;
+  }
+  for (int i = 0; i < ntiles; i++) tile_start[i + 1] += tile_start[i];
+  {
+    int *fill = calloc((size_t)ntiles, sizeof *fill);
+    if (!fill) {
+      count = -1;
+      goto done;
+    }
+    for (int v = 0; v < nv; v++)
+      if (th.tile[v] >= 0) tile_list[tile_start[th.tile[v]] + fill[th.tile[v]]++] = v;
+    free(fill);
+  }
   /* Later passes revisit only the vertices whose rings changed. */
   for (int pass = 0; pass < PASSES; pass++) {
     int before = count;
     memcpy(visit, dirty, (size_t)nv);
     memset(dirty, 0, (size_t)nv);
+    for (int colour = 0; colour < 4; colour++) {
+      int added = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : added)
+      for (int i = 0; i < ntiles; i++) {
+        int tx = i % tiles, ty = i / tiles;
+        if ((tx & 1) + 2 * (ty & 1) != colour) continue;
+        for (int k = tile_start[i]; k < tile_start[i + 1]; k++) {
+          int v = tile_list[k];
+          if (visit[v] && !removed[v]) collapse_vertex(&th, v, &added, removed, dirty, i);
+        }
+      }
+      count += added;
+    }
     for (int v = 0; v < nv; v++)
-      if (visit[v] && !removed[v]) collapse_vertex(&th, v, &count, removed, dirty);
+      if (th.deferred[v]) {
+        th.deferred[v] = 0;
+        if (!removed[v]) collapse_vertex(&th, v, &count, removed, dirty, -1);
+      }
     if (count == before) break;
   }
   /* Compact the live triangles in order. */
@@ -314,5 +400,9 @@ done:
   free(th.stamp);
   free(dirty);
   free(visit);
+  free(th.tile);
+  free(th.deferred);
+  free(tile_start);
+  free(tile_list);
   return count;
 }
