@@ -2405,7 +2405,13 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     free(pstats);
     if (oom) goto nomem;
   }
-  if (!(desc && desc->no_thinning)) {
+  /* Thinning pays where the target is coarse (measured on the plane's
+   * sets: at 130k triangles L1 13-80% lower on the u and box sets, the
+   * normals' p95 up to 1.3 degrees; at 520k and 2.1M L1 only 7-17% lower
+   * for 25-130% more time, from the bigger base it leaves room for and
+   * runs the count model then misses). Below a mean edge of 1/360 (about
+   * 260k triangles over the UV square) the cut is left as it is. */
+  if (!(desc && desc->no_thinning) && reference_edge >= 1.0 / 360.0) {
     double tt = omp_get_wtime();
     int thinned = thin_output(&lb, tess, longest_edge, &o);
     if (thinned < 0) goto nomem;
@@ -2453,6 +2459,21 @@ static double model_base(double target, double c0, double c1) {
   for (int it = 0; it < 80; it++) {
     double mid = 0.5 * (lo + hi);
     if (mid + c0 + c1 * sqrt(mid) < target)
+      lo = mid;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
+/* The base count b with b + f2 (b / b2)^p = target, p the power through
+ * (b1, f1) and (b2, f2) within [0, 1]: what the features add at two runs. */
+static double power_base(double target, double b1, double f1, double b2, double f2) {
+  double pw = fmin(1.0, fmax(0.0, log(f2 / f1) / log(b2 / b1)));
+  double lo = 1.0, hi = target;
+  for (int it = 0; it < 80; it++) {
+    double mid = 0.5 * (lo + hi);
+    if (mid + f2 * pow(mid / b2, pw) < target)
       lo = mid;
     else
       hi = mid;
@@ -2594,6 +2615,12 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       }
     } else if (pass == 0) {
       next = xs[0] * (double)target / no; /* no pilot (a small target) */
+    } else if (pilots >= 2 && pass > pilots && (ys[pass] - ys[pass - 1]) * (xs[pass] - xs[pass - 1]) <= 0.0 &&
+               no > nb && ys[1] > xs[1] && nb != xs[1]) {
+      /* Two full runs whose counts fall as the base grows (thinning
+       * makes the count bumpy: bricks at 130k): no secant, the power
+       * model through the last run and the second pilot again. */
+      next = power_base((double)target, xs[1], ys[1] - xs[1], nb, no - nb);
     } else if (pass == pilots && pilots > 0) {
       /* The first full run missed: what the features add taken as a power
        * of the base through it and the second pilot (thinning makes it
@@ -2601,17 +2628,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
        * 5 runs); without two pilots, the model through it, its slope kept
        * (a secant to a pilot far below runs too flat or too steep). */
       if (pilots >= 2 && no > nb && ys[pass - 1] > xs[pass - 1] && nb != xs[pass - 1]) {
-        double f2 = no - nb, f1 = ys[pass - 1] - xs[pass - 1];
-        double pw = fmin(1.0, fmax(0.0, log(f2 / f1) / log(nb / xs[pass - 1])));
-        double lo = 1.0, hi = (double)target;
-        for (int it = 0; it < 80; it++) {
-          double mid = 0.5 * (lo + hi);
-          if (mid + f2 * pow(mid / nb, pw) < (double)target)
-            lo = mid;
-          else
-            hi = mid;
-        }
-        next = lo;
+        next = power_base((double)target, xs[pass - 1], ys[pass - 1] - xs[pass - 1], nb, no - nb);
       } else {
         next = model_base((double)target, (no - nb) - model_c1 * sqrt(nb), model_c1);
       }

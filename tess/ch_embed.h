@@ -56,7 +56,9 @@ typedef struct ch_embed_desc {
                               1800 e degrees within [1, 10], e the reference
                               edge below in UV */
   int no_thinning;         /* keep every vertex the cut makes inside a groove
-                              (by default its layers are thinned: ch_thin.h) */
+                              (by default its layers are thinned, ch_thin.h,
+                              where the reference edge below is at least
+                              1/360 UV: coarse targets, where it pays) */
   int count_only;          /* only count the triangles the cut makes
                               (stats->triangles; out stays empty): the
                               pilots of ch_embed_to_target */
