@@ -14,7 +14,11 @@
  * chord follows h; not longer than the tessellation around it). The result
  * has long edges along the grooves and thin triangles across them, as a
  * mesh made for them would (an anisotropic mesh by decimation).
- * Sequential and in index order, so the same bytes for any thread count. */
+ * In index order within tiles of UV, tiles of one colour of a 2 x 2
+ * checkerboard side by side (OpenMP), collapses reaching beyond their tile
+ * in a sequential sweep: the same bytes for any thread count. The rules'
+ * callbacks are called from several threads at once, for vertices of
+ * different tiles. */
 #ifndef CH_THIN_H
 #define CH_THIN_H
 
