@@ -451,11 +451,14 @@ static int closest_in_cell(const ch_curve_set *set, const ch_grid *grid, const d
  * segments, or with `cell_beyond` the closest of those in the cell if
  * there are any (enough to bracket a level inside the groove, and a scan
  * of a long curve less). */
-static double groove_distance_in(const labeler *lb, int c, const double uv[2], int *segment, int cell_beyond) {
-  const ch_groove_field *gf = &lb->height->grooves;
-  double half = 0.5 * lb->set->curves[c].width, d2, t;
-  int seg = closest_in_cell(lb->set, &gf->grid, (const double(*)[4])gf->boxes, c, uv, half, cell_beyond, &d2, &t);
-  if (seg < 0 || (!(d2 <= half * half) && !cell_beyond)) {
+/* Curve c's signed distance at uv from closest_in_cell over grid and
+ * boxes (grown by reach); over all of c's segments where the cell has none
+ * of them, or (without `beyond`) none within reach. */
+static double signed_distance_in(const labeler *lb, const ch_grid *grid, const double (*boxes)[4], int c,
+                                 const double uv[2], double reach, int beyond, int *segment) {
+  double d2, t;
+  int seg = closest_in_cell(lb->set, grid, boxes, c, uv, reach, beyond, &d2, &t);
+  if (seg < 0 || (!(d2 <= reach * reach) && !beyond)) {
     ch_curve_point cp;
     ch_curve_closest(lb->set, c, uv, &cp);
     if (segment) *segment = cp.segment;
@@ -463,6 +466,12 @@ static double groove_distance_in(const labeler *lb, int c, const double uv[2], i
   }
   if (segment) *segment = seg;
   return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
+}
+
+static double groove_distance_in(const labeler *lb, int c, const double uv[2], int *segment, int cell_beyond) {
+  const ch_groove_field *gf = &lb->height->grooves;
+  return signed_distance_in(lb, &gf->grid, (const double(*)[4])gf->boxes, c, uv, 0.5 * lb->set->curves[c].width,
+                            cell_beyond, segment);
 }
 
 static double groove_distance(const labeler *lb, int c, const double uv[2]) {
@@ -693,16 +702,7 @@ static double edge_length(const work *w, const wedge *e) {
  * beyond the radius there), or over all of c's segments if the cell has
  * none. */
 static double step_distance_at(const labeler *lb, int c, const double uv[2], int *segment) {
-  double d2, t;
-  int seg = closest_in_cell(lb->set, &lb->step_grid, (const double(*)[4])lb->step_boxes, c, uv, lb->radius, 1, &d2, &t);
-  if (seg < 0) {
-    ch_curve_point cp;
-    ch_curve_closest(lb->set, c, uv, &cp);
-    if (segment) *segment = cp.segment;
-    return cp.signed_distance;
-  }
-  if (segment) *segment = seg;
-  return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
+  return signed_distance_in(lb, &lb->step_grid, (const double(*)[4])lb->step_boxes, c, uv, lb->radius, 1, segment);
 }
 
 /* The level functions the crossing search follows along an edge: t = s / w

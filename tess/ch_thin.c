@@ -14,7 +14,6 @@
 enum { MAX_RING = 48, PASSES = 3 };
 
 typedef struct thin {
-  int nt;
   int *tri;
   double *uv;
   const ch_thin_rules *rules;
@@ -251,7 +250,7 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
                   const ch_thin_rules *rules, unsigned char *removed) {
   int nv = num_vertices, nt = *num_triangles;
   if (nv <= 0 || nt <= 0) return 0;
-  thin th = {.nt = nt, .tri = tri, .uv = uv, .rules = rules};
+  thin th = {.tri = tri, .uv = uv, .rules = rules};
   unsigned char *dirty = NULL, *visit = NULL;
   int *tile_start = NULL, *tile_list = NULL;
   th.family = malloc((size_t)nt * sizeof *th.family);
