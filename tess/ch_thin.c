@@ -175,8 +175,11 @@ static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
     if (th->family[t] != f || f < 0) return -1;
     if (th->layer[t] < *lo) *lo = th->layer[t];
     if (th->layer[t] > *hi) *hi = th->layer[t];
+    /* A seam: the corners see it at other UVs. Not rounding: a boundary
+     * point is interpolated along its edge from either end by the two
+     * triangles sharing it. */
     const double *u = corner_uv(th, r->corner[i]);
-    if (u[0] != u0[0] || u[1] != u0[1]) return -1;
+    if (!(fabs(u[0] - u0[0]) <= 1e-12 && fabs(u[1] - u0[1]) <= 1e-12)) return -1;
   }
   return *hi - *lo <= 1 ? f : -1;
 }

@@ -52,7 +52,8 @@ typedef struct ch_thin_rules {
  * clockwise) and groups (one per triangle), in place: collapsed triangles
  * are removed and the rest keep their order; *num_triangles is updated.
  * removed (num_vertices, zeroed by the caller) gets 1 for every vertex no
- * triangle uses any more. Vertices whose corners differ in UV (a seam) stay.
+ * triangle uses any more. Vertices whose corners differ in UV by more than
+ * rounding (1e-12: a seam) stay.
  * Returns the number of vertices removed, or -1 when out of memory (then
  * nothing is changed). */
 int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, uint64_t *group,

@@ -151,7 +151,7 @@ static void test_seam_vertex_stays(void) {
   strip s;
   strip_build(&s);
   /* vertex (5, 4) on line 4 is on a seam: the triangles right of it see
-   * it at another UV (by 1e-9: any difference counts) */
+   * it at another UV (by 1e-9, far above rounding) */
   int v = 4 * (N + 1) + 5;
   for (int c = 0; c < 3 * s.nt; c++) {
     const double *t = &s.uv[6 * (c / 3)];
