@@ -47,6 +47,8 @@
 #define EDGE_TOL 1e-9
 /* Texel grid of the visible shares. */
 enum { SHARE_RES = 256, DEFAULT_INTERVALS = 256, MAX_INTERVALS = 65536 };
+/* Focus cells per axis (at most; a cell is a whole number of intervals). */
+enum { FOCUS_CELLS = 64 };
 
 /* The private part of ch_warp: a uniform grid over the triangles' boxes in
  * UV (0) and in warped UV (1), and per triangle and space its corner 0 and
@@ -384,6 +386,75 @@ double ch_warp_axis_slope(const ch_warp *w, int axis, double x) {
   return (k[i + 1] - k[i]) * n;
 }
 
+/* The focus at uv (1 without one); on a line between cells, the larger
+ * of the two sides (so an edge along it follows the denser side, the same
+ * from either face). */
+static double focus_at(const ch_warp *w, const double uv[2]) {
+  if (!w->focus) return 1.0;
+  int lo[2], hi[2];
+  for (int k = 0; k < 2; k++) {
+    double t = ch_clamp(uv[k], 0.0, 1.0) * w->n;
+    int i = t >= w->n ? w->n - 1 : (int)t;
+    lo[k] = hi[k] = i / w->focus_cell;
+    if (t == (double)i && i % w->focus_cell == 0 && lo[k] > 0) lo[k]--;
+  }
+  double f = 0.0;
+  for (int y = lo[1]; y <= hi[1]; y++)
+    for (int x = lo[0]; x <= hi[0]; x++) f = fmax(f, w->focus[(size_t)y * w->focus_n + x]);
+  return f;
+}
+
+/* The mesh's slope from W's slope s and the focus f. */
+static double mesh_slope(double s, double f, double fl) { return fmax(s * f, fmin(s, fl)); }
+
+void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2]) {
+  double f = focus_at(w, uv);
+  for (int k = 0; k < 2; k++) slopes[k] = mesh_slope(ch_warp_axis_slope(w, k, uv[k]), f, w->floor);
+}
+
+/* The focus grid: 1 on the cells that visible triangles' UV boxes touch,
+ * elsewhere q^-d for the Chebyshev distance d in cells to the nearest
+ * such cell, q = max_ratio^(intervals per cell), so that the mesh's slopes
+ * vary between cells no faster than W's may. Two chamfer sweeps. */
+static ch_status build_focus(ch_warp *w, double mr, ch_error *err) {
+  int n = w->n, cell = n / FOCUS_CELLS > 1 ? n / FOCUS_CELLS : 1, fn = (n + cell - 1) / cell;
+  double *f = calloc((size_t)fn * fn, sizeof *f);
+  if (!f) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the warp's focus");
+  for (int t = 0; t < w->num_triangles; t++) {
+    if (!w->visible[t]) continue;
+    double b[4];
+    tri_box(w->uv + 6 * (size_t)t, b);
+    if (b[2] < 0.0 || b[3] < 0.0 || b[0] > 1.0 || b[1] > 1.0) continue;
+    int r[4]; /* the cells the box overlaps (a box edge on a cell line: not the next cell) */
+    for (int k = 0; k < 4; k++) {
+      double x = ch_clamp(b[k], 0.0, 1.0) * n;
+      int i = k < 2 ? (int)floor(x) : (int)ceil(x) - 1;
+      r[k] = (i < 0 ? 0 : i >= n ? n - 1 : i) / cell;
+    }
+    if (r[2] < r[0]) r[2] = r[0];
+    if (r[3] < r[1]) r[3] = r[1];
+    for (int y = r[1]; y <= r[3]; y++)
+      for (int x = r[0]; x <= r[2]; x++) f[(size_t)y * fn + x] = 1.0;
+  }
+  double q = pow(mr, cell);
+#define FOCUS(x, y) ((x) >= 0 && (x) < fn && (y) >= 0 && (y) < fn ? f[(size_t)(y) * fn + (x)] : 0.0)
+  for (int y = 0; y < fn; y++)
+    for (int x = 0; x < fn; x++) {
+      double m = fmax(fmax(FOCUS(x - 1, y), FOCUS(x - 1, y - 1)), fmax(FOCUS(x, y - 1), FOCUS(x + 1, y - 1)));
+      f[(size_t)y * fn + x] = fmax(f[(size_t)y * fn + x], m / q);
+    }
+  for (int y = fn - 1; y >= 0; y--)
+    for (int x = fn - 1; x >= 0; x--) {
+      double m = fmax(fmax(FOCUS(x + 1, y), FOCUS(x + 1, y + 1)), fmax(FOCUS(x, y + 1), FOCUS(x - 1, y + 1)));
+      f[(size_t)y * fn + x] = fmax(f[(size_t)y * fn + x], m / q);
+    }
+#undef FOCUS
+  w->focus = f;
+  w->focus_n = fn;
+  w->focus_cell = cell;
+  return CH_OK;
+}
+
 /* ---- the cage map ---------------------------------------------------- */
 
 /* The lowest-numbered triangle of space s (0 UV, 1 warped UV) holding q,
@@ -447,6 +518,7 @@ static void index_free(cage_index *ix) {
 }
 
 void ch_warp_free(ch_warp *w) {
+  free(w->focus);
   free(w->wu);
   free(w->wv);
   free(w->uv);
@@ -689,6 +761,8 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   free(scratch);
   out->stats.max_slope[0] = max_slope(out->wu, n);
   out->stats.max_slope[1] = max_slope(out->wv, n);
+  out->floor = fl;
+  if (nneedy > 0 && (st = build_focus(out, mr, err))) goto done;
   double t2 = now_seconds();
   out->stats.seconds_functions = t2 - t1;
 
@@ -711,8 +785,8 @@ done:
  * piece's image is straight). Returns the image's length; with target >= 0
  * it stops where the length reaches target and returns the parameter there
  * in *t_at (else *t_at = t_end). */
-static double knot_walk(const ch_warp *w, const double a[2], const double b[2], double t_end, double target,
-                        double *t_at) {
+static double knot_walk(const ch_warp *w, int mesh, const double a[2], const double b[2], double t_end,
+                        double target, double *t_at) {
   int n = w->n;
   double d[2] = {b[0] - a[0], b[1] - a[1]};
   int idx[2] = {0, 0}, step[2] = {0, 0};
@@ -742,7 +816,17 @@ static double knot_walk(const ch_warp *w, const double a[2], const double b[2], 
       const double *kn = k ? w->wv : w->wu;
       here[k] = tn == tk[k] ? kn[idx[k]] : ch_warp_axis(w, k, a[k] + tn * d[k]);
     }
-    double piece = hypot(here[0] - prev[0], here[1] - prev[1]);
+    double piece;
+    if (mesh && w->focus) { /* the piece lies in one interval per axis, so in one focus cell */
+      double tm = 0.5 * (t + tn), mid[2] = {a[0] + tm * d[0], a[1] + tm * d[1]}, f = focus_at(w, mid), m[2];
+      for (int k = 0; k < 2; k++) {
+        double s = ch_warp_axis_slope(w, k, mid[k]);
+        m[k] = mesh_slope(s, f, w->floor) / s;
+      }
+      piece = hypot(m[0] * (here[0] - prev[0]), m[1] * (here[1] - prev[1]));
+    } else {
+      piece = hypot(here[0] - prev[0], here[1] - prev[1]);
+    }
     if (target >= 0.0 && len + piece >= target) {
       *t_at = piece > 0.0 ? t + (tn - t) * ((target - len) / piece) : t;
       return target;
@@ -760,20 +844,34 @@ static double knot_walk(const ch_warp *w, const double a[2], const double b[2], 
   return len;
 }
 
-double ch_warp_arc(const ch_warp *w, const double a[2], const double b[2], double x) {
+static double arc(const ch_warp *w, int mesh, const double a[2], const double b[2], double x) {
   if (a[0] == b[0] && a[1] == b[1]) return 0.0;
   double t;
-  return knot_walk(w, a, b, ch_clamp(x, 0.0, 1.0), -1.0, &t);
+  return knot_walk(w, mesh, a, b, ch_clamp(x, 0.0, 1.0), -1.0, &t);
 }
 
-double ch_warp_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y) {
+static double arc_inverse(const ch_warp *w, int mesh, const double a[2], const double b[2], double y) {
   y = ch_clamp(y, 0.0, 1.0);
   if (a[0] == b[0] && a[1] == b[1]) return y;
-  double t, total = knot_walk(w, a, b, 1.0, -1.0, &t);
+  double t, total = knot_walk(w, mesh, a, b, 1.0, -1.0, &t);
   if (!(total > 0.0)) return y;
   if (y >= 1.0) return 1.0;
-  knot_walk(w, a, b, 1.0, y * total, &t);
+  knot_walk(w, mesh, a, b, 1.0, y * total, &t);
   return ch_clamp(t, 0.0, 1.0);
+}
+
+double ch_warp_arc(const ch_warp *w, const double a[2], const double b[2], double x) { return arc(w, 0, a, b, x); }
+
+double ch_warp_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y) {
+  return arc_inverse(w, 0, a, b, y);
+}
+
+double ch_warp_mesh_arc(const ch_warp *w, const double a[2], const double b[2], double x) {
+  return arc(w, 1, a, b, x);
+}
+
+double ch_warp_mesh_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y) {
+  return arc_inverse(w, 1, a, b, y);
 }
 
 /* ---- curve registration ---------------------------------------------- */

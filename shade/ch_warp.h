@@ -98,6 +98,13 @@ typedef struct ch_warp {
   int n;                /* intervals per axis */
   double *wu, *wv;      /* n + 1 values each: W at the knots i / n;
                            wu[0] = 0, wu[n] = 1, strictly increasing */
+  double floor;         /* the least slope W was built with */
+  /* Focus: 1 on the UV cells that visible cage triangles touch, falling by
+   * max_ratio per interval away from them (see ch_warp_mesh_slopes); a
+   * focus_n^2 grid of cells focus_cell intervals wide (row v, column u),
+   * NULL for the identity (focus 1 everywhere). */
+  int focus_n, focus_cell;
+  double *focus;
   /* the cage (copied), its warped corners and a uniform grid over each space */
   int num_triangles;
   double *uv, *wuv;     /* 6 per triangle */
@@ -151,6 +158,15 @@ double ch_warp_axis_inverse(const ch_warp *w, int axis, double y);
  * right one, at 1 the last one). */
 double ch_warp_axis_slope(const ch_warp *w, int axis, double x);
 
+/* The density a mesh should follow at uv, per axis: W's slopes times the
+ * focus, at least the floor (or W's slope where that is smaller). W has to
+ * be separable (a texture is a grid), so the rows and columns through
+ * what the camera sees get the view's slope on one axis all the way to
+ * the borders; a mesh need not be, so its density falls off away from the
+ * view as fast as W's slopes may vary (max_ratio per interval), down to
+ * the floor. Where the camera sees, it is W's slope exactly. */
+void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2]);
+
 /* The cage map C and its inverse (see above). Return the cage triangle
  * used, or -1 when none holds the point (then W, resp. W^-1, is used).
  * Where triangles overlap in UV the lowest-numbered one is used. */
@@ -165,6 +181,11 @@ int ch_warp_unmap(const ch_warp *w, const double wuv[2], double out[2]);
  * tessellation points evenly in warped space along a base edge. */
 double ch_warp_arc(const ch_warp *w, const double a[2], const double b[2], double x);
 double ch_warp_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y);
+/* The same in the mesh's metric (ch_warp_mesh_slopes, exact: the slopes
+ * are constant between the knot lines, which bound the focus cells):
+ * where the tessellation puts its points. */
+double ch_warp_mesh_arc(const ch_warp *w, const double a[2], const double b[2], double x);
+double ch_warp_mesh_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y);
 
 typedef struct ch_warp_curve_stats {
   int registered_pieces;    /* pieces after cutting at triangle boundaries */

@@ -151,9 +151,16 @@ static int groove_lines(const ch_curve *c, double tolerance, double angle, doubl
   return n;
 }
 
+/* The density the warped mesh has at uv: sqrt(slope_u slope_v) of the
+ * mesh's metric (ch_warp_mesh_slopes; the mesh's edge is e / that). */
+static double mesh_density(const ch_warp *w, const double uv[2]) {
+  double s[2];
+  ch_warp_mesh_slopes(w, uv, s);
+  return sqrt(s[0] * s[1]);
+}
+
 /* The warped mesh density along curve c: the mean over its length of
- * sqrt(slope_u slope_v) (the warped edge is e / that); its length in *len.
- * 1 without a warp. */
+ * mesh_density; its length in *len. 1 without a warp. */
 static double warp_density(const ch_warp *w, const ch_curve_set *set, int c, double *len) {
   const ch_curve *cv = &set->curves[c];
   double sum = 0.0, total = 0.0;
@@ -167,7 +174,7 @@ static double warp_density(const ch_warp *w, const ch_curve_set *set, int c, dou
       ch_segment_point(sg, (double)k / SAMPLES, p);
       double l = hypot(p[0] - prev[0], p[1] - prev[1]);
       ch_segment_point(sg, (k - 0.5) / SAMPLES, mid);
-      sum += l * (w ? sqrt(ch_warp_axis_slope(w, 0, mid[0]) * ch_warp_axis_slope(w, 1, mid[1])) : 1.0);
+      sum += l * (w ? mesh_density(w, mid) : 1.0);
       total += l;
       prev[0] = p[0], prev[1] = p[1];
     }
@@ -355,7 +362,7 @@ static const double *lines_of(const labeler *lb, int c, int L, int *nb) {
  * were set for that average), at most LEVELS - 1; 0 without a warp. */
 static int level_at(const labeler *lb, int c, const double uv[2]) {
   if (!lb->level_t || lb->set->curves[c].profile.kind != CH_PROFILE_U) return 0;
-  double d = sqrt(ch_warp_axis_slope(lb->warp, 0, uv[0]) * ch_warp_axis_slope(lb->warp, 1, uv[1]));
+  double d = mesh_density(lb->warp, uv);
   double r = d / lb->curve_density[c];
   int L = 0;
   while (L + 1 < LEVELS && r >= (double)(2 << L)) L++;
@@ -1626,7 +1633,7 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
  * grooves' mean density, within [1/8, 4]); 1 without a warp. */
 static double local_factor(const labeler *lb, const double uv[2]) {
   if (!lb->warp) return 1.0;
-  double d = sqrt(ch_warp_axis_slope(lb->warp, 0, uv[0]) * ch_warp_axis_slope(lb->warp, 1, uv[1]));
+  double d = mesh_density(lb->warp, uv);
   return fmin(4.0, fmax(0.125, lb->mean_density / d));
 }
 

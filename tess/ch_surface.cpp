@@ -690,7 +690,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
         int f = S->edge_face[i], k = S->edge_corner[i];
         const double *a, *b;
         face_edge_uv(S, f, k, &a, &b);
-        warped_length[e] = std::max(warped_length[e], ch_warp_arc(W, a, b, 1.0));
+        warped_length[e] = std::max(warped_length[e], ch_warp_mesh_arc(W, a, b, 1.0));
         if (S->face_start[f + 1] - S->face_start[f] != 4) remap[e] = 0;
       }
     length = warped_length.data();
@@ -701,7 +701,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
     if (!W || !remap[S->face_edge[S->face_start[f] + k]]) return x;
     const double *a, *b;
     face_edge_uv(S, f, k, &a, &b);
-    return ch_warp_arc_inverse(W, a, b, x);
+    return ch_warp_mesh_arc_inverse(W, a, b, x);
   };
   std::vector<int> rates;
   ch_status st = choose_rates(S, desc, length, rates, err);

@@ -113,11 +113,13 @@ typedef struct ch_tess_desc {
   int uniform_rate;      /* > 0: every base edge gets this rate (max 32767) */
   long target_triangles; /* > 0: rates chosen so the count lands within 5% */
   /* NULL, or the view-dependent warp (ch_warp.h): the lengths L below are
-   * then lengths in warped UV (ch_warp_arc), the points of an edge whose
-   * faces are all quads are placed evenly in warped UV along it, and the
-   * interior points of a quad follow (a Coons blend of its four edges'
-   * placements, the exact warped grid where W is affine over the quad's UV
-   * rectangle). So the density follows the warp at the same count. */
+   * then lengths in the mesh's warped metric (ch_warp_mesh_arc: warped UV
+   * where the camera sees, falling off to the floor away from it), the
+   * points of an edge whose faces are all quads are placed evenly in that
+   * metric along it, and the interior points of a quad follow (a Coons
+   * blend of its four edges' placements, the exact warped grid where W is
+   * affine and the focus 1 over the quad's UV rectangle). So the density
+   * follows the warp where the camera looks, at the same count. */
   const struct ch_warp *warp;
 } ch_tess_desc;
 

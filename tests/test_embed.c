@@ -446,8 +446,8 @@ static void test_cap_walls(void) {
 }
 
 /* The view-dependent warp: a close camera over the plane. For steps
- * (walls exact, also with the DCI diffused in warped UV) the warped mesh is
- * as exact as the unwarped one; for glyphs at 130k triangles the visible
+ * (walls on the curves, also with the DCI diffused in warped UV) the warped
+ * mesh leaves only its chords' slivers, finer than the unwarped one's; for glyphs at 130k triangles the visible
  * part is at least 2x more accurate in L1 at the same count (the issue's
  * target; bench/warp.sh measures every set). */
 static void test_warped(void) {
@@ -468,8 +468,10 @@ static void test_warped(void) {
     ch_warp_cage c = {.num_triangles = cage.num_triangles, .uv = cage.uv, .position = cage.position};
     REQUIRE(ch_warp_build(&cam, &c, &s.set, &(ch_warp_desc){.intervals = 256}, &w, &err) == CH_OK);
     ch_tess_cage_free(&cage);
-    /* the mask of what the camera sees, as chisel-accuracy --camera */
-    enum { G = 1024 };
+    /* the mask of what the camera sees, as chisel-accuracy --camera; steps
+     * on a finer grid (their error is the slivers between the curve and the
+     * wall's chords, a few samples at 1024^2) */
+    const int G = i == 0 ? 4096 : 1024;
     unsigned char *mask = malloc((size_t)G * G);
     REQUIRE(mask);
     for (int y = 0; y < G; y++)
@@ -504,7 +506,12 @@ static void test_warped(void) {
       ch_mesh_free(&out);
     }
     if (i == 0) {
-      CHECK_MSG(l1[1] <= 1e-6 && l1[2] <= 1e-6, "steps: warped L1 %g, warped DCI %g", l1[1], l1[2]);
+      /* The walls lie on the curves at the crossings and are chords between
+       * them, so the samples in the slivers between chord and curve count
+       * max|h|: 9.6e-7 of the 2M samples in view (one sample at 1024^2 is
+       * already 7.7e-6), the unwarped mesh 25x that. */
+      CHECK_MSG(l1[1] <= 2e-6 && l1[2] <= 2e-6 && l1[1] <= l1[0] / 4.0 && l1[2] <= l1[0] / 4.0,
+                "steps: warped L1 %g, warped DCI %g, unwarped %g", l1[1], l1[2], l1[0]);
     } else {
       CHECK_MSG(l1[1] <= l1[0] / 2.0, "glyphs in view: warped L1 %g vs unwarped %g", l1[1], l1[0]);
     }

@@ -3,8 +3,9 @@
  * which triangles a close camera sees, the per-axis functions (monotone,
  * exact inverse, floor, cap, smoothness, more texels where visible), the
  * cage map (equal to W where the cage lines are the knot lines, inverted
- * exactly elsewhere), the arc length under W, and the curves cut at the
- * cage edges and mapped through it. */
+ * exactly elsewhere), the arc length under W, the mesh's density (W's
+ * slopes where the camera sees, falling off away from it), and the curves
+ * cut at the cage edges and mapped through it. */
 #include <math.h>
 #include <omp.h>
 #include <stdint.h>
@@ -411,6 +412,75 @@ static void test_arc(void) {
   free_plane(&p);
 }
 
+/* The mesh's density (ch_warp_mesh_slopes): W's slopes where the camera
+ * sees, falling by 1.25 per interval (the smoothness) away from it, down to
+ * the floor; the mesh arc integrates it exactly. Close camera, 64
+ * intervals, so a focus cell is one interval: the visible triangles' boxes
+ * cover cells 4..19 of each axis ([0.0625, 0.3125]). */
+static void test_mesh_slopes(void) {
+  plane_cage p = make_plane(16, 1.0, 0.0);
+  ch_warp w;
+  REQUIRE(build_close(&p.cage, 64, &w) == CH_OK);
+  REQUIRE(w.focus && w.focus_cell == 1 && w.focus_n == 64);
+  double s[2];
+  /* inside: W's slopes exactly, also on the cells' rim (the denser side) */
+  const double inside[][2] = {{0.2, 0.2}, {0.07, 0.3}, {0.3125, 0.3125}, {0.0625, 0.1}};
+  for (size_t i = 0; i < sizeof inside / sizeof inside[0]; i++) {
+    ch_warp_mesh_slopes(&w, inside[i], s);
+    CHECK(s[0] == ch_warp_axis_slope(&w, 0, inside[i][0]) && s[1] == ch_warp_axis_slope(&w, 1, inside[i][1]));
+  }
+  /* four cells right of the view, in its rows: 1.25^-4 of W's slope */
+  double q[2] = {(23 + 0.5) / 64.0, 0.2};
+  ch_warp_mesh_slopes(&w, q, s);
+  double su = ch_warp_axis_slope(&w, 0, q[0]), sv = ch_warp_axis_slope(&w, 1, q[1]);
+  CHECK_NEAR(s[0], fmax(su * pow(1.25, -4.0), fmin(su, 0.1)), 1e-14);
+  CHECK_NEAR(s[1], fmax(sv * pow(1.25, -4.0), 0.1), 1e-14);
+  CHECK(s[1] < sv / 2.0); /* W keeps the view's slope on v in these rows */
+  /* diagonally away (Chebyshev distance 4, not 8) */
+  q[0] = q[1] = (23 + 0.5) / 64.0;
+  ch_warp_mesh_slopes(&w, q, s);
+  CHECK_NEAR(s[0], fmax(ch_warp_axis_slope(&w, 0, q[0]) * pow(1.25, -4.0), 0.1), 1e-14);
+  /* far, and in the view's column far away: the floor */
+  const double far[][2] = {{0.9, 0.9}, {0.2, 0.95}, {0.95, 0.2}};
+  for (size_t i = 0; i < sizeof far / sizeof far[0]; i++) {
+    ch_warp_mesh_slopes(&w, far[i], s);
+    CHECK_NEAR(s[0], 0.1, 1e-12);
+    CHECK_NEAR(s[1], 0.1, 1e-12);
+  }
+  /* the mesh arc: along v through the view and beyond, the sum of the
+   * slopes over the cells it crosses */
+  double a[2] = {0.2 + 1.0 / 128, 0.01}, b[2] = {0.2 + 1.0 / 128, 0.93}, sum = 0.0;
+  for (int j = 0; j < 64; j++) {
+    double lo = fmax(a[1], j / 64.0), hi = fmin(b[1], (j + 1) / 64.0);
+    if (hi <= lo) continue;
+    double m[2] = {a[0], 0.5 * (lo + hi)};
+    ch_warp_mesh_slopes(&w, m, s);
+    sum += s[1] * (hi - lo);
+  }
+  double total = ch_warp_mesh_arc(&w, a, b, 1.0);
+  CHECK_NEAR(total, sum, 1e-13);
+  CHECK(total < ch_warp_arc(&w, a, b, 1.0));
+  double worst = 0.0;
+  for (int i = 0; i < 200; i++) {
+    double x = ch_test_rnd();
+    worst = fmax(worst, fabs(ch_warp_mesh_arc_inverse(&w, a, b, ch_warp_mesh_arc(&w, a, b, x) / total) - x));
+  }
+  CHECK_MSG(worst <= 1e-12, "mesh arc inverse %g", worst);
+  /* inside the view the two arcs agree */
+  double c[2] = {0.1, 0.12}, d[2] = {0.29, 0.3};
+  CHECK_NEAR(ch_warp_mesh_arc(&w, c, d, 1.0), ch_warp_arc(&w, c, d, 1.0), 1e-14);
+  ch_warp_free(&w);
+
+  /* the identity: no focus, the mesh's slopes are 1 */
+  REQUIRE(ch_warp_identity(&p.cage, 64, &w, &(ch_error){0}) == CH_OK);
+  CHECK(!w.focus);
+  ch_warp_mesh_slopes(&w, (const double[2]){0.3, 0.8}, s);
+  CHECK(s[0] == 1.0 && s[1] == 1.0);
+  CHECK_NEAR(ch_warp_mesh_arc(&w, c, d, 1.0), hypot(0.19, 0.18), 1e-15);
+  ch_warp_free(&w);
+  free_plane(&p);
+}
+
 /* Distance from q to the curve's original segments. */
 static double curve_distance(const ch_curve_set *set, int curve, const double q[2]) {
   const ch_curve *c = &set->curves[curve];
@@ -671,6 +741,7 @@ int main(void) {
   RUN(test_cage_map_on_knots);
   RUN(test_cage_map_jittered);
   RUN(test_arc);
+  RUN(test_mesh_slopes);
   RUN(test_warp_curves);
   RUN(test_curve_through_vertices);
   RUN(test_bundled_curves);
