@@ -75,7 +75,8 @@ for r in rows:
     name, view, method, kind = b.rsplit("-", 3)
     by[(name, view, method, kind)] = r
 print("| curves | view | method | triangles flat / warped | L1 flat | L1 warped | flat / warped | band flat / warped | "
-      "normal p95 flat / warped | holes | virtual resolution | visible share (unwarped) | warp cost |")
+      "normal p95 flat / warped | holes | virtual resolution | visible share of texels (unwarped), of triangles | "
+      "warp cost |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 order = {"close": 0, "closer": 1, "full": 2}
 for (name, view, method, kind), r in sorted(by.items(), key=lambda kv: (kv[0][0], order[kv[0][1]], kv[0][2])):
@@ -87,13 +88,15 @@ for (name, view, method, kind), r in sorted(by.items(), key=lambda kv: (kv[0][0]
     log = w["warp_log"]
     m = re.search(r"virtual resolution (\d+) x (\d+) \(([\d.]+)x, ([\d.]+)x", log)
     vr = f"{m.group(1)} x {m.group(2)} ({m.group(3)}x, {m.group(4)}x)" if m else "no warp"
-    m = re.search(r"visible part ([\d.]+)% of the texels \(([\d.]+)% unwarped\)", log)
-    share = f"{m.group(1)}% ({m.group(2)}%)" if m else "-"
+    m = re.search(r"visible part ([\d.]+)% of the texels \(([\d.]+)% unwarped\), ([\d.]+)% of the triangles", log)
+    share = f"{m.group(1)}% ({m.group(2)}%), {m.group(3)}%" if m else "-"
     m = re.search(r"warp (\d+) ms \(([\d.]+)% of the run\)", log)
     cost = f"{m.group(1)} ms ({m.group(2)}%)" if m else "-"
-    ratio = r["l1"] / w["l1"] if w["l1"] > 0 else float("inf")
+    # both at rounding level (under 1e-9 of max |h|): no ratio to speak of
+    ratio = "both exact" if max(r["l1"], w["l1"]) < 1e-9 else \
+        f"{r['l1'] / w['l1']:.2f}" if w["l1"] > 0 else "inf"
     print(f"| {name} | {view} | {method} | {r['triangles']} / {w['triangles']} | {r['l1']:.3g} | {w['l1']:.3g} | "
-          f"{ratio:.2f} | {100 * r['band']:.2f}% / {100 * w['band']:.2f}% | "
+          f"{ratio} | {100 * r['band']:.2f}% / {100 * w['band']:.2f}% | "
           f"{r['normal_p95_deg']:.2f} / {w['normal_p95_deg']:.2f} | {max(r['holes'], w['holes']):.2g} | {vr} | "
           f"{share} | {cost} |")
 PY

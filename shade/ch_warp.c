@@ -404,12 +404,13 @@ static double focus_at(const ch_warp *w, const double uv[2]) {
   return f;
 }
 
-/* The mesh's slope from W's slope s and the focus f. */
-static double mesh_slope(double s, double f, double fl) { return fmax(s * f, fmin(s, fl)); }
-
 void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2]) {
-  double f = focus_at(w, uv);
-  for (int k = 0; k < 2; k++) slopes[k] = mesh_slope(ch_warp_axis_slope(w, k, uv[k]), f, w->floor);
+  double f = focus_at(w, uv), r[2];
+  for (int k = 0; k < 2; k++) {
+    double s = ch_warp_axis_slope(w, k, uv[k]);
+    r[k] = fmax(s * f, fmin(s, w->floor));
+  }
+  slopes[0] = slopes[1] = sqrt(r[0] * r[1]);
 }
 
 /* The focus grid: 1 on the cells that visible triangles' UV boxes touch,
@@ -507,6 +508,24 @@ static int cage_map(const ch_warp *w, int s, const double q[2], double out[2]) {
 int ch_warp_map(const ch_warp *w, const double uv[2], double out[2]) { return cage_map(w, 0, uv, out); }
 
 int ch_warp_unmap(const ch_warp *w, const double wuv[2], double out[2]) { return cage_map(w, 1, wuv, out); }
+
+double ch_warp_visible_triangle_share(const ch_warp *w, int num_triangles, const int *corner_uv,
+                                      const double *uv) {
+  if (num_triangles <= 0) return 0.0;
+  long count = 0;
+#pragma omp parallel for schedule(static) reduction(+ : count)
+  for (int t = 0; t < num_triangles; t++) {
+    double c[2] = {0.0, 0.0}, b[2];
+    for (int k = 0; k < 3; k++) {
+      const double *p = uv + 2 * (size_t)corner_uv[3 * (size_t)t + k];
+      c[0] += p[0] / 3.0;
+      c[1] += p[1] / 3.0;
+    }
+    int cage = locate(w->grids, 0, c, b);
+    count += cage >= 0 && w->visible[cage];
+  }
+  return (double)count / num_triangles;
+}
 
 static void index_free(cage_index *ix) {
   if (!ix) return;
@@ -818,11 +837,9 @@ static double knot_walk(const ch_warp *w, int mesh, const double a[2], const dou
     }
     double piece;
     if (mesh && w->focus) { /* the piece lies in one interval per axis, so in one focus cell */
-      double tm = 0.5 * (t + tn), mid[2] = {a[0] + tm * d[0], a[1] + tm * d[1]}, f = focus_at(w, mid), m[2];
-      for (int k = 0; k < 2; k++) {
-        double s = ch_warp_axis_slope(w, k, mid[k]);
-        m[k] = mesh_slope(s, f, w->floor) / s;
-      }
+      double tm = 0.5 * (t + tn), mid[2] = {a[0] + tm * d[0], a[1] + tm * d[1]}, m[2];
+      ch_warp_mesh_slopes(w, mid, m);
+      for (int k = 0; k < 2; k++) m[k] /= ch_warp_axis_slope(w, k, mid[k]);
       piece = hypot(m[0] * (here[0] - prev[0]), m[1] * (here[1] - prev[1]));
     } else {
       piece = hypot(here[0] - prev[0], here[1] - prev[1]);

@@ -100,7 +100,7 @@ typedef struct ch_warp {
                            wu[0] = 0, wu[n] = 1, strictly increasing */
   double floor;         /* the least slope W was built with */
   /* Focus: 1 on the UV cells that visible cage triangles touch, falling by
-   * max_ratio per interval away from them (see ch_warp_mesh_slopes); a
+   * max_ratio per interval away from them (ch_warp_mesh_slopes); a
    * focus_n^2 grid of cells focus_cell intervals wide (row v, column u),
    * NULL for the identity (focus 1 everywhere). */
   int focus_n, focus_cell;
@@ -158,13 +158,20 @@ double ch_warp_axis_inverse(const ch_warp *w, int axis, double y);
  * right one, at 1 the last one). */
 double ch_warp_axis_slope(const ch_warp *w, int axis, double x);
 
-/* The density a mesh should follow at uv, per axis: W's slopes times the
- * focus, at least the floor (or W's slope where that is smaller). W has to
- * be separable (a texture is a grid), so the rows and columns through
- * what the camera sees get the view's slope on one axis all the way to
- * the borders; a mesh need not be, so its density falls off away from the
- * view as fast as W's slopes may vary (max_ratio per interval), down to
- * the floor. Where the camera sees, it is W's slope exactly. */
+/* The density a mesh should follow at uv, as slopes per axis (a mesh
+ * edge of UV length l spans l times the slope). The mesh differs from the
+ * texture twice:
+ * - W has to be separable (a texture is a grid), so the rows and columns
+ *   through what the camera sees get the view's slope on one axis all the
+ *   way to the borders; a mesh need not be, so per axis W's slope is
+ *   multiplied by the focus, falling off away from the view as fast as W's
+ *   slopes may vary (max_ratio per interval), down to the floor (or W's
+ *   slope where that is smaller).
+ * - Texels follow the screen's foreshortening per axis; a mesh has to
+ *   resolve walls and creases running in every direction, so it is
+ *   isotropic: both slopes are the geometric mean of the two.
+ * So where the camera sees, a mesh has as many triangles per UV area as W
+ * gives texels (slope_u slope_v), in even shapes. */
 void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2]);
 
 /* The cage map C and its inverse (see above). Return the cage triangle
@@ -172,6 +179,13 @@ void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2])
  * Where triangles overlap in UV the lowest-numbered one is used. */
 int ch_warp_map(const ch_warp *w, const double uv[2], double out[2]);
 int ch_warp_unmap(const ch_warp *w, const double wuv[2], double out[2]);
+
+/* The share of a mesh's triangles whose UV centroid lies in a visible cage
+ * triangle (uv: 2 per UV index, corner_uv: 3 per triangle): how much of
+ * the mesh went to what the camera sees. 0 for no triangles. Parallel,
+ * deterministic. */
+double ch_warp_visible_triangle_share(const ch_warp *w, int num_triangles, const int *corner_uv,
+                                      const double *uv);
 
 /* Length of the image under W of the straight UV segment a -> b, from its
  * start up to fraction x in [0, 1] (exact: W is affine between the knot

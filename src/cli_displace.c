@@ -371,13 +371,14 @@ static int run(int argc, char **argv) {
   if (!st && warp) {
     const ch_warp_stats *ws = &warp->stats;
     double total = omp_get_wtime() - t0, cost = t_warp + height.warp_stats.seconds;
+    double tri_share = ch_warp_visible_triangle_share(warp, result->num_faces, result->corner_uv, result->uvs);
     fprintf(stderr,
             "chisel: warp: virtual resolution %.0f x %.0f (%.2fx, %.2fx --res %ld); visible part %.1f%% of the "
-            "texels (%.1f%% unwarped); %d of %d cage triangles visible, %d with curves; warp %.0f ms (%.1f%% of "
-            "the run)\n",
+            "texels (%.1f%% unwarped), %.1f%% of the triangles; %d of %d cage triangles visible, %d with curves; "
+            "warp %.0f ms (%.1f%% of the run)\n",
             res * ws->max_slope[0], res * ws->max_slope[1], ws->max_slope[0], ws->max_slope[1], res,
-            100.0 * ws->visible_share, 100.0 * ws->unwarped_share, ws->visible_triangles, warp->num_triangles,
-            ws->needy_triangles, 1e3 * cost, 100.0 * cost / total);
+            100.0 * ws->visible_share, 100.0 * ws->unwarped_share, 100.0 * tri_share, ws->visible_triangles,
+            warp->num_triangles, ws->needy_triangles, 1e3 * cost, 100.0 * cost / total);
   }
   if (!st && stats) {
     fprintf(stderr,

@@ -412,34 +412,45 @@ static void test_arc(void) {
   free_plane(&p);
 }
 
-/* The mesh's density (ch_warp_mesh_slopes): W's slopes where the camera
- * sees, falling by 1.25 per interval (the smoothness) away from it, down to
- * the floor; the mesh arc integrates it exactly. Close camera, 64
- * intervals, so a focus cell is one interval: the visible triangles' boxes
- * cover cells 4..19 of each axis ([0.0625, 0.3125]). */
+/* The mesh's density (ch_warp_mesh_slopes): per axis W's slope where the
+ * camera sees, falling by 1.25 per interval (the smoothness) away from it,
+ * down to the floor; isotropic, both slopes the geometric mean of those;
+ * the mesh arc integrates it exactly. Close camera, 64 intervals, so a
+ * focus cell is one interval: the visible triangles' boxes cover cells
+ * 4..19 of each axis ([0.0625, 0.3125]). */
+static void expect_mesh_slopes(const ch_warp *w, const double q[2], double focus) {
+  double r[2], s[2];
+  for (int k = 0; k < 2; k++) {
+    double sk = ch_warp_axis_slope(w, k, q[k]);
+    r[k] = fmax(sk * focus, fmin(sk, 0.1));
+  }
+  ch_warp_mesh_slopes(w, q, s);
+  CHECK_MSG(fabs(s[0] - sqrt(r[0] * r[1])) <= 1e-14 && s[1] == s[0], "mesh slopes at %g %g: %.17g %.17g, not %.17g",
+            q[0], q[1], s[0], s[1], sqrt(r[0] * r[1]));
+}
+
 static void test_mesh_slopes(void) {
   plane_cage p = make_plane(16, 1.0, 0.0);
   ch_warp w;
   REQUIRE(build_close(&p.cage, 64, &w) == CH_OK);
   REQUIRE(w.focus && w.focus_cell == 1 && w.focus_n == 64);
-  double s[2];
-  /* inside: W's slopes exactly, also on the cells' rim (the denser side) */
+  /* inside, also on the cells' rim (the denser side): the texels' density */
   const double inside[][2] = {{0.2, 0.2}, {0.07, 0.3}, {0.3125, 0.3125}, {0.0625, 0.1}};
   for (size_t i = 0; i < sizeof inside / sizeof inside[0]; i++) {
+    expect_mesh_slopes(&w, inside[i], 1.0);
+    double s[2];
     ch_warp_mesh_slopes(&w, inside[i], s);
-    CHECK(s[0] == ch_warp_axis_slope(&w, 0, inside[i][0]) && s[1] == ch_warp_axis_slope(&w, 1, inside[i][1]));
+    CHECK_NEAR(s[0] * s[1],
+               ch_warp_axis_slope(&w, 0, inside[i][0]) * ch_warp_axis_slope(&w, 1, inside[i][1]), 1e-12);
   }
-  /* four cells right of the view, in its rows: 1.25^-4 of W's slope */
-  double q[2] = {(23 + 0.5) / 64.0, 0.2};
+  /* four cells right of the view, in its rows (where W keeps the view's
+   * slope on v), and diagonally (Chebyshev distance 4, not 8) */
+  double q[2] = {(23 + 0.5) / 64.0, 0.2}, s[2];
+  expect_mesh_slopes(&w, q, pow(1.25, -4.0));
   ch_warp_mesh_slopes(&w, q, s);
-  double su = ch_warp_axis_slope(&w, 0, q[0]), sv = ch_warp_axis_slope(&w, 1, q[1]);
-  CHECK_NEAR(s[0], fmax(su * pow(1.25, -4.0), fmin(su, 0.1)), 1e-14);
-  CHECK_NEAR(s[1], fmax(sv * pow(1.25, -4.0), 0.1), 1e-14);
-  CHECK(s[1] < sv / 2.0); /* W keeps the view's slope on v in these rows */
-  /* diagonally away (Chebyshev distance 4, not 8) */
+  CHECK(s[1] < ch_warp_axis_slope(&w, 1, q[1]) / 2.0);
   q[0] = q[1] = (23 + 0.5) / 64.0;
-  ch_warp_mesh_slopes(&w, q, s);
-  CHECK_NEAR(s[0], fmax(ch_warp_axis_slope(&w, 0, q[0]) * pow(1.25, -4.0), 0.1), 1e-14);
+  expect_mesh_slopes(&w, q, pow(1.25, -4.0));
   /* far, and in the view's column far away: the floor */
   const double far[][2] = {{0.9, 0.9}, {0.2, 0.95}, {0.95, 0.2}};
   for (size_t i = 0; i < sizeof far / sizeof far[0]; i++) {
@@ -466,9 +477,9 @@ static void test_mesh_slopes(void) {
     worst = fmax(worst, fabs(ch_warp_mesh_arc_inverse(&w, a, b, ch_warp_mesh_arc(&w, a, b, x) / total) - x));
   }
   CHECK_MSG(worst <= 1e-12, "mesh arc inverse %g", worst);
-  /* inside the view the two arcs agree */
-  double c[2] = {0.1, 0.12}, d[2] = {0.29, 0.3};
-  CHECK_NEAR(ch_warp_mesh_arc(&w, c, d, 1.0), ch_warp_arc(&w, c, d, 1.0), 1e-14);
+  /* isotropic: a step along u and one along v inside a cell are as long */
+  double c[2] = {0.201, 0.202}, du[2] = {0.203, 0.202}, dv[2] = {0.201, 0.204};
+  CHECK_NEAR(ch_warp_mesh_arc(&w, c, du, 1.0), ch_warp_mesh_arc(&w, c, dv, 1.0), 1e-15);
   ch_warp_free(&w);
 
   /* the identity: no focus, the mesh's slopes are 1 */
@@ -476,7 +487,8 @@ static void test_mesh_slopes(void) {
   CHECK(!w.focus);
   ch_warp_mesh_slopes(&w, (const double[2]){0.3, 0.8}, s);
   CHECK(s[0] == 1.0 && s[1] == 1.0);
-  CHECK_NEAR(ch_warp_mesh_arc(&w, c, d, 1.0), hypot(0.19, 0.18), 1e-15);
+  double e[2] = {0.29, 0.3};
+  CHECK_NEAR(ch_warp_mesh_arc(&w, c, e, 1.0), hypot(0.089, 0.098), 1e-15);
   ch_warp_free(&w);
   free_plane(&p);
 }
