@@ -264,10 +264,11 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
          * densities refining every curved line to 1% would take more
          * triangles than a small target holds. */
         double r = global_edge / cv->width / 0.25;
-        /* (with a warp, scaled where it is checked by the local factor:
-         * sagittas go like e^2, but a tolerance that falls as fast has the
-         * chords of a close view take most of the triangles, and the
-         * count from the base stops being monotone) */
+        /* (with a warp, scaled where it is checked, chord_factor:
+         * sagittas go like e^2, but a tolerance that falls as fast where
+         * the mesh is finer has the chords of a close view take most of
+         * the triangles, and the count from the base stops being
+         * monotone; where it is coarser it grows as fast) */
         lb->chord_tol[c] = 0.01 * fmax(1.0, r * r * r * r) * fabs(cv->depth);
       }
       double slope = fabs(cv->depth) / (cv->width * object_scale);
@@ -275,11 +276,13 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
        * the mean edge (about 8e-5 UV at 130k triangles, 2e-5 at 2.1M). */
       double spacing = fmax(2.0 * MIN_SPLIT_LENGTH, mean_edge / 50.0);
       n += groove_lines(cv, tol, angle, slope, spacing, lb->crease_t + n, MAX_LINES);
-      /* the finer sets of a u groove (level L: the angle step / 2^L) */
+      /* the finer sets of a u groove (level L: the angle step and the
+       * rim's spacing / 2^L, as the mesh there is 2^L times finer) */
       for (int L = 1; lb->level_t && cv->profile.kind == CH_PROFILE_U && L < LEVELS; L++) {
         lb->level_start[c * LEVELS + L] = nl;
         double a = fmax(CH_PI / 180.0, angle / (double)(1 << L));
-        nl += groove_lines(cv, tol, a, slope, spacing, lb->level_t + nl, MAX_LINES);
+        double sp = fmax(2.0 * MIN_SPLIT_LENGTH, spacing / (double)(1 << L));
+        nl += groove_lines(cv, tol, a, slope, sp, lb->level_t + nl, MAX_LINES);
       }
     }
     if (lb->level_t) {
@@ -1637,6 +1640,16 @@ static double local_factor(const labeler *lb, const double uv[2]) {
   return fmin(4.0, fmax(0.125, lb->mean_density / d));
 }
 
+/* The factor of a groove's chord tolerance at uv. Where the warped mesh is
+ * coarser than the grooves' mean (away from the view) a chord's sagitta
+ * grows as the square of its length, so the tolerance does too, or the
+ * chords would refine the coarse parts back towards the mean; where it is
+ * finer, linear (see labeler_init). */
+static double chord_factor(const labeler *lb, const double uv[2]) {
+  double lf = local_factor(lb, uv);
+  return lf > 1.0 ? lf * lf : lf;
+}
+
 static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
   const ch_groove_field *gf = &lb->height->grooves;
   const int *items;
@@ -1737,8 +1750,7 @@ static int needs_refinement(const labeler *lb, const work *w, int t, int only_un
       double mesh_h = 0.25 * (p->hprev + p->hnext + q->hprev + q->hnext);
       err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) - mesh_h);
     }
-    double lf = local_factor(lb, mid);
-    if (err > lb->chord_tol[c] * lf) return 1;
+    if (err > lb->chord_tol[c] * chord_factor(lb, mid)) return 1;
   }
   uint64_t l = label_at(lb, centre);
   for (int i = 0; i < m; i++)
@@ -1953,7 +1965,7 @@ static int thin_edge_ok(void *ctx, int family, int va, int vb, const double a[2]
     err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) -
                0.5 * (ch_height_eval(lb->height, a[0], a[1]) + ch_height_eval(lb->height, b[0], b[1])));
   }
-  return err <= lb->chord_tol[c] * local_factor(lb, mid);
+  return err <= lb->chord_tol[c] * chord_factor(lb, mid);
 }
 
 /* The exact normal of groove c's h at output vertex v in layer k (its
