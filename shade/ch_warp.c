@@ -404,13 +404,20 @@ static double focus_at(const ch_warp *w, const double uv[2]) {
   return f;
 }
 
-void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2]) {
+/* ch_warp_mesh_slopes, with W's slopes at uv in axis[] (the arc walk
+ * needs both). */
+static void mesh_slopes_at(const ch_warp *w, const double uv[2], double axis[2], double slopes[2]) {
   double f = focus_at(w, uv), r[2];
   for (int k = 0; k < 2; k++) {
-    double s = ch_warp_axis_slope(w, k, uv[k]);
-    r[k] = fmax(s * f, fmin(s, w->floor));
+    axis[k] = ch_warp_axis_slope(w, k, uv[k]);
+    r[k] = fmax(axis[k] * f, fmin(axis[k], w->floor));
   }
   slopes[0] = slopes[1] = sqrt(r[0] * r[1]);
+}
+
+void ch_warp_mesh_slopes(const ch_warp *w, const double uv[2], double slopes[2]) {
+  double axis[2];
+  mesh_slopes_at(w, uv, axis, slopes);
 }
 
 /* The focus grid: 1 on the cells that visible triangles' UV boxes touch,
@@ -837,9 +844,9 @@ static double knot_walk(const ch_warp *w, int mesh, const double a[2], const dou
     }
     double piece;
     if (mesh && w->focus) { /* the piece lies in one interval per axis, so in one focus cell */
-      double tm = 0.5 * (t + tn), mid[2] = {a[0] + tm * d[0], a[1] + tm * d[1]}, m[2];
-      ch_warp_mesh_slopes(w, mid, m);
-      for (int k = 0; k < 2; k++) m[k] /= ch_warp_axis_slope(w, k, mid[k]);
+      double tm = 0.5 * (t + tn), mid[2] = {a[0] + tm * d[0], a[1] + tm * d[1]}, m[2], axis[2];
+      mesh_slopes_at(w, mid, axis, m);
+      for (int k = 0; k < 2; k++) m[k] /= axis[k];
       piece = hypot(m[0] * (here[0] - prev[0]), m[1] * (here[1] - prev[1]));
     } else {
       piece = hypot(here[0] - prev[0], here[1] - prev[1]);

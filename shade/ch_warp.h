@@ -191,8 +191,8 @@ double ch_warp_visible_triangle_share(const ch_warp *w, int num_triangles, const
  * start up to fraction x in [0, 1] (exact: W is affine between the knot
  * lines the segment crosses), and the inverse: the fraction at which that
  * length is y times the whole (x, y clamped to [0, 1]). a == b, or an
- * image of length 0: arc 0, the inverse returns y. Used to place
- * tessellation points evenly in warped space along a base edge. */
+ * image of length 0: arc 0, the inverse returns y. This is the texels'
+ * metric; the tessellation uses the mesh's (below). */
 double ch_warp_arc(const ch_warp *w, const double a[2], const double b[2], double x);
 double ch_warp_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y);
 /* The same in the mesh's metric (ch_warp_mesh_slopes, exact: the slopes
