@@ -6,11 +6,8 @@
 #include <malloc.h>
 #endif
 
+#include "ch_version.h"
 #include "cli.h"
-
-#ifndef CHISEL_VERSION
-#define CHISEL_VERSION "unknown"
-#endif
 
 static const cli_command *commands[] = {&cli_displace_command, &cli_info_command, &cli_sample_command,
                                         &cli_dci_command, &cli_magnify_command, &cli_study_command};
@@ -23,7 +20,7 @@ static void print_overview(FILE *out) {
           "usage: chisel COMMAND [options]\n"
           "\n"
           "commands:\n",
-          CHISEL_VERSION);
+          CH_VERSION_STRING);
   for (int i = 0; i < NUM_COMMANDS; i++)
     fprintf(out, "  %-10s %s\n", commands[i]->name, commands[i]->summary);
   fprintf(out,
@@ -59,7 +56,7 @@ int main(int argc, char **argv) {
     return 0;
   }
   if (!strcmp(name, "--version")) {
-    printf("chisel %s\n", CHISEL_VERSION);
+    printf("chisel %s\n", CH_VERSION_STRING);
     return 0;
   }
   if (!strcmp(name, "help")) {
