@@ -663,6 +663,9 @@ static ch_status check_write_args(const char *path, const ch_image *img,
       return ch_error_set(err, CH_ERR_INPUT, "%s: unknown pixel type %d for channel '%s'", path,
                           (int)t, img->names[c]);
   }
+  if (d->luminance && (ch_image_find(img, d->luminance) < 0 || ch_image_find(img, "Y") >= 0 ||
+                       img->num_channels >= CH_IMAGE_MAX_CHANNELS))
+    return ch_error_set(err, CH_ERR_INPUT, "%s: cannot copy channel '%s' to Y", path, d->luminance);
   if (d->num_attributes < 0 || (d->num_attributes > 0 && !d->attributes))
     return ch_error_set(err, CH_ERR_INPUT, "%s: bad attribute list", path);
   for (int i = 0; i < d->num_attributes; i++) {
@@ -706,6 +709,13 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
       return exr_fail(io, err, rv, CH_ERR_INPUT, what);
     }
   }
+  if (d->luminance) {
+    ch_exr_type t = d->channel_types ? d->channel_types[ch_image_find(img, d->luminance)] : d->type;
+    io_reset_message(io);
+    rv = exr_add_channel(ctx, part, "Y", t == CH_EXR_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
+                         EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv != EXR_ERR_SUCCESS) return exr_fail(io, err, rv, CH_ERR_INPUT, "cannot add channel 'Y'");
+  }
   for (int i = 0; i < d->num_attributes; i++) {
     io_reset_message(io);
     rv = exr_attr_set_string(ctx, part, d->attributes[i].name, d->attributes[i].value);
@@ -745,6 +755,8 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
     for (int k = 0; k < enc.channel_count; k++) {
       exr_coding_channel_info_t *ch = &enc.channels[k];
       int c = ch->channel_name ? ch_image_find(img, ch->channel_name) : -1;
+      if (c < 0 && d->luminance && ch->channel_name && !strcmp(ch->channel_name, "Y"))
+        c = ch_image_find(img, d->luminance);
       if (c < 0) {
         st = ch_error_set(err, CH_ERR_INTERNAL, "%s: channel '%s' lost while writing", io->name,
                           ch->channel_name ? ch->channel_name : "?");
