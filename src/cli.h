@@ -22,6 +22,11 @@ extern const cli_command cli_study_command;
  * still go to stderr. */
 extern int cli_quiet;
 
+/* The command line as typed (main.c sets them before a command runs), for
+ * reports that say what made them. */
+extern int cli_argc;
+extern char **cli_argv;
+
 /* The one line every successful run ends with, "chisel: MESSAGE", on
  * stderr (stdout may carry data: -o -, --json); nothing with -q. */
 void cli_result(const char *fmt, ...)

@@ -112,6 +112,8 @@ void cli_outputs_remove_all(cli_outputs *outs) {
 }
 
 int cli_quiet = 0;
+int cli_argc = 0;
+char **cli_argv = NULL;
 
 void cli_result(const char *fmt, ...) {
   if (cli_quiet) return;

@@ -920,11 +920,13 @@ static int run(int argc, char **argv) {
   /* The command as typed (quoted where a shell would need it), for the report. */
   char command[4096];
   size_t clen = (size_t)snprintf(command, sizeof command, "chisel");
-  for (int i = 0; i < argc && clen < sizeof command; i++) {
-    int plain = argv[i][0] != '\0';
-    for (const char *c = argv[i]; *c; c++)
+  int typed = cli_argv != NULL; /* as typed (with -q, -j), else as parsed */
+  for (int i = typed ? 1 : 0; i < (typed ? cli_argc : argc) && clen < sizeof command; i++) {
+    const char *a = typed ? cli_argv[i] : argv[i];
+    int plain = a[0] != '\0';
+    for (const char *c = a; *c; c++)
       if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=,:+@%", *c)) plain = 0;
-    clen += (size_t)snprintf(command + clen, sizeof command - clen, plain ? " %s" : " '%s'", argv[i]);
+    clen += (size_t)snprintf(command + clen, sizeof command - clen, plain ? " %s" : " '%s'", a);
   }
   double t_start = omp_get_wtime();
   /* Every input is read and checked before anything is written. */

@@ -216,6 +216,7 @@ int main(int argc, char **argv) {
     print_overview(stderr);
     return 2;
   }
+  cli_argc = argc, cli_argv = argv;
   const char *name = argv[1];
   if (cli_is_help(name)) {
     print_overview(stdout);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The command line as scripts use it: --opt=value, -q, -j, --json, the
-# one-line result, -o - (and its refusals), "did you mean", and SVGs drawn
-# without data- attributes (docs/svg.md), read back through `info --json`.
+# one-line result, -o - (and its refusals), "did you mean", SVGs drawn
+# without data- attributes (docs/svg.md) read back through `info --json`,
+# the study report's contents and UDIM tiles (docs/udim.md).
 # usage: test_scripting.sh CHISEL TESTS_DIR MODELS_DIR TMP_DIR
 set -u
 chisel=$1 tests=$2 models=$3 tmp=$4
@@ -182,6 +183,32 @@ for f in "$models"/curves/*.svg; do
   checks=$((checks + 1))
   python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert all(c['decided_by']=='data-attributes' and c.get('width_from','data-width') in ('data-width','default') for c in d['curve_list']), sys.argv[1]" "$tmp/svg.json" || fail "$f: not decided by data- attributes"
 done
+
+# ---- the study's report: what a researcher publishes from ----
+cp "$tests/data/study/box_groove.json" "$tests/data/study/box_groove.svg" "$tests/data/study/box_groove.obj" "$tmp/"
+(cd "$tmp" && SOURCE_DATE_EPOCH=86400 "$chisel" study box_groove.json -o report >"$tmp/out" 2>"$tmp/err") ||
+  fail "study: $(cat "$tmp/err")"
+err_has "chisel: wrote report/index.html"
+checks=$((checks + 1))
+python3 - "$tmp/report/index.html" "$tmp/box_groove.json" <<'EOF' || fail "study report"
+import re, sys
+html = open(sys.argv[1]).read()
+assert re.search(r"chisel \d+\.\d+\.\d+, 1970-01-02 00:00:00 UTC", html), "version and date"
+assert "Command: <code>chisel study box_groove.json -o report</code>" in html, "command"
+assert '"truth_grid": 256' in html.replace("&quot;", '"'), "the scene"
+assert "Over the 3 views: mean (worst)" in html
+# Every heat map (normal and depth error, per view and method) has a
+# colour bar with its unit; the class map a legend.
+bars = html.count("<linearGradient")
+assert bars == 2 * 3 * 1, bars
+assert html.count(">degrees</text>") == 3 and html.count(">% of the scene's diagonal</text>") == 3
+assert html.count("class differs from the truth") == 3
+assert html.count("triangles (log scale)") >= 3 and "mean over views (log scale)" in html
+EOF
+# The same report again (same bytes, with SOURCE_DATE_EPOCH set).
+mv "$tmp/report" "$tmp/report1"
+(cd "$tmp" && SOURCE_DATE_EPOCH=86400 "$chisel" study box_groove.json -o report >/dev/null 2>&1)
+check cmp -s "$tmp/report1/index.html" "$tmp/report/index.html"
 
 # ---- UDIM: one curve file per tile ----
 udim=$tests/data/mesh/udim_two_tiles.obj
