@@ -217,15 +217,15 @@ cp "$models/curves/glyphs.svg" "$tmp/udim/carve.1001.svg" # carved only (h <= 0)
 cp "$models/curves/star.svg" "$tmp/udim/carve.1002.svg"
 cp "$models/curves/glyphs.svg" "$tmp/udim/mixed_1001.svg"
 cp "$models/curves/relief.svg" "$tmp/udim/mixed_1002.svg" # raised only (h >= 0)
-run 2 "$chisel" displace "$udim" "$models/curves/glyphs.svg" -o "$tmp/udim/x.obj" --target-tris 60000
+run 2 "$chisel" displace "$udim" "$models/curves/glyphs.svg" -o "$tmp/udim/x.obj" --target-tris 30000
 err_has "UVs span UDIM tiles 1001, 1002: no curve file for tile 1001"
 check [ ! -e "$tmp/udim/x.obj" ]
 run 2 "$chisel" displace "$udim" "$tmp/udim/carve.svg" -o "$tmp/udim/x.obj" --exr "$tmp/udim/x.exr"
 err_has "has UDIM tiles: --camera, --exr"
-run 0 "$chisel" displace "$udim" "$tmp/udim/carve.svg" -o "$tmp/udim/a.obj" --target-tris 60000 -q
-run 0 "$chisel" displace "$udim" "$tmp/udim/carve.<UDIM>.svg" -o "$tmp/udim/b.obj" --target-tris 60000 -q
+run 0 "$chisel" displace "$udim" "$tmp/udim/carve.svg" -o "$tmp/udim/a.obj" --target-tris 30000 -q
+run 0 "$chisel" displace "$udim" "$tmp/udim/carve.<UDIM>.svg" -o "$tmp/udim/b.obj" --target-tris 30000 -q
 check cmp -s "$tmp/udim/a.obj" "$tmp/udim/b.obj"
-run 0 "$chisel" displace "$udim" "$tmp/udim/mixed_1002.svg" -o "$tmp/udim/m.obj" --target-tris 60000 -q
+run 0 "$chisel" displace "$udim" "$tmp/udim/mixed_1002.svg" -o "$tmp/udim/m.obj" --target-tris 30000 -q
 checks=$((checks + 1))
 python3 - "$tmp/udim/a.obj" "$tmp/udim/m.obj" <<'EOF' || fail "UDIM outputs"
 import sys
