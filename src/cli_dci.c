@@ -17,8 +17,8 @@ static const char usage[] =
     "Builds the diffusion-curve image of the step curves: feature samples (exact\n"
     "closest curve points near the curves), Laplace diffusion with the curves as\n"
     "two-sided boundaries (multigrid, relative residual 1e-6) and the reblur of\n"
-    "curves with data-blur. Writes every layer as float32 EXR: h (also as Y, the\n"
-    "grey channel image viewers show, when there are no colours), R G B (with\n"
+    "curves with data-blur. Writes every layer as float32 EXR: h (and, without\n"
+    "colours, Y = 0.5 + h / (2 max |h|), the grey channel viewers show), R G B (with\n"
     "colours), opp.h opp.R opp.G opp.B (values across the curve), distance.X\n"
     "(texels), sp.u sp.v (closest curve point), chain.X and t (which subpath and\n"
     "where along it), curve.X, side.X (1 left, 2 right, +4 near an open end, +8\n"
@@ -117,9 +117,17 @@ static int run(int argc, char **argv) {
     char rect_text[128], res_text[32];
     snprintf(rect_text, sizeof rect_text, "%.17g %.17g %.17g %.17g", rect[0], rect[1], rect[2], rect[3]);
     snprintf(res_text, sizeof res_text, "%ld", res);
-    const ch_exr_attribute attrs[] = {
-        {"chisel:command", "dci"}, {"chisel:rect", rect_text}, {"chisel:resolution", res_text}};
-    ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = 3, .luminance = dci.rgb ? NULL : "h"};
+    char scale_text[32];
+    ch_exr_write_desc wd = {0};
+    if (!dci.rgb) /* colours are what a viewer shows; else h as grey */
+      cli_height_luminance(dci.h, (size_t)res * (size_t)res, "h", &wd, scale_text, sizeof scale_text);
+    const ch_exr_attribute attrs[] = {{"chisel:command", "dci"},
+                                      {"chisel:rect", rect_text},
+                                      {"chisel:resolution", res_text},
+                                      {"chisel:height_scale", scale_text},
+                                      {"chisel:Y", CLI_Y_NOTE}};
+    wd.attributes = attrs;
+    wd.num_attributes = dci.rgb ? 3 : 5;
     st = ch_exr_write(out, &img, &wd, &err);
     if (!st) cli_outputs_add(&outs, out);
   }

@@ -48,7 +48,7 @@ static const char usage[] =
     "                     diffusion, so smooth steps come out less exact)\n"
     "  --exr FILE         maps on an R x R grid over the UV square (warped UV with\n"
     "                     --camera, where u v give each texel's original UV): h\n"
-    "                     (and Y, the same, for image viewers), and the geometry\n"
+    "                     (and Y = 0.5 + h / (2 max |h|) for viewers), the geometry\n"
     "                     image (P.x P.y P.z N.x N.y N.z face.X s t) of the base\n"
     "                     surface, evaluated exactly at the texel centres\n"
     "  --png FILE         a preview of h (false colour, hill shaded), in warped UV\n"
@@ -462,7 +462,14 @@ static int run(int argc, char **argv) {
           const char *text = warp_text;
           for (int k = 0; k < 4; k++, text += strlen(text) + 1) attrs[na++] = (ch_exr_attribute){keys[k], text};
         }
-        ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = na, .luminance = "h"};
+        char scale_text[32];
+        ch_exr_write_desc wd = {0};
+        height_scale = cli_height_luminance(ch_image_plane(&maps, 0), (size_t)res * (size_t)res, "h", &wd,
+                                            scale_text, sizeof scale_text);
+        attrs[na++] = (ch_exr_attribute){"chisel:height_scale", scale_text};
+        attrs[na++] = (ch_exr_attribute){"chisel:Y", CLI_Y_NOTE};
+        wd.attributes = attrs;
+        wd.num_attributes = na;
         if (!st) st = ch_exr_write(exr, &maps, &wd, &err);
         if (!st) cli_outputs_add(&outs, exr);
         free(warp_text);
@@ -528,7 +535,9 @@ static int run(int argc, char **argv) {
                                 cli_is_stdout(written[i]) ? (i == 0 ? "OBJ to standard output" : "PLY to standard output")
                                                           : written[i]);
     char scale_note[96] = "";
-    if (png16) snprintf(scale_note, sizeof scale_note, "; height PNG: 0.5 is h = 0, full scale 2 x %.6g", height_scale);
+    if (png16 || exr)
+      snprintf(scale_note, sizeof scale_note, "; %s: 0.5 + h / (2 x %.6g)",
+               png16 && exr ? "Y and the height PNG" : exr ? "Y" : "the height PNG", height_scale);
     cli_result("wrote %s: %d triangles, %d vertices, h in [%.4g, %.4g]%s, in %.2f s", what, result->num_faces,
                result->num_positions, dstats.min_h, dstats.max_h, scale_note, total);
   }
@@ -545,7 +554,7 @@ static int run(int argc, char **argv) {
     cJSON_AddNumberToObject(o, "passes", passes);
     cJSON_AddNumberToObject(o, "h_min", dstats.min_h);
     cJSON_AddNumberToObject(o, "h_max", dstats.max_h);
-    if (png16) cJSON_AddNumberToObject(o, "height_png_scale", height_scale);
+    if (png16 || exr) cJSON_AddNumberToObject(o, "height_scale", height_scale);
     cJSON_AddBoolToObject(o, "snapped", !no_snap);
     cJSON *sec = cJSON_AddObjectToObject(o, "seconds");
     cJSON_AddNumberToObject(sec, "total", total);

@@ -31,8 +31,8 @@ static const char usage[] =
     "  --method M         bilinear, recon5 (default), recon3 or exact\n"
     "  --curves FILE      the curve file the DCI was made from (for exact)\n"
     "  --no-aa            no anti-aliasing of curve edges (paper §3.4)\n"
-    "  --exr FILE         also write the crop's h as a float EXR (h, and Y for\n"
-    "                     image viewers)\n"
+    "  --exr FILE         also write the crop's h as a float EXR (h, and\n"
+    "                     Y = 0.5 + h / (2 max |h|) for image viewers)\n"
     "  --fill-height H    with --curves: the height of filled shapes drawn without\n"
     "                     data- attributes (docs/svg.md; default 0.01)\n";
 
@@ -167,7 +167,12 @@ static int run(int argc, char **argv) {
     st = ch_image_init(&crop, W, H, 1, names, &err);
     if (!st) {
       memcpy(ch_image_plane(&crop, 0), h, (size_t)W * H * sizeof *h);
-      ch_exr_write_desc wd = {.luminance = "h"};
+      char scale_text[32];
+      ch_exr_write_desc wd = {0};
+      cli_height_luminance(h, (size_t)W * H, "h", &wd, scale_text, sizeof scale_text);
+      const ch_exr_attribute attrs[] = {{"chisel:height_scale", scale_text}, {"chisel:Y", CLI_Y_NOTE}};
+      wd.attributes = attrs;
+      wd.num_attributes = 2;
       st = ch_exr_write(exr, &crop, &wd, &err);
       if (!st) cli_outputs_add(&outs, exr);
     }

@@ -17,11 +17,12 @@ static const char usage[] =
     "                    [--height-png H16.png] [--fill-height H]\n"
     "\n"
     "Writes the displacement h = h_step + h_groove of the curves (SPEC §3) as an\n"
-    "R x R float32 EXR with the channel h, and the same values as Y, the grey\n"
-    "channel that image viewers, ImageMagick and Blender's image texture read\n"
-    "(in Blender: Non-Color, Displace modifier with midlevel 0 and strength 1,\n"
-    "the texture's clamp off). Pixel (x, y), y counted down from the top row,\n"
-    "covers u in [x/R, (x+1)/R] and v in [1-(y+1)/R, 1-y/R].\n"
+    "R x R float32 EXR with the channel h, and beside it Y = 0.5 + h / (2 s),\n"
+    "s = max |h| (the attribute chisel:height_scale and the result line), the\n"
+    "grey channel image viewers, ImageMagick and Blender's image texture read\n"
+    "(in Blender: Non-Color, Displace modifier with midlevel 0.5 and strength\n"
+    "2 s). Pixel (x, y), y counted down from the top row, covers u in\n"
+    "[x/R, (x+1)/R] and v in [1-(y+1)/R, 1-y/R].\n"
     "Grooves are exact; steps are diffused on an R x R grid (chisel dci) and read\n"
     "with the exact curves' sides, so walls are sharp inside pixels.\n"
     "\n"
@@ -100,10 +101,16 @@ static int run(int argc, char **argv) {
     char res_text[32], ss_text[32];
     snprintf(res_text, sizeof res_text, "%ld", res);
     snprintf(ss_text, sizeof ss_text, "%ld", ss);
+    char scale_text[32];
+    ch_exr_write_desc desc = {0};
+    cli_height_luminance(ch_image_plane(&img, 0), (size_t)res * (size_t)res, "h", &desc, scale_text, sizeof scale_text);
     const ch_exr_attribute attrs[] = {{"chisel:command", "sample"},
                                       {"chisel:resolution", res_text},
-                                      {"chisel:supersample", ss_text}};
-    ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3, .luminance = "h"};
+                                      {"chisel:supersample", ss_text},
+                                      {"chisel:height_scale", scale_text},
+                                      {"chisel:Y", CLI_Y_NOTE}};
+    desc.attributes = attrs;
+    desc.num_attributes = 5;
     st = ch_exr_write(out, &img, &desc, &err);
     if (!st) cli_outputs_add(&outs, out);
   }
@@ -111,9 +118,8 @@ static int run(int argc, char **argv) {
     st = ch_png_write_height(png, ch_image_plane(&img, 0), img.width, img.height, &err);
     if (!st) cli_outputs_add(&outs, png);
   }
-  double scale = 0.0;
   if (!st && png16) {
-    st = ch_png_write_height16(png16, ch_image_plane(&img, 0), img.width, img.height, &scale, &err);
+    st = ch_png_write_height16(png16, ch_image_plane(&img, 0), img.width, img.height, NULL, &err);
     if (!st) cli_outputs_add(&outs, png16);
   }
   if (st) cli_outputs_remove_all(&outs);
@@ -121,13 +127,12 @@ static int run(int argc, char **argv) {
     float lo = INFINITY, hi = -INFINITY;
     const float *p = ch_image_plane(&img, 0);
     for (size_t i = 0; i < (size_t)res * (size_t)res; i++) lo = fminf(lo, p[i]), hi = fmaxf(hi, p[i]);
+    double s = fmax(fabs((double)lo), fabs((double)hi));
     char extra[512] = "";
     if (png) snprintf(extra + strlen(extra), sizeof extra - strlen(extra), ", %s", png);
-    if (png16)
-      snprintf(extra + strlen(extra), sizeof extra - strlen(extra), ", %s (16-bit, 0.5 = 0, scale 2 x %.6g)",
-               png16, scale);
-    cli_result("wrote %s (%ld x %ld, h in [%.6g, %.6g])%s in %.2f s", out, res, res, lo, hi, extra,
-               omp_get_wtime() - t_start);
+    if (png16) snprintf(extra + strlen(extra), sizeof extra - strlen(extra), ", %s (16-bit)", png16);
+    cli_result("wrote %s (%ld x %ld, h in [%.6g, %.6g]; Y%s = 0.5 + h / (2 x %.6g))%s in %.2f s", out, res, res, lo,
+               hi, png16 ? " and the PNG" : "", s, extra, omp_get_wtime() - t_start);
   }
   ch_image_free(&img);
   ch_height_free(&height);

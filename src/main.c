@@ -31,7 +31,6 @@ static void print_overview(FILE *out) {
   fprintf(out,
           "  %-10s %s\n"
           "\n"
-          "\n"
           "options every command takes:\n"
           "  -q, --quiet        no result line and no notes on stderr (warnings and\n"
           "                     errors still)\n"

@@ -39,7 +39,7 @@ err_has "option --no-snap takes no value"
 # ---- the result line, and -q ----
 run 0 "$chisel" sample "$relief" --res 32 -o "$tmp/a.exr"
 err_lines 1
-err_has "chisel: wrote $tmp/a.exr (32 x 32, h in [0, 0.03]"
+err_has "chisel: wrote $tmp/a.exr (32 x 32, h in [0, 0.03]; Y = 0.5 + h / (2 x 0.03)) in "
 run 0 "$chisel" sample "$relief" --res 32 -o "$tmp/a.exr" -q
 err_lines 0
 run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r.obj" --target-tris 20000

@@ -36,6 +36,8 @@ typedef struct ch_exr_write_desc {
                                         the grey channel RGBA readers show
                                         (ImageMagick, Blender's image loader,
                                         viewers that know R G B A and Y only) */
+  double luminance_offset, luminance_scale; /* Y = offset + scale * that
+                                        channel; scale 0 means a plain copy */
 } ch_exr_write_desc;
 
 /* Writes img atomically (temporary file + rename). desc may be NULL. Channel

@@ -77,7 +77,7 @@ def check_displace(base, image, mid, strength, levels):
     tex = bpy.data.textures.new("height", type="IMAGE")
     tex.image = img
     tex.extension = "EXTEND"
-    tex.use_clamp = False  # carved (negative) heights stay negative
+    tex.use_clamp = False  # values outside [0, 1] (a raw float map) stay as they are
     disp = obj.modifiers.new("displace", "DISPLACE")
     disp.texture = tex
     disp.texture_coords = "UV"
