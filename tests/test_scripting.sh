@@ -42,28 +42,28 @@ err_lines 1
 err_has "chisel: wrote $tmp/a.exr (32 x 32, h in [0, 0.03]; Y = 0.5 + h / (2 x 0.03)) in "
 run 0 "$chisel" sample "$relief" --res 32 -o "$tmp/a.exr" -q
 err_lines 0
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r.obj" --target-tris 20000
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r.obj" --target-tris 8000 --res 128
 err_lines 1
 checks=$((checks + 1))
 grep -qE "^chisel: wrote $tmp/r.obj: [0-9]+ triangles, [0-9]+ vertices, h in \[0, 0.03\], in [0-9.]+ s$" "$tmp/err" ||
   fail "displace result line: $(cat "$tmp/err")"
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/q.obj" --target-tris 20000 --quiet
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/q.obj" --target-tris 8000 --res 128 --quiet
 err_lines 0
 
 # ---- -j: the same bytes on 1 and 2 threads ----
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/j1.obj" --target-tris 20000 -j 1 -q
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/j2.obj" --target-tris 20000 --threads=2 -q
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/j1.obj" --target-tris 8000 --res 128 -j 1 -q
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/j2.obj" --target-tris 8000 --res 128 --threads=2 -q
 check cmp -s "$tmp/j1.obj" "$tmp/j2.obj"
 check cmp -s "$tmp/j1.obj" "$tmp/r.obj"
 run 2 "$chisel" sample "$relief" --res 32 -o "$tmp/a.exr" -j 0
 err_has "-j 0 is outside 1..1024"
 
 # ---- -o -: OBJ and PLY to standard output, the same bytes as files ----
-run 0 "$chisel" displace "$plane" "$relief" -o - --target-tris 20000 -q
+run 0 "$chisel" displace "$plane" "$relief" -o - --target-tris 8000 --res 128 -q
 cp "$tmp/out" "$tmp/stdout.obj"
 check cmp -s "$tmp/stdout.obj" "$tmp/r.obj"
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r2.obj" --ply "$tmp/r.ply" --target-tris 20000 -q
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r3.obj" --ply - --target-tris 20000
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r2.obj" --ply "$tmp/r.ply" --target-tris 8000 --res 128 -q
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r3.obj" --ply - --target-tris 8000 --res 128
 cp "$tmp/out" "$tmp/stdout.ply"
 check cmp -s "$tmp/stdout.ply" "$tmp/r.ply"
 err_has "PLY to standard output"
@@ -78,9 +78,9 @@ err_has "--json and a mesh on standard output"
 check [ ! -e "$tmp/-" ]
 
 # ---- --json ----
-run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r4.obj" --target-tris 20000 --json -q
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/r4.obj" --target-tris 8000 --res 128 --json -q
 cp "$tmp/out" "$tmp/d.json"
-json 'd["outputs"] == [sys.argv[1].rsplit("/", 1)[0] + "/r4.obj"] and abs(d["triangles"] - 20000) <= 1000' "$tmp/d.json"
+json 'd["outputs"] == [sys.argv[1].rsplit("/", 1)[0] + "/r4.obj"] and abs(d["triangles"] - 8000) <= 400' "$tmp/d.json"
 json 'd["embed"]["unresolved"] == 0 and d["h_max"] > 0.029 and d["seconds"]["total"] > 0' "$tmp/d.json"
 run 0 "$chisel" info --json "$plane" "$relief" "$tmp/a.exr"
 checks=$((checks + 1))
@@ -213,19 +213,19 @@ check cmp -s "$tmp/report1/index.html" "$tmp/report/index.html"
 # ---- UDIM: one curve file per tile ----
 udim=$tests/data/mesh/udim_two_tiles.obj
 mkdir -p "$tmp/udim"
-cp "$models/curves/glyphs.svg" "$tmp/udim/carve.1001.svg" # carved only (h <= 0)
+cp "$models/curves/frame.svg" "$tmp/udim/carve.1001.svg" # carved only (h <= 0)
 cp "$models/curves/star.svg" "$tmp/udim/carve.1002.svg"
-cp "$models/curves/glyphs.svg" "$tmp/udim/mixed_1001.svg"
+cp "$models/curves/frame.svg" "$tmp/udim/mixed_1001.svg"
 cp "$models/curves/relief.svg" "$tmp/udim/mixed_1002.svg" # raised only (h >= 0)
-run 2 "$chisel" displace "$udim" "$models/curves/glyphs.svg" -o "$tmp/udim/x.obj" --target-tris 30000
+run 2 "$chisel" displace "$udim" "$models/curves/glyphs.svg" -o "$tmp/udim/x.obj" --target-tris 20000 --res 128
 err_has "UVs span UDIM tiles 1001, 1002: no curve file for tile 1001"
 check [ ! -e "$tmp/udim/x.obj" ]
 run 2 "$chisel" displace "$udim" "$tmp/udim/carve.svg" -o "$tmp/udim/x.obj" --exr "$tmp/udim/x.exr"
 err_has "has UDIM tiles: --camera, --exr"
-run 0 "$chisel" displace "$udim" "$tmp/udim/carve.svg" -o "$tmp/udim/a.obj" --target-tris 30000 -q
-run 0 "$chisel" displace "$udim" "$tmp/udim/carve.<UDIM>.svg" -o "$tmp/udim/b.obj" --target-tris 30000 -q
+run 0 "$chisel" displace "$udim" "$tmp/udim/carve.svg" -o "$tmp/udim/a.obj" --target-tris 20000 --res 128 -q
+run 0 "$chisel" displace "$udim" "$tmp/udim/carve.<UDIM>.svg" -o "$tmp/udim/b.obj" --target-tris 20000 --res 128 -q
 check cmp -s "$tmp/udim/a.obj" "$tmp/udim/b.obj"
-run 0 "$chisel" displace "$udim" "$tmp/udim/mixed_1002.svg" -o "$tmp/udim/m.obj" --target-tris 30000 -q
+run 0 "$chisel" displace "$udim" "$tmp/udim/mixed_1002.svg" -o "$tmp/udim/m.obj" --target-tris 20000 --res 128 -q
 checks=$((checks + 1))
 python3 - "$tmp/udim/a.obj" "$tmp/udim/m.obj" <<'EOF' || fail "UDIM outputs"
 import sys
@@ -247,7 +247,7 @@ for path, second in ((sys.argv[1], "carved"), (sys.argv[2], "raised")):
     # The output's UVs are in the tiles again: u over 0..2.
     us = [t[0] for t in vt]
     assert min(us) > -1e-9 and max(us) < 2 + 1e-9 and max(us) > 1.9, (path, min(us), max(us))
-    # Each tile has its own curves: glyphs carve tile 1001 only (x < 1 on
+    # Each tile has its own curves: frame carves tile 1001 only (x < 1 on
     # this mesh, where u = x); the second tile's set acts on x > 1 only.
     left = [p[2] for p in v if p[0] < 1 - 1e-6]
     right = [p[2] for p in v if p[0] > 1 + 1e-6]
