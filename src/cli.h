@@ -2,6 +2,8 @@
 #ifndef CH_CLI_H
 #define CH_CLI_H
 
+#include <stddef.h>
+
 #include "ch_error.h"
 
 typedef struct cli_command {
@@ -17,6 +19,45 @@ extern const cli_command cli_dci_command;
 extern const cli_command cli_magnify_command;
 extern const cli_command cli_displace_command;
 extern const cli_command cli_study_command;
+
+/* -q/--quiet (main.c): no result line and no notes; warnings and errors
+ * still go to stderr. */
+extern int cli_quiet;
+
+/* The command line as typed (main.c sets them before a command runs), for
+ * reports that say what made them. */
+extern int cli_argc;
+extern char **cli_argv;
+
+/* The one line every successful run ends with, "chisel: MESSAGE", on
+ * stderr (stdout may carry data: -o -, --json); nothing with -q. */
+void cli_result(const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 1, 2)))
+#endif
+    ;
+
+/* An EXR's Y for a height channel h, as image viewers and Blender's image
+ * texture read it: Y = 0.5 + h / (2 s) with s = max |h| (0.5 is h = 0, the
+ * same map as --height-png), so carved and raised parts both show; h stays
+ * exact beside it. Sets desc's luminance fields for channel `name` of plane
+ * (n values) and fills scale_text with s for the chisel:height_scale
+ * attribute; returns s. */
+#define CLI_Y_NOTE "Y = 0.5 + h / (2 s), s = chisel:height_scale; Blender Displace: midlevel 0.5, strength 2 s"
+struct ch_exr_write_desc;
+double cli_height_luminance(const float *plane, size_t n, const char *name, struct ch_exr_write_desc *desc,
+                            char *scale_text, size_t scale_size);
+
+/* Whether an output path names standard output ("-"). */
+int cli_is_stdout(const char *path);
+
+/* Refuses -o - (or another option's "-") for a format that cannot be
+ * streamed: prints a usage error naming the option and returns 2. */
+int cli_refuse_stdout(const char *cmd, const char *option, const char *format);
+
+/* The candidate nearest to word in edit distance (adjacent swaps count
+ * one), or NULL when none is close enough to be a typing slip. */
+const char *cli_suggest(const char *word, const char *const *candidates, int n);
 
 /* Prints "chisel: message" and returns the exit status of err's status. */
 int cli_fail(const ch_error *err);
@@ -43,6 +84,11 @@ int cli_parse_doubles(const char *cmd, const char *option, const char *text, int
 /* Fetches the value of option argv[*i] (advancing *i); NULL and a usage
  * error if it is missing. */
 const char *cli_option_value(const char *cmd, int argc, char **argv, int *i);
+
+/* Parses --fill-height H (nonzero, finite) into desc; on failure prints a
+ * usage error and returns nonzero. */
+struct ch_svg_desc;
+int cli_parse_fill_height(const char *cmd, const char *text, struct ch_svg_desc *desc);
 
 /* Whether argv[i] asks for help (-h, --help). */
 int cli_is_help(const char *arg);

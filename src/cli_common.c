@@ -8,6 +8,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "ch_curves.h"
+#include "ch_exr.h"
 #include "cli.h"
 
 static void print_warning(void *user, const char *message) {
@@ -108,4 +110,84 @@ void cli_outputs_add(cli_outputs *outs, const char *path) {
 void cli_outputs_remove_all(cli_outputs *outs) {
   for (int i = 0; i < outs->count; i++) remove(outs->paths[i]);
   outs->count = 0;
+}
+
+int cli_quiet = 0;
+int cli_argc = 0;
+char **cli_argv = NULL;
+
+void cli_result(const char *fmt, ...) {
+  if (cli_quiet) return;
+  fputs("chisel: ", stderr);
+  va_list ap;
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+  fputc('\n', stderr);
+}
+
+int cli_is_stdout(const char *path) { return path && !strcmp(path, "-"); }
+
+int cli_refuse_stdout(const char *cmd, const char *option, const char *format) {
+  return cli_usage_error(cmd, "%s -: %s cannot be written to standard output (it is written with seeks); give a file name",
+                         option, format);
+}
+
+/* Optimal string alignment distance: insertions, deletions, substitutions
+ * and swaps of neighbours cost one each (the slips typing makes). */
+static int edit_distance(const char *a, const char *b) {
+  enum { MAX = 64 };
+  size_t n = strlen(a), m = strlen(b);
+  if (n >= MAX || m >= MAX) return MAX;
+  int d[MAX + 1][MAX + 1];
+  for (size_t i = 0; i <= n; i++) d[i][0] = (int)i;
+  for (size_t j = 0; j <= m; j++) d[0][j] = (int)j;
+  for (size_t i = 1; i <= n; i++)
+    for (size_t j = 1; j <= m; j++) {
+      int cost = a[i - 1] != b[j - 1];
+      int best = d[i - 1][j] + 1;
+      if (d[i][j - 1] + 1 < best) best = d[i][j - 1] + 1;
+      if (d[i - 1][j - 1] + cost < best) best = d[i - 1][j - 1] + cost;
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] && d[i - 2][j - 2] + 1 < best)
+        best = d[i - 2][j - 2] + 1;
+      d[i][j] = best;
+    }
+  return d[n][m];
+}
+
+const char *cli_suggest(const char *word, const char *const *candidates, int n) {
+  const char *best = NULL;
+  int best_d = 0;
+  for (int i = 0; i < n; i++) {
+    int d = edit_distance(word, candidates[i]);
+    if (!best || d < best_d) best = candidates[i], best_d = d;
+  }
+  /* Two slips, or a third of a long word: closer than that is a guess. */
+  size_t len = strlen(word);
+  int allowed = len >= 9 ? (int)(len / 3) : 2;
+  if (len <= 3) allowed = 1;
+  return best && best_d <= allowed ? best : NULL;
+}
+
+int cli_parse_fill_height(const char *cmd, const char *text, ch_svg_desc *desc) {
+  double h;
+  if (cli_parse_doubles(cmd, "--fill-height", text, 1, &h)) return -1;
+  if (h == 0.0 || fabs(h) > 1e6) {
+    cli_usage_error(cmd, "--fill-height %s: expected a nonzero height (object units; negative carves)", text);
+    return -1;
+  }
+  desc->fill_height = h;
+  return 0;
+}
+
+double cli_height_luminance(const float *plane, size_t n, const char *name, ch_exr_write_desc *desc,
+                            char *scale_text, size_t scale_size) {
+  double s = 0.0;
+  for (size_t i = 0; i < n; i++)
+    if (isfinite(plane[i])) s = fmax(s, fabs((double)plane[i]));
+  desc->luminance = name;
+  desc->luminance_offset = 0.5;
+  desc->luminance_scale = s > 0.0 ? 0.5 / s : 0.5;
+  snprintf(scale_text, scale_size, "%.9g", s);
+  return s;
 }

@@ -1,6 +1,7 @@
 /* chisel magnify: a zoomed crop of a DCI rendered from its R-sized maps
  * (diffusion-curves-on-surfaces, Figure 5, as a command). */
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,7 +31,10 @@ static const char usage[] =
     "  --method M         bilinear, recon5 (default), recon3 or exact\n"
     "  --curves FILE      the curve file the DCI was made from (for exact)\n"
     "  --no-aa            no anti-aliasing of curve edges (paper §3.4)\n"
-    "  --exr FILE         also write the crop's h as a float EXR\n";
+    "  --exr FILE         also write the crop's h as a float EXR (h, and\n"
+    "                     Y = 0.5 + h / (2 max |h|) for image viewers)\n"
+    "  --fill-height H    with --curves: the height of filled shapes drawn without\n"
+    "                     data- attributes (docs/svg.md; default 0.01)\n";
 
 static int run(int argc, char **argv) {
   const char *cmd = "magnify";
@@ -38,6 +42,7 @@ static int run(int argc, char **argv) {
   long out_res = 0;
   int method = CH_RECON_5X5, have_rect = 0, aa = 1;
   double rect[4];
+  ch_svg_desc svg_desc = {0};
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--out-res")) {
@@ -60,6 +65,9 @@ static int run(int argc, char **argv) {
       if (!(exr = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--no-aa")) {
       aa = 0;
+    } else if (!strcmp(a, "--fill-height")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_fill_height(cmd, v, &svg_desc)) return 2;
     } else if (a[0] == '-' && a[1]) {
       return cli_usage_error(cmd, "unknown option '%s'", a);
     } else if (!maps) {
@@ -77,8 +85,11 @@ static int run(int argc, char **argv) {
   double aspect = (rect[3] - rect[1]) / (rect[2] - rect[0]);
   long out_h = lround(out_res * aspect);
   if (out_h < 1 || out_h > 16384) return cli_usage_error(cmd, "--rect and --out-res give %ld rows (1..16384)", out_h);
+  if (cli_is_stdout(out)) return cli_refuse_stdout(cmd, "-o", "a PNG");
+  if (cli_is_stdout(exr)) return cli_refuse_stdout(cmd, "--exr", "an EXR");
   int rc;
   if ((rc = cli_check_output(cmd, "-o", out)) || (exr && (rc = cli_check_output(cmd, "--exr", exr)))) return rc;
+  double t_start = omp_get_wtime();
 
   ch_error err = cli_error();
   ch_image maps_img = {0};
@@ -102,7 +113,7 @@ static int run(int argc, char **argv) {
   if (st) return cli_fail(&err);
   ch_curve_set set = {0};
   ch_recon recon = {0};
-  if (curves) st = ch_curves_read_svg(curves, &set, &err);
+  if (curves) st = ch_curves_read_svg_ex(curves, &svg_desc, &set, &err);
   if (!st) st = ch_recon_init(&recon, &dci, curves ? &set : NULL, &err);
   int W = (int)out_res, H = (int)out_h;
   float *h = NULL;
@@ -156,12 +167,21 @@ static int run(int argc, char **argv) {
     st = ch_image_init(&crop, W, H, 1, names, &err);
     if (!st) {
       memcpy(ch_image_plane(&crop, 0), h, (size_t)W * H * sizeof *h);
-      st = ch_exr_write(exr, &crop, NULL, &err);
+      char scale_text[32];
+      ch_exr_write_desc wd = {0};
+      cli_height_luminance(h, (size_t)W * H, "h", &wd, scale_text, sizeof scale_text);
+      const ch_exr_attribute attrs[] = {{"chisel:height_scale", scale_text}, {"chisel:Y", CLI_Y_NOTE}};
+      wd.attributes = attrs;
+      wd.num_attributes = 2;
+      st = ch_exr_write(exr, &crop, &wd, &err);
       if (!st) cli_outputs_add(&outs, exr);
     }
     ch_image_free(&crop);
   }
   if (st) cli_outputs_remove_all(&outs);
+  if (!st)
+    cli_result("wrote %s (%d x %d)%s%s in %.2f s", out, W, H, exr ? ", " : "", exr ? exr : "",
+               omp_get_wtime() - t_start);
   free(h);
   free(rgb);
   ch_recon_free(&recon);

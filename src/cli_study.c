@@ -8,7 +8,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <omp.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "ch_curves.h"
@@ -21,8 +23,10 @@
 #include "ch_png.h"
 #include "ch_render.h"
 #include "ch_trace.h"
+#include "ch_version.h"
 #include "ch_truth.h"
 #include "cli.h"
+
 
 static const char usage[] =
     "usage: chisel study SCENE.json -o DIR\n"
@@ -468,8 +472,16 @@ static ch_status write_png(const char *path, picture what, const ch_image *img, 
 static ch_status write_exr(const char *path, const ch_image *img, const char *viewname, const char *methodname,
                            written *w, ch_error *err) {
   const ch_exr_attribute attrs[] = {{"chisel:command", "study"}, {"chisel:view", viewname}, {"chisel:method", methodname}};
-  ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3};
-  ch_status st = ch_exr_write(path, img, &desc, err);
+  /* Names every reader parses: a one-value layer of more than one letter
+   * is written NAME.X (Blender's multilayer reader wants a layer and a
+   * one-letter channel, as its own index passes have), the shading also
+   * as Y for viewers. The pixels are shared, not copied. */
+  ch_image named = *img;
+  for (int c = 0; c < named.num_channels; c++)
+    if (!strchr(named.names[c], '.') && strlen(named.names[c]) > 1 && strlen(named.names[c]) + 3 <= CH_IMAGE_NAME_MAX)
+      strcat(named.names[c], ".X");
+  ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3, .luminance = "shade.X"};
+  ch_status st = ch_exr_write(path, &named, &desc, err);
   if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
   return st;
 }
@@ -596,8 +608,8 @@ static void html_plot(FILE *f, const study *s, const row *rows, int nrows, int v
     double px = L + (PW - L - R) * (e - xmin) / (xmax - xmin);
     fprintf(f, "<text x=\"%.1f\" y=\"%d\" font-size=\"10\" text-anchor=\"middle\">1e%d</text>\n", px, PH - B + 14, e);
   }
-  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles</text>\n", L + (PW - L - R) / 2,
-          PH - 8);
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles (log scale)</text>\n",
+          L + (PW - L - R) / 2, PH - 8);
   static const char *colours[] = {"#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"};
   int nf = 0;
   for (int m = 0; m < s->num_methods; m++) {
@@ -635,7 +647,115 @@ static void html_plot(FILE *f, const study *s, const row *rows, int nrows, int v
   fprintf(f, "</svg>\n");
 }
 
-static ch_status write_index(const char *dir, const study *s, const row *rows, int nrows, written *w, ch_error *err) {
+/* A colour bar for a heat map: the map chisel's PNGs use (ch_colormap_heat)
+ * from lo to hi in unit, as an inline SVG beside the picture. */
+static void html_colorbar(FILE *f, double lo, double hi, const char *unit) {
+  static int id = 0;
+  id++;
+  fprintf(f, "<svg class=\"bar\" width=\"170\" height=\"40\" viewBox=\"0 0 170 40\"><defs><linearGradient id=\"cb%d\">",
+          id);
+  for (int k = 0; k <= 10; k++) {
+    uint8_t c[3];
+    ch_colormap_heat(k / 10.0, c);
+    fprintf(f, "<stop offset=\"%d%%\" stop-color=\"#%02x%02x%02x\"/>", 10 * k, c[0], c[1], c[2]);
+  }
+  fprintf(f, "</linearGradient></defs><rect x=\"5\" y=\"2\" width=\"160\" height=\"10\" fill=\"url(#cb%d)\"/>", id);
+  for (int k = 0; k <= 2; k++)
+    fprintf(f, "<text x=\"%d\" y=\"24\" font-size=\"10\" text-anchor=\"%s\">%g</text>", 5 + 80 * k,
+            k == 0 ? "start" : k == 1 ? "middle" : "end", lo + (hi - lo) * k / 2.0);
+  fprintf(f, "<text x=\"85\" y=\"36\" font-size=\"10\" text-anchor=\"middle\">%s</text></svg>", unit);
+}
+
+/* A metric of a row, for the tables and plots: class % in grooves, normal
+ * p95 (degrees), depth error (relative), SSIM. */
+static double row_metric(const row *r, int which) {
+  switch (which) {
+  case 0: return r->m.class_mismatch;
+  case 1: return r->m.class_mismatch_groove;
+  case 2: return r->m.depth_error;
+  case 3: return r->m.normal_p95_deg;
+  default: return r->m.shade_ssim;
+  }
+}
+
+/* Means over the views, per method: the figure a paper quotes. One plot per
+ * metric, log-log, a line per family. */
+static void html_summary_plot(FILE *f, const study *s, const row *rows, int nrows, int which, const char *title) {
+  const int PW = 440, PH = 270, L = 64, R = 120, T = 30, B = 44;
+  double mean[64] = {0}, x[64] = {0};
+  int count[64] = {0};
+  for (int i = 0; i < nrows; i++) {
+    int m = rows[i].method;
+    if (m >= 64) continue;
+    mean[m] += row_metric(&rows[i], which), count[m]++;
+    x[m] = (double)rows[i].triangles;
+  }
+  double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+  for (int m = 0; m < s->num_methods && m < 64; m++) {
+    if (!count[m] || x[m] < 1) continue;
+    mean[m] /= count[m];
+    xmin = fmin(xmin, log10(x[m])), xmax = fmax(xmax, log10(x[m]));
+    if (mean[m] > 0) ymin = fmin(ymin, log10(mean[m])), ymax = fmax(ymax, log10(mean[m]));
+  }
+  if (!(xmin <= xmax)) return;
+  if (!(ymin <= ymax)) ymin = -3, ymax = 0;
+  xmin = floor(xmin - 0.05), xmax = ceil(xmax + 0.05);
+  ymin = floor(ymin), ymax = ceil(ymax);
+  if (xmax - xmin < 1) xmax = xmin + 1;
+  if (ymax - ymin < 1) ymax = ymin + 1;
+  double floor_y = ymin; /* zeros sit on the bottom axis */
+  fprintf(f, "<svg class=\"plot\" width=\"%d\" height=\"%d\" viewBox=\"0 0 %d %d\">\n", PW, PH, PW, PH);
+  fprintf(f, "<text x=\"%d\" y=\"18\" font-size=\"13\">%s</text>\n", L, title);
+  fprintf(f, "<rect x=\"%d\" y=\"%d\" width=\"%d\" height=\"%d\" fill=\"none\" stroke=\"#888\"/>\n", L, T, PW - L - R,
+          PH - T - B);
+#define PX(lx) (L + (PW - L - R) * ((lx) - xmin) / (xmax - xmin))
+#define PY(ly) (PH - B - (PH - T - B) * ((ly) - ymin) / (ymax - ymin))
+  for (int e = (int)ymin; e <= (int)ymax; e++)
+    fprintf(f, "<line x1=\"%d\" x2=\"%d\" y1=\"%.1f\" y2=\"%.1f\" stroke=\"#eee\"/><text x=\"%d\" y=\"%.1f\" "
+               "font-size=\"10\" text-anchor=\"end\">1e%d</text>\n",
+            L, PW - R, PY(e), PY(e), L - 4, PY(e) + 3, e);
+  for (int e = (int)xmin; e <= (int)xmax; e++)
+    fprintf(f, "<text x=\"%.1f\" y=\"%d\" font-size=\"10\" text-anchor=\"middle\">1e%d</text>\n", PX(e), PH - B + 14, e);
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles (log scale)</text>\n",
+          L + (PW - L - R) / 2, PH - 10);
+  fprintf(f, "<text x=\"12\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\" transform=\"rotate(-90 12 %d)\">"
+             "mean over views (log scale)</text>\n", T + (PH - T - B) / 2, T + (PH - T - B) / 2);
+  static const char *colours[] = {"#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"};
+  int nf = 0;
+  for (int m = 0; m < s->num_methods && m < 64; m++) {
+    int first = 1;
+    for (int j = 0; j < m; j++) first &= strcmp(s->methods[j].family, s->methods[m].family) != 0;
+    if (!first) continue;
+    const char *col = colours[nf % 7];
+    int idx[64], np = 0;
+    for (int j = 0; j < s->num_methods && j < 64; j++)
+      if (count[j] && x[j] >= 1 && !strcmp(s->methods[j].family, s->methods[m].family)) idx[np++] = j;
+    for (int a = 1; a < np; a++)
+      for (int b = a; b > 0 && x[idx[b]] < x[idx[b - 1]]; b--) {
+        int t = idx[b];
+        idx[b] = idx[b - 1], idx[b - 1] = t;
+      }
+    fprintf(f, "<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"1.5\" points=\"", col);
+    for (int a = 0; a < np; a++)
+      fprintf(f, "%.1f,%.1f ", PX(log10(x[idx[a]])), PY(mean[idx[a]] > 0 ? fmax(log10(mean[idx[a]]), floor_y) : floor_y));
+    fputs("\"/>\n", f);
+    for (int a = 0; a < np; a++)
+      fprintf(f, "<circle r=\"3\" fill=\"%s\" cx=\"%.1f\" cy=\"%.1f\"><title>%s: %.0f triangles, mean %.4g</title></circle>\n",
+              col, PX(log10(x[idx[a]])), PY(mean[idx[a]] > 0 ? fmax(log10(mean[idx[a]]), floor_y) : floor_y),
+              s->methods[idx[a]].name, x[idx[a]], mean[idx[a]]);
+    fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" fill=\"%s\">%s</text>\n", PW - R + 8, T + 12 + 14 * nf, col,
+            s->methods[m].family);
+    nf++;
+  }
+#undef PX
+#undef PY
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"9\" fill=\"#666\">0 is drawn on the bottom axis</text>\n", L + 4,
+          PH - B - 4);
+  fputs("</svg>\n", f);
+}
+
+static ch_status write_index(const char *dir, const study *s, const row *rows, int nrows, const char *command,
+                             const char *scene_path, const char *scene_text, written *w, ch_error *err) {
   char path[4096];
   snprintf(path, sizeof path, "%s/index.html", dir);
   ch_atomic_file af;
@@ -647,9 +767,27 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
         "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{background:#eee}td.l{text-align:left}"
         "figure{display:inline-block;margin:4px;text-align:center;font-size:12px}figure img{display:block;"
         "image-rendering:pixelated}figure.wide{display:block}figure.wide img{max-width:100%}"
-        ".plot{margin:6px;background:#fff}</style></head><body>\n",
+        ".plot{margin:6px;background:#fff}.bar{display:block;margin:2px auto}pre{background:#f6f6f6;padding:6px;"
+        "font-size:12px;max-height:16em;overflow:auto}</style></head><body>\n",
         f);
-  fputs("<h1>chisel study</h1>\n<p>Curves <code>", f);
+  fputs("<h1>chisel study</h1>\n", f);
+  /* What made the report: a published figure needs them. The date is
+   * SOURCE_DATE_EPOCH when set (reproducible builds' convention), so a
+   * rerun can give the same bytes. */
+  {
+    char date[64] = "unknown";
+    const char *sde = getenv("SOURCE_DATE_EPOCH");
+    time_t now = sde && *sde ? (time_t)strtoll(sde, NULL, 10) : time(NULL);
+    struct tm tmv;
+    if (gmtime_r(&now, &tmv)) strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", &tmv);
+    fprintf(f, "<p>chisel %s, %s. Command: <code>", CH_VERSION_STRING, date);
+    html_text(f, command);
+    fputs("</code>. Scene <code>", f);
+    html_text(f, scene_path);
+    fputs("</code>:</p>\n<pre>", f);
+    html_text(f, scene_text);
+    fputs("</pre>\n<p>Curves <code>", f);
+  }
   html_text(f, s->curves_path);
   fprintf(f,
           "</code> over the planar base; truth: Embree, exact h of SPEC §3 (bounds grid %d, step DCI %d). Classes: "
@@ -672,6 +810,40 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
   fputs("</table>\n<p>Also as <a href=\"summary.csv\">summary.csv</a> and <a href=\"summary.json\">summary.json</a>."
         "</p>\n",
         f);
+  /* Over the views: the mean a paper quotes and the worst view beside it. */
+  fprintf(f, "<h2>Over the %d views: mean (worst)</h2>\n<table><tr><th>method</th><th>triangles</th><th>class %%</th>"
+             "<th>in grooves %%</th><th>depth / scene</th><th>normal p95 °</th><th>SSIM</th></tr>\n",
+          s->num_views);
+  for (int m = 0; m < s->num_methods; m++) {
+    double sum[5] = {0}, worst[5] = {0, 0, 0, 0, 1};
+    long tris = 0;
+    int n = 0;
+    for (int i = 0; i < nrows; i++) {
+      if (rows[i].method != m) continue;
+      for (int k = 0; k < 5; k++) {
+        double v = row_metric(&rows[i], k);
+        sum[k] += v;
+        worst[k] = k == 4 ? fmin(worst[k], v) : fmax(worst[k], v);
+      }
+      tris = rows[i].triangles;
+      n++;
+    }
+    if (!n) continue;
+    fprintf(f, "<tr class=\"over\"><td class=\"l\">");
+    html_text(f, s->methods[m].name);
+    fprintf(f, "</td><td>%ld</td>", tris);
+    for (int k = 0; k < 5; k++)
+      fprintf(f, k == 2 ? "<td>%.3e (%.3e)</td>" : k == 4 ? "<td>%.5f (%.5f)</td>" : "<td>%.4f (%.4f)</td>", sum[k] / n,
+              worst[k]);
+    fputs("</tr>\n", f);
+  }
+  fputs("</table>\n<div>\n", f);
+  if (s->num_methods > 0) {
+    html_summary_plot(f, s, rows, nrows, 3, "normal error p95 (degrees) against triangles");
+    html_summary_plot(f, s, rows, nrows, 1, "class mismatch in grooves (%) against triangles");
+    html_summary_plot(f, s, rows, nrows, 2, "depth error / scene size against triangles");
+  }
+  fputs("</div>\n", f);
   for (int v = 0; v < s->num_views; v++) {
     const char *vn = s->views[v].name;
     fprintf(f, "<h2>View %s</h2>\n<div>\n", vn);
@@ -688,10 +860,16 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
     for (int m = 0; m < s->num_methods; m++) {
       const char *mn = s->methods[m].name;
       fprintf(f, "<div><figure><img src=\"%s.%s.png\" alt=\"%s\">%s</figure>", vn, mn, mn, mn);
-      fprintf(f, "<figure><img src=\"%s.%s.class.png\" alt=\"class mismatch\">class mismatch (red)</figure>", vn, mn);
-      fprintf(f, "<figure><img src=\"%s.%s.normal.png\" alt=\"normal error\">normal error 0..20°</figure>", vn, mn);
-      fprintf(f, "<figure><img src=\"%s.%s.depth.png\" alt=\"depth error\">depth error 0..1%%</figure></div>\n", vn,
-              mn);
+      fprintf(f, "<figure><img src=\"%s.%s.class.png\" alt=\"class mismatch\"><svg class=\"bar\" width=\"170\" "
+                 "height=\"40\"><rect x=\"5\" y=\"2\" width=\"10\" height=\"10\" fill=\"#e61414\"/><text x=\"20\" "
+                 "y=\"11\" font-size=\"10\">class differs from the truth</text></svg>class mismatch</figure>",
+              vn, mn);
+      fprintf(f, "<figure><img src=\"%s.%s.normal.png\" alt=\"normal error\">", vn, mn);
+      html_colorbar(f, 0.0, 20.0, "degrees");
+      fprintf(f, "normal error (black: not seen by both)</figure><figure><img src=\"%s.%s.depth.png\" alt=\"depth error\">",
+              vn, mn);
+      html_colorbar(f, 0.0, 1.0, "% of the scene's diagonal");
+      fputs("depth error</figure></div>\n", f);
     }
   }
   fputs("</body></html>\n", f);
@@ -732,8 +910,23 @@ static int run(int argc, char **argv) {
   int nrows = 0, made_dir = 0;
   if (ch_file_read_all(scene_path, 16 << 20, &text, &size, &err)) return cli_fail(&err);
   ch_status st = parse_scene(scene_path, text, &s, &err);
-  free(text);
-  if (st) return cli_fail(&err);
+  char *scene_text = text; /* kept for the report */
+  if (st) {
+    free(scene_text);
+    return cli_fail(&err);
+  }
+  /* The command as typed (quoted where a shell would need it), for the report. */
+  char command[4096];
+  size_t clen = (size_t)snprintf(command, sizeof command, "chisel");
+  int typed = cli_argv != NULL; /* as typed (with -q, -j), else as parsed */
+  for (int i = typed ? 1 : 0; i < (typed ? cli_argc : argc) && clen < sizeof command; i++) {
+    const char *a = typed ? cli_argv[i] : argv[i];
+    int plain = a[0] != '\0';
+    for (const char *c = a; *c; c++)
+      if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=,:+@%", *c)) plain = 0;
+    clen += (size_t)snprintf(command + clen, sizeof command - clen, plain ? " %s" : " '%s'", a);
+  }
+  double t_start = omp_get_wtime();
   /* Every input is read and checked before anything is written. */
   ch_height_desc hd = {.dci_resolution = s.dci_resolution, .step_method = CH_RECON_EXACT};
   ch_truth_desc td = {.grid = s.truth_grid};
@@ -763,7 +956,7 @@ static int run(int argc, char **argv) {
   double tb[6];
   if (!st) ch_trace_bounds(truth_scene, tb);
   double scene_size = st ? 1.0 : sqrt(1.0 + 1.0 + (tb[5] - tb[2]) * (tb[5] - tb[2]));
-  int progress = isatty(2);
+  int progress = isatty(2) && !cli_quiet;
   char path[4096];
   for (int v = 0; !st && v < s.num_views; v++) {
     const view *vw = &s.views[v];
@@ -817,7 +1010,7 @@ static int run(int argc, char **argv) {
     ch_image_free(&timg);
   }
   if (!st) st = write_summaries(dir, &s, rows, nrows, &w, &err);
-  if (!st) st = write_index(dir, &s, rows, nrows, &w, &err);
+  if (!st) st = write_index(dir, &s, rows, nrows, command, scene_path, scene_text ? scene_text : "", &w, &err);
   if (!st) {
     printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%",
            "depth", "n_mean", "n_p95", "shade", "ssim", "shadow%", "Mrays/s");
@@ -829,6 +1022,10 @@ static int run(int argc, char **argv) {
              m->shadow_mismatch, rows[i].seconds > 0 ? rows[i].rays / rows[i].seconds * 1e-6 : 0.0);
     }
   }
+  if (!st)
+    cli_result("wrote %s/index.html and %d files (%d views x %d methods) in %.1f s", dir, w.count - 1, s.num_views,
+               s.num_methods, omp_get_wtime() - t_start);
+  free(scene_text);
   written_free(&w, st != CH_OK);
   if (st && made_dir) rmdir(dir);
   free(rows);

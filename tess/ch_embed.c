@@ -1585,6 +1585,21 @@ static int emit_walls(const bnode *nodes, int m, out_mesh *o, ch_embed_stats *st
   return bad;
 }
 
+/* Counts an unresolved triangle of centre uv: the first one's place and
+ * the box of all. */
+static void note_unresolved(ch_embed_stats *stats, const double uv[2]) {
+  if (stats->unresolved++ == 0) {
+    stats->unresolved_uv[0] = uv[0], stats->unresolved_uv[1] = uv[1];
+    stats->unresolved_box[0] = stats->unresolved_box[2] = uv[0];
+    stats->unresolved_box[1] = stats->unresolved_box[3] = uv[1];
+    return;
+  }
+  stats->unresolved_box[0] = fmin(stats->unresolved_box[0], uv[0]);
+  stats->unresolved_box[1] = fmin(stats->unresolved_box[1], uv[1]);
+  stats->unresolved_box[2] = fmax(stats->unresolved_box[2], uv[0]);
+  stats->unresolved_box[3] = fmax(stats->unresolved_box[3], uv[1]);
+}
+
 /* Cuts triangle t into its pieces, with walls where h jumps. */
 static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out_mesh *o, ch_embed_stats *stats) {
   const wtri *T = &w->tris[t];
@@ -1602,15 +1617,15 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
   }
   /* Left after refinement: a fan from a vertex at the centre over the
    * whole boundary, in the centre's piece: closed, but not following the
-   * features inside (counted). */
-  stats->unresolved++;
-  if (m < 0) return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
+   * features inside (counted, and where, for the warning). */
   double cst[2] = {0, 0}, cuv[2] = {0, 0};
   for (int k = 0; k < 3; k++)
     for (int i = 0; i < 2; i++) {
       cst[i] += T->st[k][i] / 3.0;
       cuv[i] += T->uv[k][i] / 3.0;
     }
+  note_unresolved(stats, cuv);
+  if (m < 0) return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
   uint64_t piece = label_at(lb, cuv);
   locate_st(w->surface, T->face, cuv, cst);
   int c = out_vertex(o, T->face, cst, ch_height_eval(lb->height, cuv[0], cuv[1]));
@@ -2414,6 +2429,17 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         }
         const double *u = &q->uv[6 * (size_t)t];
         oom |= out_tri(&o, v[0], v[1], v[2], u, u + 2, u + 4, q->group[t]) != 0;
+      }
+      if (pstats[c].unresolved > 0) { /* chunks in order: the first is the first chunk's */
+        if (stats.unresolved == 0) {
+          memcpy(stats.unresolved_uv, pstats[c].unresolved_uv, sizeof stats.unresolved_uv);
+          memcpy(stats.unresolved_box, pstats[c].unresolved_box, sizeof stats.unresolved_box);
+        } else {
+          for (int k = 0; k < 2; k++) {
+            stats.unresolved_box[k] = fmin(stats.unresolved_box[k], pstats[c].unresolved_box[k]);
+            stats.unresolved_box[2 + k] = fmax(stats.unresolved_box[2 + k], pstats[c].unresolved_box[2 + k]);
+          }
+        }
       }
       stats.unresolved += pstats[c].unresolved;
       stats.junctions += pstats[c].junctions;

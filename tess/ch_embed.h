@@ -79,6 +79,9 @@ typedef struct ch_embed_stats {
   int junctions;           /* triangles where three pieces meet */
   int wall_triangles;
   int unresolved;          /* triangles left uncut after refinement (0 expected) */
+  double unresolved_uv[2]; /* with unresolved > 0: the centre of the first
+                              (in the tessellation's order), UV */
+  double unresolved_box[4];/* and the UV box of all their centres */
   int thinned;             /* vertices the thinning of the grooves' layers removed */
   double angle_deg;        /* the angle step of the u lines the run used */
   long triangles;          /* output triangles (with count_only: before the
