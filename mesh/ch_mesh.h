@@ -115,6 +115,15 @@ ch_status ch_mesh_write_ply(const char *path, const ch_mesh *mesh, ch_error *err
 ch_status ch_mesh_write_obj_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err);
 ch_status ch_mesh_write_ply_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err);
 
+/* Writes glTF 2.0 binary (.glb) atomically: one mesh of triangles (faces
+ * fanned) with POSITION (float32, with min/max), NORMAL (unit) and
+ * TEXCOORD_0 (u, 1 - v: glTF's v points down) where the mesh has them, and
+ * uint32 indices. Vertices are split where a position's corners disagree
+ * in UV or normal (glTF has no face-varying data), numbered in order of
+ * their first corner: deterministic bytes. CH_ERR_INPUT for inconsistent
+ * meshes or a buffer past glTF's 4 GB. */
+ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -818,6 +818,69 @@ static void test_ply_round_trip(void) {
   ch_mesh_free(&b);
 }
 
+static uint32_t le32(const unsigned char *p) {
+  return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static float lef32(const unsigned char *p) {
+  uint32_t u = le32(p);
+  float f;
+  memcpy(&f, &u, 4);
+  return f;
+}
+
+/* glTF binary: the container's lengths, then every triangle corner read
+ * back through the index buffer equals the OBJ's corner (float32). */
+static void test_glb(void) {
+  ch_mesh a;
+  ch_error err = new_error(NULL);
+  REQUIRE(read_data("cube.obj", &a, NULL) == CH_OK);
+  const char *out1 = tmp_path("cube1.glb"), *out2 = tmp_path("cube2.glb");
+  CHECK_MSG(ch_mesh_write_glb(out1, &a, &err) == CH_OK, "%s", err.message);
+  CHECK(ch_mesh_write_glb(out2, &a, &err) == CH_OK);
+  CHECK(files_equal(out1, out2));
+  FILE *fp = fopen(out1, "rb");
+  REQUIRE(fp);
+  unsigned char buf[8192];
+  size_t n = fread(buf, 1, sizeof buf, fp);
+  fclose(fp);
+  REQUIRE(n > 28 && n < sizeof buf);
+  CHECK(memcmp(buf, "glTF", 4) == 0 && le32(buf + 4) == 2 && le32(buf + 8) == n);
+  uint32_t jlen = le32(buf + 12);
+  CHECK(jlen % 4 == 0 && memcmp(buf + 16, "JSON", 4) == 0);
+  REQUIRE(20 + jlen + 8 <= n);
+  const unsigned char *bh = buf + 20 + jlen, *bin = bh + 8;
+  CHECK(memcmp(bh + 4, "BIN\0", 4) == 0);
+  /* 8 positions with 3 normals each: 24 vertices; 6 quads: 36 indices. */
+  uint32_t nv = 24, ni = 36;
+  CHECK_MSG(le32(bh) == nv * 12 + nv * 12 + nv * 8 + ni * 4, "BIN %u bytes", le32(bh));
+  CHECK(20 + jlen + 8 + le32(bh) == n);
+  CHECK(strstr((const char *)buf + 20, "\"TEXCOORD_0\":2") != NULL);
+  const unsigned char *pos = bin, *nrm = bin + 12 * nv, *uv = nrm + 12 * nv, *idx = uv + 8 * nv;
+  int bad = 0, k = 0;
+  for (int f = 0; f < a.num_faces; f++)
+    for (int c = a.face_start[f] + 1; c + 1 < a.face_start[f + 1]; c++) {
+      int corners[3] = {a.face_start[f], c, c + 1};
+      for (int j = 0; j < 3; j++, k++) {
+        uint32_t v = le32(idx + 4 * k);
+        int oc = corners[j];
+        if (v >= nv) {
+          bad++;
+          continue;
+        }
+        for (int d = 0; d < 3; d++) {
+          bad += lef32(pos + 12 * v + 4 * d) != (float)corner_pos(&a, oc)[d];
+          bad += lef32(nrm + 12 * v + 4 * d) != (float)a.normals[3 * a.corner_normal[oc] + d];
+        }
+        bad += lef32(uv + 8 * v) != (float)corner_uv(&a, oc)[0];
+        bad += lef32(uv + 8 * v + 4) != (float)(1.0 - corner_uv(&a, oc)[1]);
+      }
+    }
+  CHECK(k == (int)ni);
+  CHECK_MSG(bad == 0, "%d values differ", bad);
+  ch_mesh_free(&a);
+}
+
 static void test_write_errors(void) {
   ch_mesh m;
   REQUIRE(read_data("plane.obj", &m, NULL) == CH_OK);
@@ -858,8 +921,10 @@ int main(void) {
   RUN(test_obj_round_trip);
   RUN(test_obj_numbers);
   RUN(test_ply_round_trip);
+  RUN(test_glb);
   RUN(test_write_errors);
-  const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply"};
+  const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply",
+                        "cube1.glb",  "cube2.glb"};
   for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) remove(tmp_path(made[i]));
   rmdir(tmp_dir);
   TEST_MAIN_END();
