@@ -408,8 +408,10 @@ static int groove_closest(const ch_truth *T, int curve, const double q[2], int *
 }
 
 /* The unit UV direction across curve `curve` at q (away from it): radial
- * from the closest point, or the left normal where q is on the curve. */
-static void across_curve(const ch_truth *T, int curve, const double q[2], double n[2]) {
+ * from the closest point, or the left normal where q is on the curve; for
+ * a wall (wall = 1) beyond a one-sided groove's open end, across the end's
+ * tangent line where the side flips. */
+static void across_curve(const ch_truth *T, int curve, const double q[2], int wall, double n[2]) {
   int seg;
   double t, cp[2];
   if (T->set->curves[curve].kind == CH_CURVE_GROOVE) {
@@ -420,6 +422,28 @@ static void across_curve(const ch_truth *T, int curve, const double q[2], double
     seg = p.segment, t = p.t, cp[0] = p.point[0], cp[1] = p.point[1];
   }
   double d[2] = {q[0] - cp[0], q[1] - cp[1]}, len = hypot(d[0], d[1]);
+  const ch_segment *sg = &T->set->segments[seg];
+  const ch_curve *cv = &T->set->curves[curve];
+  if (wall && cv->kind == CH_CURVE_GROOVE && !T->symmetric[curve] &&
+      ((t <= 0.0 && sg->prev < 0) || (t >= 1.0 && sg->next < 0))) {
+    /* Around an open end a one-sided profile's walls are circles |s| = b w
+     * (radial), but its side flips on the end's tangent line: across that
+     * line where q is on no jump circle. */
+    double cr[CH_PROFILE_MAX_POINTS + 2];
+    int nc = ch_profile_creases(&cv->profile, cr, CH_PROFILE_MAX_POINTS + 2), on_circle = 0;
+    for (int k = 0; k < nc; k++) {
+      double b = cr[k], e = 1e-9;
+      on_circle |= b != 0.0 && fabs(len - fabs(b) * cv->width) <= 1e-6 * cv->width &&
+                   fabs(ch_profile_eval(&cv->profile, b - e) - ch_profile_eval(&cv->profile, b + e)) > 1e-6;
+    }
+    if (!on_circle) {
+      double tg[2];
+      ch_bezier_tangent(sg->p, t <= 0.0 ? 0.0 : 1.0, tg);
+      n[0] = -tg[1];
+      n[1] = tg[0];
+      return;
+    }
+  }
   if (len > 1e-7) {
     n[0] = d[0] / len;
     n[1] = d[1] / len;
@@ -551,7 +575,7 @@ void ch_truth_normal(const ch_truth *T, const double uv[2], double n[3]) {
     if (slope != 0.0) {
       /* s = side |q - cp|: its gradient is the unit vector from cp, signed. */
       double ds[2];
-      across_curve(T, gs.active, uv, ds);
+      across_curve(T, gs.active, uv, 0, ds);
       double sign = gs.active_signed_distance >= 0.0 ? 1.0 : -1.0;
       int seg;
       double t, cp[2];
@@ -623,7 +647,7 @@ static void finish_hit(const ch_truth *T, const ray *R, double a, double b, doub
   ch_vis_class cls;
   int curve;
   ch_truth_classify_wall(T, hit->uv, dn, &cls, &curve);
-  if (curve >= 0) across_curve(T, curve, hit->uv, n2);
+  if (curve >= 0) across_curve(T, curve, hit->uv, 1, n2);
   if (n2[0] * R->d[0] + n2[1] * R->d[1] > 0.0) n2[0] = -n2[0], n2[1] = -n2[1];
   hit->normal[0] = n2[0];
   hit->normal[1] = n2[1];
