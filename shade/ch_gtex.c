@@ -659,16 +659,19 @@ static double quad_fn(const groove *G, const ray *R, int j, double t, double s, 
  * inside the bracket by bisection where a step would leave it. */
 static double quad_root(const elem *el, const groove *G, const ray *R, int j, double a, double b, double fa,
                         double fb) {
-  (void)fb;
-  double t = 0.5 * (a + b);
-  for (int it = 0; it < 60; it++) {
+  /* From the secant's root: the functions are nearly linear over a
+   * bracket, so Newton needs two or three steps; once a step is below
+   * 1e-9 of the bracket the next is at rounding, so take it and stop. */
+  double t = fa != fb ? a - fa * (b - a) / (fb - fa) : 0.5 * (a + b), tol = 1e-9 * (b - a);
+  if (!(t > a && t < b)) t = 0.5 * (a + b);
+  for (int it = 0, last = 0; it < 60 && !last; it++) {
     double ds, rate, s = quad_s(el, R, t, &ds), f = quad_fn(G, R, j, t, s, ds, &rate);
     if (f == 0.0) return t;
     if ((f > 0.0) == (fa > 0.0)) a = t, fa = f;
     else b = t;
     double tn = rate != 0.0 ? t - f / rate : 0.5 * (a + b);
     if (!(tn > a && tn < b)) tn = 0.5 * (a + b);
-    if (fabs(tn - t) <= 1e-15 * (1.0 + fabs(t)) || b - a <= 1e-15 * (1.0 + fabs(a))) return tn;
+    last = fabs(tn - t) <= tol || b - a <= 1e-15 * (1.0 + fabs(a));
     t = tn;
   }
   return t;
@@ -690,7 +693,7 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
                               int all_breaks) {
   double len = (hi - lo) * len2d(R->d[0], R->d[1]);
   int tight = el->rho2 < 0.25 * G->w * G->w;
-  int ns = tight ? 2 + (int)ceil(8.0 * len / G->w) : G->ellipse ? 2 : 1;
+  int ns = tight ? 2 + (int)ceil(8.0 * len / G->w) : 1;
   if (ns > QUAD_SAMPLES_MAX) ns = QUAD_SAMPLES_MAX;
   int nf = G->nb + (G->ellipse ? 1 : G->n - 1);
   double ta = lo, dsa, sa = quad_s(el, R, ta, &dsa);
@@ -1381,4 +1384,157 @@ done:
   free(items);
   if (st) ch_gtex_free(g);
   return st;
+}
+
+/* ---- region sampling (§5.7) ---- */
+
+/* The CDF of s0 = a p + b q, a, b uniform in [-1/2, 1/2] (p, q >= 0): a
+ * trapezoid (a box where one of them vanishes). */
+static double trapezoid_cdf(double x, double p, double q) {
+  if (p < q) {
+    double t = p;
+    p = q;
+    q = t;
+  }
+  double h = 0.5 * (p + q);
+  if (x <= -h) return 0.0;
+  if (x >= h) return 1.0;
+  if (q <= 1e-15 * (p + 1e-300)) return p > 0.0 ? (x + 0.5 * p) / p : (x >= 0.0 ? 1.0 : 0.0);
+  /* Density: rising over [-h, -h + q], flat 1/p to h - q, falling to h. */
+  double a = -h + q, b = h - q;
+  if (x <= a) return (x + h) * (x + h) / (2.0 * p * q);
+  if (x <= b) return 0.5 * q / p + (x - a) / p;
+  return 1.0 - (h - x) * (h - x) / (2.0 * p * q);
+}
+
+int ch_gtex_region(const ch_gtex *g, const double at[2], const double dir[3], const double du[2], const double dv[2],
+                   const double L[3], ch_gtex_facet out[CH_GTEX_MAX_FACETS]) {
+  if (!(dir[2] < 0.0) || !(L[2] > 0.0)) return 0;
+  /* The region the pixel's rays and their shadow rays can reach in UV. */
+  double zlow = g->zmin;
+  double reach[2] = {dir[0] * zlow / dir[2], dir[1] * zlow / dir[2]}, lreach[2] = {-L[0] * zlow / L[2], -L[1] * zlow / L[2]};
+  double box[4] = {INFINITY, INFINITY, -INFINITY, -INFINITY};
+  for (int c = 0; c < 4; c++) {
+    double a = c & 1 ? 0.5 : -0.5, b = c & 2 ? 0.5 : -0.5;
+    double p[2] = {at[0] + a * du[0] + b * dv[0], at[1] + a * du[1] + b * dv[1]};
+    for (int k = 0; k < 3; k++) {
+      double x = p[0] + (k == 1 ? reach[0] : k == 2 ? reach[0] + lreach[0] : 0.0);
+      double y = p[1] + (k == 1 ? reach[1] : k == 2 ? reach[1] + lreach[1] : 0.0);
+      box[0] = mn(box[0], x), box[1] = mn(box[1], y), box[2] = mx(box[2], x), box[3] = mx(box[3], y);
+    }
+  }
+  if (!(box[0] >= 0.0 && box[1] >= 0.0 && box[2] <= 1.0 && box[3] <= 1.0)) return 0;
+  /* One element in every cell the region touches. */
+  int G = g->resolution, i0 = (int)(box[0] * G), i1 = (int)(box[2] * G), j0 = (int)(box[1] * G), j1 = (int)(box[3] * G);
+  i1 = i1 >= G ? G - 1 : i1, j1 = j1 >= G ? G - 1 : j1;
+  if ((i1 - i0 + 1) * (j1 - j0 + 1) > 64) return 0; /* (a pixel many cells wide: the paper's own limit) */
+  int elem_id = -1;
+  for (int j = j0; j <= j1; j++)
+    for (int i = i0; i <= i1; i++) {
+      const float *gt = g->grid + 4 * ((size_t)j * G + i);
+      int first = (int)gt[0], n = (int)gt[1];
+      for (int k = 0; k < n; k++) {
+        int e = (int)texel(g, first + k / 4)[k % 4];
+        if (elem_id >= 0 && e != elem_id) return 0;
+        elem_id = e;
+      }
+    }
+  if (elem_id < 0) {
+    /* No groove: the top, lit. */
+    memset(out, 0, sizeof *out);
+    out[0].weight = out[0].lit = 1.0;
+    out[0].normal[2] = 1.0;
+    out[0].curve = -1;
+    return 1;
+  }
+  elem el;
+  groove G0;
+  load_elem(g, elem_id, &el);
+  load_groove(g, el.groove, &G0);
+  if (el.quad || G0.raises) return 0;
+  double T[2] = {el.t0[0], el.t0[1]}, N[2] = {-T[1], T[0]};
+  double len = len2d(el.p[2][0] - el.p[0][0], el.p[2][1] - el.p[0][1]), half = 0.5 * G0.w;
+  /* Away from its ends (their caps): the region's extent along it. */
+  double amin = INFINITY, amax = -INFINITY;
+  for (int c = 0; c < 4; c++) {
+    double x = c & 1 ? box[2] : box[0], y = c & 2 ? box[3] : box[1];
+    double a = (x - el.p[0][0]) * T[0] + (y - el.p[0][1]) * T[1];
+    amin = mn(amin, a), amax = mx(amax, a);
+  }
+  if (!(amin >= half && amax <= len - half)) return 0;
+  /* The cross-section: s across (left positive), z up; the profile as a
+   * polyline, the top on either side. */
+  double ps[2 * CH_GTEX_MAX_PROFILE_POINTS + 40], pz[2 * CH_GTEX_MAX_PROFILE_POINTS + 40];
+  int np = 0;
+  const double far = 4.0; /* beyond any footprint */
+  ps[np] = -far, pz[np++] = 0.0;
+  if (G0.ellipse) {
+    /* Chords even in the ellipse's angle, so in slope: steep at the rims. */
+    for (int k = 0; k <= 32; k++) {
+      double th = 3.14159265358979323846 * k / 32.0;
+      ps[np] = -0.5 * cos(th) * G0.w, pz[np++] = -G0.d * sin(th);
+    }
+  } else {
+    for (int k = 0; k < G0.n; k++) ps[np] = G0.t[k] * G0.w, pz[np++] = G0.d * G0.h[k];
+  }
+  ps[np] = far, pz[np++] = 0.0;
+  /* View and light in the cross-section, walked in the direction the rays
+   * travel (mirrored where that is -s). */
+  double vs = dir[0] * N[0] + dir[1] * N[1], ls = L[0] * N[0] + L[1] * N[1];
+  double sc = (at[0] - el.p[0][0]) * N[0] + (at[1] - el.p[0][1]) * N[1];
+  double p = fabs(du[0] * N[0] + du[1] * N[1]), q = fabs(dv[0] * N[0] + dv[1] * N[1]);
+  /* Per segment: visible part [v0, v1] and lit part [l0, l1] of its
+   * parameter (0 at ps[k], 1 at ps[k + 1]). */
+  double v0[2 * CH_GTEX_MAX_PROFILE_POINTS + 40], v1[2 * CH_GTEX_MAX_PROFILE_POINTS + 40];
+  double l0[2 * CH_GTEX_MAX_PROFILE_POINTS + 40], l1[2 * CH_GTEX_MAX_PROFILE_POINTS + 40];
+  for (int pass = 0; pass < 2; pass++) {
+    /* The rays travel along (ts, tz) in the cross-section, tz < 0. */
+    double ts = pass == 0 ? vs : -ls, tz = pass == 0 ? dir[2] : -L[2], k = fabs(ts) / fabs(tz);
+    int fwd = ts >= 0.0;
+    double M = -INFINITY;
+    for (int c = 0; c + 1 < np; c++) {
+      int seg = fwd ? c : np - 2 - c;
+      /* Walk the segment from its first point in the travel direction. */
+      double sa = fwd ? ps[seg] : -ps[seg + 1], za = fwd ? pz[seg] : pz[seg + 1];
+      double sb = fwd ? ps[seg + 1] : -ps[seg], zb = fwd ? pz[seg + 1] : pz[seg];
+      double ua = sa + k * za, ub = sb + k * zb;
+      double lo = 1.0, hi = 1.0; /* the visible part, in the walk's parameter */
+      if (ub > M && ub > ua) {
+        lo = ua >= M ? 0.0 : (M - ua) / (ub - ua);
+        hi = 1.0;
+      }
+      M = mx(M, mx(ua, ub));
+      /* Back to the segment's own parameter. */
+      double a = fwd ? lo : 1.0 - hi, b = fwd ? hi : 1.0 - lo;
+      if (pass == 0) v0[seg] = a, v1[seg] = b;
+      else l0[seg] = a, l1[seg] = b;
+    }
+  }
+  /* Weights: the measure of s0 over each visible part. */
+  int nf = 0;
+  double kv = -vs / dir[2];
+  for (int seg = 0; seg + 1 < np && nf < CH_GTEX_MAX_FACETS; seg++) {
+    if (!(v1[seg] > v0[seg])) continue;
+    double ds = ps[seg + 1] - ps[seg], dz = pz[seg + 1] - pz[seg];
+    /* s0 of a point = s + k z; of the parameter x: u(x). */
+    double u0 = ps[seg] + kv * pz[seg], du_ = ds + kv * dz;
+    double xa = v0[seg], xb = v1[seg];
+    double w = fabs(trapezoid_cdf(u0 + du_ * xb - sc, p, q) - trapezoid_cdf(u0 + du_ * xa - sc, p, q));
+    if (!(w > 0.0)) continue;
+    double la = mx(xa, l0[seg]), lb = mn(xb, l1[seg]);
+    double lit = lb > la ? fabs(trapezoid_cdf(u0 + du_ * lb - sc, p, q) - trapezoid_cdf(u0 + du_ * la - sc, p, q)) : 0.0;
+    ch_gtex_facet *f = &out[nf++];
+    memset(f, 0, sizeof *f);
+    f->weight = w;
+    f->lit = mn(lit, w);
+    double ns = -dz, nz = ds, l = len2d(ns, nz);
+    ns /= l, nz /= l;
+    f->wall = ds == 0.0;
+    if (f->wall && ns * vs > 0.0) ns = -ns; /* facing the viewer */
+    f->normal[0] = ns * N[0];
+    f->normal[1] = ns * N[1];
+    f->normal[2] = nz;
+    f->curve = seg == 0 || seg == np - 2 ? -1 : G0.curve;
+  }
+  return nf;
 }

@@ -133,6 +133,37 @@ int ch_gtex_intersect(const ch_gtex *tex, const double org[3], const double dir[
  * it off the surface). Thread-safe. */
 int ch_gtex_occluded(const ch_gtex *tex, const double org[3], const double dir[3], double tnear, double tfar);
 
+/* A facet a pixel sees (region sampling). */
+typedef struct ch_gtex_facet {
+  double weight;    /* share of the pixel's footprint that sees it */
+  double lit;       /* the part of weight the light reaches */
+  double normal[3]; /* unit: up for the top and the profile's facets,
+                       horizontal for walls (facing the viewer) */
+  int wall;
+  int curve;        /* the groove, or -1 for the top */
+} ch_gtex_facet;
+
+enum { CH_GTEX_MAX_FACETS = 72 };
+
+/* Region sampling (§5.7): what a pixel sees of an isolated straight
+ * groove, in closed form. The pixel is the parallelogram of base-plane
+ * points at + a du + b dv (a, b in [-1/2, 1/2], UV) seen along dir (a
+ * direction into the surface, the same for the whole pixel); L points to
+ * the light. Along the groove nothing changes, so in its cross-section
+ * every ray is known by where it crosses the base plane, s0; the profile
+ * (a polyline; `u` as 32 chords even in its angle) is walked in the rays' direction keeping
+ * the farthest s0 seen so far (a facet is visible where its s0 exceeds
+ * it), and the same walk along the light gives each facet's lit part. The
+ * weights are the measure of s0 over the pixel: the trapezoid that the
+ * parallelogram projects to across the groove (the paper takes it as an
+ * interval). Returns the facets (weights summing to 1), or 0 where the
+ * paper too falls back to supersampling: the pixel, with the rays' and
+ * light's travel down to the groove's floor, reaches any element but one
+ * straight carved one, or comes within half a width of its ends, or leaves
+ * the square. Thread-safe; reads only the textures. */
+int ch_gtex_region(const ch_gtex *tex, const double at[2], const double dir[3], const double du[2], const double dv[2],
+                   const double L[3], ch_gtex_facet out[CH_GTEX_MAX_FACETS]);
+
 /* What the textures say at one point. */
 typedef struct ch_gtex_sample {
   double h;          /* h_groove */
