@@ -1201,9 +1201,11 @@ ch_status ch_gtex_build(ch_gtex *g, const ch_curve_set *set, const ch_gtex_desc 
       const ch_curve *cv = &set->curves[sg->curve];
       double r = 0.5 * cv->width + 1e-6, box[4];
       ch_segment_box(sg, r, box);
-      int i0 = (int)floor(box[0] * G), i1 = (int)floor(box[2] * G), j0 = (int)floor(box[1] * G),
-          j1 = (int)floor(box[3] * G);
-      i0 = i0 < 0 ? 0 : i0, j0 = j0 < 0 ? 0 : j0, i1 = i1 >= G ? G - 1 : i1, j1 = j1 >= G ? G - 1 : j1;
+      /* (Clamped before the casts: curves may lie far outside the square.) */
+      double c0 = mx(floor(box[0] * G), 0.0), c1 = mn(floor(box[2] * G), G - 1.0);
+      double r0 = mx(floor(box[1] * G), 0.0), r1 = mn(floor(box[3] * G), G - 1.0);
+      if (!(c0 <= c1 && r0 <= r1)) continue;
+      int i0 = (int)c0, i1 = (int)c1, j0 = (int)r0, j1 = (int)r1;
       for (int j = j0; j <= j1; j++)
         for (int i = i0; i <= i1; i++) {
           double c[2] = {(i + 0.5) * cs, (j + 0.5) * cs}, tau;

@@ -17,7 +17,8 @@ void ch_relief_free(ch_relief *r) {
 
 size_t ch_relief_bytes(const ch_relief *r) { return 4 * (size_t)r->resolution * r->resolution; }
 
-ch_status ch_relief_build(ch_relief *r, const ch_height *height, const ch_relief_desc *desc, ch_error *err) {
+/* Checks desc and sets r up around a map of R x R (allocated, not filled). */
+static ch_status setup(ch_relief *r, const ch_relief_desc *desc, ch_error *err) {
   memset(r, 0, sizeof *r);
   int R = desc->resolution, K = desc->steps ? desc->steps : 32, S = desc->supersample ? desc->supersample : 4;
   if (R < CH_RELIEF_MIN_RES || R > CH_RELIEF_MAX_RES)
@@ -35,6 +36,25 @@ ch_status ch_relief_build(ch_relief *r, const ch_height *height, const ch_relief
   r->steps = K;
   r->min_steps = K / 4 > 4 ? K / 4 : (K < 4 ? K : 4);
   r->method = desc->method;
+  return CH_OK;
+}
+
+ch_status ch_relief_copy(ch_relief *r, const ch_relief *from, const ch_relief_desc *desc, ch_error *err) {
+  if (desc->resolution != from->resolution)
+    return ch_error_set(err, CH_ERR_INTERNAL, "relief mapping: a %d x %d map is not %d x %d", from->resolution,
+                        from->resolution, desc->resolution, desc->resolution);
+  ch_status st = setup(r, desc, err);
+  if (st) return st;
+  memcpy(r->h, from->h, (size_t)r->resolution * r->resolution * sizeof *r->h);
+  r->hmin = from->hmin;
+  r->hmax = from->hmax;
+  return CH_OK;
+}
+
+ch_status ch_relief_build(ch_relief *r, const ch_height *height, const ch_relief_desc *desc, ch_error *err) {
+  ch_status st = setup(r, desc, err);
+  if (st) return st;
+  int R = r->resolution, S = desc->supersample ? desc->supersample : 4;
   ch_height_render(height, R, S, r->h);
   double lo = INFINITY, hi = -INFINITY;
   for (size_t i = 0; i < (size_t)R * R; i++) {

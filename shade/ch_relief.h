@@ -65,6 +65,10 @@ typedef struct ch_relief {
 /* Bakes the height texture of height (ch_height_render) and sets up the
  * method. Bad parameters give CH_ERR_INPUT naming them. Parallel. */
 ch_status ch_relief_build(ch_relief *r, const ch_height *height, const ch_relief_desc *desc, ch_error *err);
+/* The same method set up on a copy of from's height texture (of the same
+ * resolution): relief and POM of one map without baking it twice. */
+ch_status ch_relief_copy(ch_relief *r, const ch_relief *from, const ch_relief_desc *desc, ch_error *err);
+
 void ch_relief_free(ch_relief *r);
 
 /* Bytes of the height texture (4 per texel). */

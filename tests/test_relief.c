@@ -82,6 +82,16 @@ static void test_straight_down(void) {
   double res = (r.hmax - r.hmin) / 32 / 256;
   CHECK(fabs(h.point[2] - (-0.01)) <= res);
   CHECK_NEAR(h.normal[0] / h.normal[2], 0.2, 1e-6);
+  /* POM on a copy of the same map: the same texels and range. */
+  ch_relief pom;
+  ch_error err = {0};
+  ch_relief_desc pd = {.resolution = 256, .steps = 16, .method = CH_RELIEF_POM};
+  REQUIRE(ch_relief_copy(&pom, &r, &pd, &err) == CH_OK);
+  CHECK(pom.method == CH_RELIEF_POM && pom.steps == 16 && pom.hmin == r.hmin &&
+        memcmp(pom.h, r.h, (size_t)256 * 256 * sizeof(float)) == 0);
+  pd.resolution = 128;
+  CHECK(ch_relief_copy(&pom, &r, &pd, &err) != CH_OK);
+  ch_relief_free(&pom);
   ch_relief_free(&r);
   unload(&s);
 }

@@ -29,7 +29,11 @@ ch_status ch_texray_create(const ch_texray_desc *desc, const ch_curve_set *set, 
     ch_relief_desc rd = {.resolution = desc->resolution,
                          .steps = desc->steps,
                          .method = desc->kind == CH_TEXRAY_POM ? CH_RELIEF_POM : CH_RELIEF_RELIEF};
-    st = ch_relief_build(&tr->relief, height, &rd, err);
+    const ch_texray *same = desc->same_map;
+    if (same && same->kind != CH_TEXRAY_GROOVES && same->relief.resolution == desc->resolution)
+      st = ch_relief_copy(&tr->relief, &same->relief, &rd, err);
+    else
+      st = ch_relief_build(&tr->relief, height, &rd, err);
   }
   if (st) {
     free(tr);

@@ -26,11 +26,17 @@ extern "C" {
 
 typedef enum ch_texray_kind { CH_TEXRAY_GROOVES = 0, CH_TEXRAY_RELIEF, CH_TEXRAY_POM } ch_texray_kind;
 
+struct ch_texray;
+
 typedef struct ch_texray_desc {
   ch_texray_kind kind;
   int resolution; /* grooves: the grid's G; relief, pom: the height texture's R */
   int steps;      /* relief, pom: linear steps (0: 32) */
   int paper;      /* grooves: curved elements as the paper intersects them */
+  const struct ch_texray *same_map; /* relief, pom: a method built with the
+                                       same resolution, whose height
+                                       texture is copied rather than baked
+                                       again (NULL: bake) */
 } ch_texray_desc;
 
 typedef struct ch_texray ch_texray;
