@@ -522,24 +522,28 @@ static void ev_add(events *E, double t) {
   E->n++;
 }
 
-/* Real roots of a t^2 + b t + c (a linear equation where a vanishes
- * against the others), without cancellation. */
-static void ev_quadratic(events *E, double a, double b, double c) {
+/* The real roots of a t^2 + b t + c (a linear equation where a vanishes
+ * against the others), without cancellation; a double root lost to
+ * rounding (a ray tangent to a cap circle) kept. */
+static int quadratic_roots(double a, double b, double c, double r[2]) {
   double scale = fabs(a) + fabs(b) + fabs(c);
-  if (!(scale > 0.0)) return;
+  if (!(scale > 0.0)) return 0;
   if (fabs(a) < 1e-14 * scale) {
-    if (b != 0.0) ev_add(E, -c / b);
-    return;
+    if (b == 0.0) return 0;
+    r[0] = -c / b;
+    return 1;
   }
   double disc = b * b - 4.0 * a * c;
   if (disc < 0.0) {
-    /* A double root lost to rounding (a ray tangent to a cap circle). */
-    if (disc > -1e-14 * b * b) ev_add(E, -b / (2.0 * a));
-    return;
+    if (!(disc > -1e-14 * b * b)) return 0;
+    r[0] = -b / (2.0 * a);
+    return 1;
   }
   double sq = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? sq : -sq));
-  ev_add(E, qq / a);
-  if (qq != 0.0) ev_add(E, c / qq);
+  r[0] = qq / a;
+  if (qq == 0.0) return 1;
+  r[1] = c / qq;
+  return 2;
 }
 
 static void ev_linear(events *E, double a, double b) {
@@ -556,43 +560,69 @@ static void events_line(events *E, const ray *R, const elem *el, const groove *G
   double N[2] = {-T[1], T[0]};
   double s0 = (R->o[0] - el->p[0][0]) * N[0] + (R->o[1] - el->p[0][1]) * N[1];
   double s1 = R->d[0] * N[0] + R->d[1] * N[1];
+  double a0 = (R->o[0] - el->p[0][0]) * T[0] + (R->o[1] - el->p[0][1]) * T[1], a1 = R->d[0] * T[0] + R->d[1] * T[1];
   double z0 = R->o[2], z1 = R->d[2], w = G->w, d = G->d;
+  double L = len2d(el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]), eps = 1e-9 * (1.0 + L + w);
+  /* Only where the foot is on the segment (around its ends the caps' events
+   * apply) and inside the band is a crossing real: the rest are dropped
+   * here, so fewer segments need a point test. */
+#define LINE_KEEP(t) (a0 + a1 * (t) >= -eps && a0 + a1 * (t) <= L + eps && fabs(s0 + s1 * (t)) <= 0.5 * w + eps)
   E->wall_now = 1;
   for (int k = 0; k < G->nb; k++)
-    if (all_breaks || G->jump[k]) ev_linear(E, s0 - G->brk[k] * w, s1);
+    if ((all_breaks || G->jump[k]) && s1 != 0.0) {
+      double t = (G->brk[k] * w - s0) / s1;
+      if (LINE_KEEP(t)) ev_add(E, t);
+    }
   E->wall_now = 0;
   if (G->ellipse) {
-    double k4 = 4.0 * d * d / (w * w);
-    ev_quadratic(E, z1 * z1 + k4 * s1 * s1, 2.0 * (z0 * z1 + k4 * s0 * s1), z0 * z0 + k4 * s0 * s0 - d * d);
+    double k4 = 4.0 * d * d / (w * w), r[2];
+    int n = quadratic_roots(z1 * z1 + k4 * s1 * s1, 2.0 * (z0 * z1 + k4 * s0 * s1), z0 * z0 + k4 * s0 * s0 - d * d, r);
+    for (int i = 0; i < n; i++)
+      if (LINE_KEEP(r[i])) ev_add(E, r[i]);
     return;
   }
   for (int k = 0; k + 1 < G->n; k++) {
     if (!(G->t[k + 1] > G->t[k])) continue; /* vertical: a break */
     double m = (G->h[k + 1] - G->h[k]) / (G->t[k + 1] - G->t[k]);
     /* z0 + z1 t = d (h_k + m ((s0 + s1 t) / w - t_k)) */
-    ev_linear(E, z0 - d * (G->h[k] + m * (s0 / w - G->t[k])), z1 - d * m * s1 / w);
+    double a = z0 - d * (G->h[k] + m * (s0 / w - G->t[k])), b = z1 - d * m * s1 / w;
+    if (b != 0.0 && LINE_KEEP(-a / b)) ev_add(E, -a / b);
   }
+#undef LINE_KEEP
 }
 
 /* Around a point (an open end's cap or a joint's corner) the distance is
  * r(t) = |p(t) - E|, r^2 = a t^2 + b t + c: break circles and facets
  * (squared, both signs of s at once) are quadratics in t. */
-static void events_point(events *E, const ray *R, const double P[2], const groove *G, int all_breaks) {
+static void events_point(events *E, const ray *R, const double P[2], const double T[2], int after,
+                         const groove *G, int all_breaks) {
   double ox = R->o[0] - P[0], oy = R->o[1] - P[1];
   double a = R->d[0] * R->d[0] + R->d[1] * R->d[1], b = 2.0 * (ox * R->d[0] + oy * R->d[1]), c = ox * ox + oy * oy;
   double z0 = R->o[2], z1 = R->d[2], w = G->w, d = G->d;
+  /* The point is the nearest feature only beyond its segment's end (its
+   * side of the normal line there, along T: after = 1 past the end, 0
+   * before the start) and within the band: other roots are dropped. */
+  double a0 = ox * T[0] + oy * T[1], a1 = R->d[0] * T[0] + R->d[1] * T[1], eps = 1e-9 * (1.0 + w), r[2];
+#define POINT_KEEP(t)                                                                                            \
+  ((after ? a0 + a1 * (t) >= -eps : a0 + a1 * (t) <= eps) &&                                                     \
+   (a * (t) * (t) + b * (t) + c) <= (0.5 * w + eps) * (0.5 * w + eps))
   E->wall_now = 1;
   for (int k = 0; k < G->nb; k++) {
     /* Circles r = |b| w, each radius once. */
     int seen = G->brk[k] == 0.0 || !(all_breaks || G->jump[k]);
     for (int j = 0; j < k && !seen; j++) seen = fabs(G->brk[j]) == fabs(G->brk[k]);
-    double r = G->brk[k] * w;
-    if (!seen) ev_quadratic(E, a, b, c - r * r);
+    double rr = G->brk[k] * w;
+    if (seen) continue;
+    int n = quadratic_roots(a, b, c - rr * rr, r);
+    for (int i = 0; i < n; i++)
+      if (POINT_KEEP(r[i])) ev_add(E, r[i]);
   }
   E->wall_now = 0;
   if (G->ellipse) {
     double k4 = 4.0 * d * d / (w * w);
-    ev_quadratic(E, z1 * z1 + k4 * a, 2.0 * z0 * z1 + k4 * b, z0 * z0 + k4 * c - d * d);
+    int n = quadratic_roots(z1 * z1 + k4 * a, 2.0 * z0 * z1 + k4 * b, z0 * z0 + k4 * c - d * d, r);
+    for (int i = 0; i < n; i++)
+      if (POINT_KEEP(r[i])) ev_add(E, r[i]);
     return;
   }
   for (int k = 0; k + 1 < G->n; k++) {
@@ -600,8 +630,11 @@ static void events_point(events *E, const ray *R, const double P[2], const groov
     double m = (G->h[k + 1] - G->h[k]) / (G->t[k + 1] - G->t[k]);
     /* (z - K)^2 = M r^2 with K = d (h_k - m t_k), M = (d m / w)^2 */
     double K = d * (G->h[k] - m * G->t[k]), M = (d * m / w) * (d * m / w), e0 = z0 - K;
-    ev_quadratic(E, z1 * z1 - M * a, 2.0 * z1 * e0 - M * b, e0 * e0 - M * c);
+    int n = quadratic_roots(z1 * z1 - M * a, 2.0 * z1 * e0 - M * b, e0 * e0 - M * c, r);
+    for (int i = 0; i < n; i++)
+      if (POINT_KEEP(r[i])) ev_add(E, r[i]);
   }
+#undef POINT_KEEP
 }
 
 /* Beyond an open end the side is that of the end's tangent line: where the
@@ -832,8 +865,12 @@ static void cell_events(events *E, const ray *R, cell *C) {
       double tg[2];
       elem_tangent(el, 0.0, tg);
       if (el->open_start || fabs(ch_cross2(el->tin, tg)) > SMOOTH_JOINT || ch_dot2(el->tin, tg) < 0.0)
-        events_point(E, R, el->p[0], G, C->mixed);
-      if (el->open_end) events_point(E, R, el->p[2], G, C->mixed);
+        events_point(E, R, el->p[0], tg, 0, G, C->mixed);
+      if (el->open_end) {
+        double te[2];
+        elem_tangent(el, 1.0, te);
+        events_point(E, R, el->p[2], te, 1, G, C->mixed);
+      }
       if (G->asym && el->open_start) events_end_line(E, R, el->p[0], tg);
       if (G->asym && el->open_end) {
         elem_tangent(el, 1.0, tg);
