@@ -16,9 +16,20 @@
  *   points (circles), so nothing is sampled on straight paths.
  * - Curved (quadratic) elements: the paper uses the tangent line at the
  *   point nearest to the current point (§5.2); here the ray's signed
- *   distance to the quadratic itself is bracketed on samples and refined
- *   (Illinois regula falsi). `paper` keeps the tangent line, per cell.
+ *   distance to the quadratic itself is used: convex along the ray within
+ *   the element's least radius of curvature, so each event function's
+ *   values and rates at the ends of the ray's stretch over the element
+ *   bracket its roots (refined by safeguarded Newton); grooves wider than
+ *   that radius allows are sampled. `paper` keeps the tangent line, per
+ *   cell, to measure the approximation.
+ * - Events are only where h can change sides with the ray: facets inside
+ *   the band with their foot on the element, jumps of the profile (rims
+ *   too where raised and carved grooves meet), the base plane; a kink of
+ *   a continuous profile needs none.
  * - The grid keeps min and max h per cell (the paper: the max only).
+ * - Region sampling (§5.7) in closed form for one straight groove; the
+ *   paper's supersampling is left to the caller (the study supersamples
+ *   every pixel; bench_aa compares the two).
  * Everything per ray reads only `grid` and `data`. */
 #include "ch_gtex.h"
 

@@ -14,8 +14,9 @@
  *   points; control point, curve, flags for quadratic and open ends; the
  *   neighbours' tangents at the joints, for SPEC §3's side rule); the
  *   grooves, two texels each (width, depth, profile, priority; the curve's
- *   index in the set); the cross-sections as point lists headed by their
- *   kind and count (§4.2, Figure 3(b)).
+ *   index in the set, its kind, flags for a one-sided profile and raised
+ *   or carved values, the mask of the profile's jumps); the cross-sections
+ *   as point lists headed by their kind and count (§4.2, Figure 3(b)).
  * Integers are stored in floats (exact below 2^24). Positions in float put
  * the curves within 3e-8 UV of the SVG's.
  *
@@ -31,8 +32,8 @@
  *   parameter for straight segments and straight profile pieces, quadratic
  *   for the `u` ellipse (solved without cancellation) and for every piece
  *   swept around an end point or joint, i.e. the rounded caps and corners);
- *   for quadratic segments the signed distance is the exact one along the
- *   ray and its events are bracketed on samples and bisected. Between two
+ *   for quadratic segments on the exact signed distance along the ray,
+ *   bracketed by its convexity and refined by safeguarded Newton. Between two
  *   events the ray is on one side of h, so the events are the CSG ray
  *   segments of §5.3-5.4 and one point test of h inside each (h evaluated
  *   exactly from the textures: per groove the nearest element and SPEC's

@@ -917,5 +917,6 @@ static int run(int argc, char **argv) {
   return st ? cli_fail(&err) : 0;
 }
 
-const cli_command cli_study_command = {"study", "every method's mesh against the Embree-traced true surface", usage,
-                                       run};
+const cli_command cli_study_command = {
+    "study", "meshes and texture methods (groove textures, relief mapping) against the Embree-traced true surface",
+    usage, run};
