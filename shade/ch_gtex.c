@@ -297,9 +297,17 @@ static void paper_line(elem *E, const double ref[2]) {
  * (B(t) - q) . B'(t) from the chord's projection finds it in a few steps,
  * clamped to the element's ends; farther away, the robust root finder of
  * ch_bezier_closest. */
+/* (Through copies: GCC 12 at -O1 with the sanitizers warns, wrongly,
+ * that passing E->p here reads past a 16-byte object.) */
+static double robust_closest(const elem *E, const double q[2], double *tau) {
+  double P[3][2], Q[2] = {q[0], q[1]};
+  memcpy(P, E->p, sizeof P);
+  return ch_bezier_closest(P, !E->quad, Q, tau);
+}
+
 static double elem_closest(const elem *E, const double q[2], double *tau) {
   if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
-  const double *p0 = E->p[0], *p1 = E->p[1], *p2 = E->p[2];
+  const double p0[2] = {E->p[0][0], E->p[0][1]}, p1[2] = {E->p[1][0], E->p[1][1]}, p2[2] = {E->p[2][0], E->p[2][1]};
   double c[2] = {p2[0] - p0[0], p2[1] - p0[1]}, cc = c[0] * c[0] + c[1] * c[1];
   double t = cc > 0.0 ? ((q[0] - p0[0]) * c[0] + (q[1] - p0[1]) * c[1]) / cc : 0.5;
   t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
@@ -310,7 +318,7 @@ static double elem_closest(const elem *E, const double q[2], double *tau) {
    * the curve: Newton stays in the basin. */
   double dx = q[0] - (p0[0] + t * c[0]), dy = q[1] - (p0[1] + t * c[1]);
   double dev2 = 0.0625 * bb; /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
-  if (!(dx * dx + dy * dy + dev2 < 0.25 * E->rho2)) return ch_bezier_closest(E->p, 0, q, tau);
+  if (!(dx * dx + dy * dy + dev2 < 0.25 * E->rho2)) return robust_closest(E, q, tau);
   /* Quadratic convergence: once a step is below 1e-8 the next is below
    * 1e-16, so take it and stop. */
   for (int it = 0, last = 0; it < 16 && !last; it++) {
@@ -318,14 +326,13 @@ static double elem_closest(const elem *E, const double q[2], double *tau) {
     double B[2] = {s * s * p0[0] + 2.0 * s * t * p1[0] + t * t * p2[0], s * s * p0[1] + 2.0 * s * t * p1[1] + t * t * p2[1]};
     double D[2] = {a[0] + t * b[0], a[1] + t * b[1]}, r[2] = {B[0] - q[0], B[1] - q[1]};
     double f = r[0] * D[0] + r[1] * D[1], df = D[0] * D[0] + D[1] * D[1] + r[0] * b[0] + r[1] * b[1];
-    if (!(df > 0.0)) return ch_bezier_closest(E->p, 0, q, tau);
+    if (!(df > 0.0)) return robust_closest(E, q, tau);
     double tn = t - f / df;
     tn = tn < 0.0 ? 0.0 : tn > 1.0 ? 1.0 : tn;
     last = fabs(tn - t) <= 1e-8;
     t = tn;
   }
-  double x[2];
-  ch_bezier_eval(E->p, t, x);
+  double u = 1.0 - t, x[2] = {u * u * p0[0] + 2.0 * u * t * p1[0] + t * t * p2[0], u * u * p0[1] + 2.0 * u * t * p1[1] + t * t * p2[1]};
   *tau = t;
   return (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
 }
