@@ -32,6 +32,10 @@
 #include "ch_height.h"
 #include "ch_warp.h"
 
+/* shade/: texture-space methods, each built once and evaluated per pixel */
+#include "ch_gtex.h"
+#include "ch_relief.h"
+
 /* tess/: the base surface (OpenSubdiv), geometry images, displacement and
  * the feature embedding */
 #include "ch_surface.h"
@@ -45,5 +49,6 @@
 #include "ch_trace.h"
 #include "ch_render.h"
 #include "ch_metrics.h"
+#include "ch_texray.h"
 
 #endif

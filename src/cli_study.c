@@ -16,12 +16,15 @@
 #include "ch_curves.h"
 #include "ch_exr.h"
 #include "ch_file.h"
+#include "ch_gtex.h"
 #include "ch_height.h"
 #include "ch_math.h"
 #include "ch_mesh.h"
 #include "ch_metrics.h"
 #include "ch_png.h"
+#include "ch_relief.h"
 #include "ch_render.h"
+#include "ch_texray.h"
 #include "ch_trace.h"
 #include "ch_version.h"
 #include "ch_truth.h"
@@ -63,6 +66,18 @@ static const char usage[] =
     "                                   a texture-space method on the base mesh:\n"
     "                                   exact-normals = the truth's normal at the\n"
     "                                   hit's UV (a perfect normal map)\n"
+    "      {\"name\": \"g\", \"mesh\": \"plane.obj\", \"shader\": \"grooves\", \"resolution\": 128}\n"
+    "                                   path-based groove textures on a G x G grid\n"
+    "                                   (G in 1..4096; grooves only: a step curve is\n"
+    "                                   an error), traced per ray in texture space,\n"
+    "                                   walls and shadows included; \"paper\": true\n"
+    "                                   intersects curved pieces as the paper does\n"
+    "      {\"name\": \"r\", \"mesh\": \"plane.obj\", \"shader\": \"relief\", \"resolution\": 1024,\n"
+    "       \"steps\": 32}                relief mapping (linear + binary search) on an\n"
+    "                                   R x R height texture of h (R in 2..16384, as\n"
+    "                                   chisel sample bakes it), K linear steps\n"
+    "                                   (1..4096, default 32); \"pom\": parallax\n"
+    "                                   occlusion mapping (K..K/4 steps by view angle)\n"
     "    ]\n"
     "  }\n"
     "Names are letters, digits, '-' and '_' (they name files), unique per list.\n"
@@ -82,7 +97,8 @@ static const char usage[] =
     "                           (all pixels, groove pixels), groove id mismatch %,\n"
     "                           depth error / scene size, normal error mean and\n"
     "                           p95 (degrees), shading RMSE and SSIM, shadow mismatch %\n"
-    "On failure nothing is left in DIR.\n"
+    "On failure nothing is left in DIR. Prints the bytes of each texture\n"
+    "method's textures, then the table (Mrays/s: primary and shadow rays).\n"
     "\n"
     "  -o, --output DIR   the output folder (required)\n";
 
@@ -98,6 +114,9 @@ typedef struct method {
   char family[NAME_MAX_LEN]; /* methods plotted as one line against triangles */
   char *path;
   int exact_normals; /* "shader": "exact-normals" */
+  int textured;      /* "shader": "grooves", "relief" or "pom" */
+  ch_texray_desc tex;
+  ch_texray *tr;
   ch_mesh mesh;
   ch_trace *scene;
 } method;
@@ -218,10 +237,60 @@ static void study_free(study *s) {
   for (int i = 0; i < s->num_methods; i++) {
     free(s->methods[i].path);
     ch_trace_destroy(s->methods[i].scene);
+    ch_texray_destroy(s->methods[i].tr);
     ch_mesh_free(&s->methods[i].mesh);
   }
   free(s->methods);
   memset(s, 0, sizeof *s);
+}
+
+/* A method's "shader" and its parameters: exact-normals; grooves with
+ * "resolution" G (and "paper"); relief, pom with "resolution" R and
+ * "steps" K (default 32). */
+static int parse_shader(const cJSON *m, method *mt, const char *where, const char *file, ch_error *err) {
+  const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
+  const cJSON *res = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *steps = cJSON_GetObjectItemCaseSensitive(m, "steps");
+  const cJSON *paper = cJSON_GetObjectItemCaseSensitive(m, "paper");
+  const char *name = cJSON_IsString(shader) ? shader->valuestring : "";
+  int grooves = !strcmp(name, "grooves"), relief = !strcmp(name, "relief"), pom = !strcmp(name, "pom");
+  if (shader && !grooves && !relief && !pom && strcmp(name, "exact-normals")) {
+    ch_error_set(err, CH_ERR_INPUT,
+                 "%s: %s.shader: unknown shader (known: \"exact-normals\", \"grooves\", \"relief\", \"pom\")", file,
+                 where);
+    return 0;
+  }
+  const char *extra = !(grooves || relief || pom) && res ? "resolution" : !(relief || pom) && steps ? "steps"
+                      : !grooves && paper                                                    ? "paper"
+                                                                                             : NULL;
+  if (extra) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.%s: only for %s", file, where, extra,
+                 !strcmp(extra, "steps") ? "\"shader\": \"relief\" or \"pom\""
+                 : !strcmp(extra, "paper") ? "\"shader\": \"grooves\""
+                                            : "\"shader\": \"grooves\", \"relief\" or \"pom\"");
+    return 0;
+  }
+  mt->exact_normals = shader && !strcmp(name, "exact-normals");
+  if (!(grooves || relief || pom)) return 1;
+  if (!res) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.resolution: missing (shader \"%s\" needs the %s)", file, where, name,
+                 grooves ? "grid resolution G" : "height texture's resolution R");
+    return 0;
+  }
+  double r = 0, k = 32;
+  if (!get_number(m, "resolution", grooves ? CH_GTEX_MIN_RES : CH_RELIEF_MIN_RES,
+                  grooves ? CH_GTEX_MAX_RES : CH_RELIEF_MAX_RES, 1, &r, where, file, err) ||
+      !get_number(m, "steps", CH_RELIEF_MIN_STEPS, CH_RELIEF_MAX_STEPS, 1, &k, where, file, err))
+    return 0;
+  if (paper && !cJSON_IsBool(paper)) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.paper: expected true or false", file, where);
+    return 0;
+  }
+  mt->textured = 1;
+  mt->tex.kind = grooves ? CH_TEXRAY_GROOVES : relief ? CH_TEXRAY_RELIEF : CH_TEXRAY_POM;
+  mt->tex.resolution = (int)r;
+  mt->tex.steps = (int)k;
+  mt->tex.paper = cJSON_IsTrue(paper);
+  return 1;
 }
 
 static ch_status parse_scene(const char *file, const char *text, study *s, ch_error *err) {
@@ -239,7 +308,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
   static const char *const view_keys[] = {"name",   "eye",         "target",       "up",    "fov", "width",
                                           "height", "supersample", "ortho_height", "orbit", NULL};
-  static const char *const method_keys[] = {"name", "mesh", "shader", "family", NULL};
+  static const char *const method_keys[] = {"name", "mesh", "shader", "family", "resolution", "steps", "paper", NULL};
   char where[96];
   const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
   const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
@@ -393,14 +462,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
       }
       strcpy(mt->family, family->valuestring);
     }
-    const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
-    if (shader) {
-      if (!cJSON_IsString(shader) || strcmp(shader->valuestring, "exact-normals")) {
-        ch_error_set(err, CH_ERR_INPUT, "%s: %s.shader: unknown shader (known: \"exact-normals\")", file, where);
-        goto fail;
-      }
-      mt->exact_normals = 1;
-    }
+    if (!parse_shader(m, mt, where, file, err)) goto fail;
     if (!(mt->path = resolve(file, mesh->valuestring))) goto nomem;
   }
   cJSON_Delete(root);
@@ -936,6 +998,20 @@ static int run(int argc, char **argv) {
     method *m = &s.methods[i];
     st = ch_mesh_read(m->path, &m->mesh, &err);
     if (!st) st = ch_trace_create_mesh(&m->mesh, m->path, &m->scene, &err);
+    if (!st && m->textured) {
+      ch_error terr = cli_error();
+      /* Relief and POM at one resolution read one map: bake it once. */
+      for (int j = 0; j < i && m->tex.kind != CH_TEXRAY_GROOVES; j++)
+        if (s.methods[j].textured && s.methods[j].tex.kind != CH_TEXRAY_GROOVES &&
+            s.methods[j].tex.resolution == m->tex.resolution)
+          m->tex.same_map = s.methods[j].tr;
+      st = ch_texray_create(&m->tex, &set, &height, s.curves_path, &m->tr, &terr);
+      if (st) ch_error_set(&err, st, "%s: methods[%d] ('%s'): %s", scene_path, i, m->name, terr.message);
+      else
+        printf("texture method %s: %s at %d, %zu bytes\n", m->name,
+               m->tex.kind == CH_TEXRAY_GROOVES ? "grooves" : m->tex.kind == CH_TEXRAY_RELIEF ? "relief" : "pom",
+               m->tex.resolution, ch_texray_bytes(m->tr));
+    }
   }
   if (!st) st = ch_truth_create(&height, &td, &truth, &err);
   if (!st) st = ch_trace_create_truth(truth, &truth_scene, &err);
@@ -976,8 +1052,9 @@ static int run(int argc, char **argv) {
       const method *mt = &s.methods[m];
       ch_image *img = &imgs[m + 1];
       row *r = &rows[nrows];
-      ch_render_shader sh = ch_shader_exact_normals(truth);
-      st = ch_render_shaded(mt->scene, mt->exact_normals ? &sh : NULL, truth, &vw->camera, &s.light, img, &rs, &err);
+      ch_render_shader sh = mt->textured ? ch_texray_shader(mt->tr) : ch_shader_exact_normals(truth);
+      st = ch_render_shaded(mt->scene, mt->exact_normals || mt->textured ? &sh : NULL, truth, &vw->camera, &s.light,
+                            img, &rs, &err);
       if (!st) st = ch_metrics_compare(img, &timg, scene_size, &r->m, &err);
       if (!st) {
         r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;
@@ -1037,5 +1114,6 @@ static int run(int argc, char **argv) {
   return st ? cli_fail(&err) : 0;
 }
 
-const cli_command cli_study_command = {"study", "every method's mesh against the Embree-traced true surface", usage,
-                                       run};
+const cli_command cli_study_command = {
+    "study", "meshes and texture methods (groove textures, relief mapping) against the Embree-traced true surface",
+    usage, run};
