@@ -47,16 +47,37 @@ const char *cli_option_value(const char *cmd, int argc, char **argv, int *i);
 /* Whether argv[i] asks for help (-h, --help). */
 int cli_is_help(const char *arg);
 
-/* Output files written by a command, so a failure after the first one can
- * remove what was written: all outputs or none. */
-typedef struct cli_outputs {
-  const char *paths[8];
-  int count;
-} cli_outputs;
+/* A file named on the command line: what named it (an option such as
+ * "--ply", or the operand's name such as "BASE.obj") and its path (NULL:
+ * not given, skipped). */
+typedef struct cli_file {
+  const char *option;
+  const char *path;
+} cli_file;
 
-/* Checks that path's directory exists and is writable (before any work). */
-int cli_check_output(const char *cmd, const char *option, const char *path);
-void cli_outputs_add(cli_outputs *outs, const char *path);
-void cli_outputs_remove_all(cli_outputs *outs);
+/* Checks a command's files before any work, so nothing is lost and no time
+ * is wasted: every output's directory exists and is writable; no output is
+ * a symbolic link, a directory, a device, FIFO or socket, or an existing
+ * read-only file; no output is one of the inputs, or another output (the
+ * same file by device and inode, through links and relative paths, or the
+ * same name in the same directory). On the first problem prints one line
+ * and returns 2; otherwise 0. */
+int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, const cli_file *outputs,
+                    int num_outputs);
+
+/* Makes SIGINT, SIGTERM and SIGHUP end the run cleanly: a thread waits for
+ * them, removes every temporary file (ch_file_remove_temporaries), prints
+ * one line and exits with 128 + the signal (130, 143, 129). Signals the
+ * process inherited as ignored (nohup, background jobs) stay ignored. Call
+ * first in main, before any other thread exists (they inherit the blocked
+ * mask). */
+void cli_signals_init(void);
+
+/* Runs a command with its outputs staged (ch_file): they are written as
+ * temporaries and moved into place together when it returns 0; a failure
+ * (or a failed move) removes them, so a run's outputs appear all together
+ * or not at all and previous files stay as they were. Returns the exit
+ * status. */
+int cli_run(const cli_command *command, int argc, char **argv);
 
 #endif

@@ -2,12 +2,16 @@
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include "ch_file.h"
 #include "cli.h"
 
 static void print_warning(void *user, const char *message) {
@@ -80,8 +84,21 @@ const char *cli_option_value(const char *cmd, int argc, char **argv, int *i) {
 
 int cli_is_help(const char *arg) { return !strcmp(arg, "-h") || !strcmp(arg, "--help"); }
 
-int cli_check_output(const char *cmd, const char *option, const char *path) {
-  if (!path[0]) return cli_usage_error(cmd, "%s: empty output path", option);
+/* Where a path's file would be: its directory's device and inode, and its
+ * name there; and the file's own if it exists. */
+typedef struct file_id {
+  dev_t dir_dev, dev;
+  ino_t dir_ino, ino;
+  const char *name;
+  int exists;
+} file_id;
+
+/* Checks one output and finds its identity; prints one line and returns 2
+ * on a problem. */
+static int output_id(const char *cmd, const cli_file *o, file_id *id) {
+  const char *path = o->path;
+  memset(id, 0, sizeof *id);
+  if (!path[0]) return cli_usage_error(cmd, "%s: empty output path", o->option);
   const char *slash = strrchr(path, '/');
   char dir[PATH_MAX];
   if (!slash) {
@@ -90,22 +107,124 @@ int cli_check_output(const char *cmd, const char *option, const char *path) {
     strcpy(dir, "/");
   } else {
     size_t n = (size_t)(slash - path);
-    if (n >= sizeof dir) return cli_usage_error(cmd, "%s: output path too long", option);
+    if (n >= sizeof dir) return cli_usage_error(cmd, "%s: output path too long", o->option);
     memcpy(dir, path, n);
     dir[n] = '\0';
   }
-  if (access(dir, W_OK) != 0) {
-    fprintf(stderr, "chisel: %s: cannot write into directory '%s': %s\n", path, dir, strerror(errno));
+  id->name = slash ? slash + 1 : path;
+  struct stat ds, st;
+  if (stat(dir, &ds) != 0 || !S_ISDIR(ds.st_mode) || access(dir, W_OK | X_OK) != 0) {
+    int e = errno;
+    fprintf(stderr, "chisel: %s: cannot write into directory '%s': %s\n", path, dir,
+            strerror(stat(dir, &ds) == 0 && !S_ISDIR(ds.st_mode) ? ENOTDIR : e));
     return 2;
   }
+  id->dir_dev = ds.st_dev;
+  id->dir_ino = ds.st_ino;
+  if (!id->name[0]) {
+    fprintf(stderr, "chisel: %s: names a directory, not a file\n", path);
+    return 2;
+  }
+  if (lstat(path, &st) != 0) {
+    if (errno == ENOENT) return 0;
+    fprintf(stderr, "chisel: %s: cannot check the output: %s\n", path, strerror(errno));
+    return 2;
+  }
+  /* Writing goes to a temporary file renamed over the target: a link
+   * would be replaced by a file, a device by a file (as root, /dev/null
+   * too). */
+  const char *what = S_ISLNK(st.st_mode)   ? "is a symbolic link: chisel replaces files, not links (name the file "
+                                             "it points to)"
+                     : S_ISDIR(st.st_mode) ? "is a directory, not a file"
+                     : !S_ISREG(st.st_mode) ? "is a device, FIFO or socket: chisel writes regular files only"
+                     /* (no write bit: read-only by intent, even to root) */
+                     : access(path, W_OK) != 0 || !(st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH))
+                         ? "exists and is read-only"
+                                               : NULL;
+  if (what) {
+    fprintf(stderr, "chisel: %s: %s\n", path, what);
+    return 2;
+  }
+  id->exists = 1;
+  id->dev = st.st_dev;
+  id->ino = st.st_ino;
   return 0;
 }
 
-void cli_outputs_add(cli_outputs *outs, const char *path) {
-  if (outs->count < (int)(sizeof outs->paths / sizeof outs->paths[0])) outs->paths[outs->count++] = path;
+static int same_file(const file_id *a, const file_id *b) {
+  if (a->exists && b->exists && a->dev == b->dev && a->ino == b->ino) return 1;
+  return a->dir_dev == b->dir_dev && a->dir_ino == b->dir_ino && !strcmp(a->name, b->name);
 }
 
-void cli_outputs_remove_all(cli_outputs *outs) {
-  for (int i = 0; i < outs->count; i++) remove(outs->paths[i]);
-  outs->count = 0;
+int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, const cli_file *outputs,
+                    int num_outputs) {
+  file_id *ids = calloc((size_t)(num_outputs > 0 ? num_outputs : 1), sizeof *ids);
+  if (!ids) {
+    fprintf(stderr, "chisel: out of memory\n");
+    return 1;
+  }
+  int rc = 0;
+  for (int i = 0; i < num_outputs && !rc; i++) {
+    if (!outputs[i].path) continue;
+    if ((rc = output_id(cmd, &outputs[i], &ids[i]))) break;
+    for (int j = 0; j < i && !rc; j++)
+      if (outputs[j].path && same_file(&ids[i], &ids[j]))
+        rc = cli_usage_error(cmd, "%s and %s name the same file", outputs[j].option, outputs[i].option);
+    /* An input is compared as the file it is (links followed). */
+    for (int k = 0; k < num_inputs && !rc && ids[i].exists; k++) {
+      struct stat st;
+      if (!inputs[k].path || stat(inputs[k].path, &st) != 0) continue; /* its reader will say why */
+      if (st.st_dev == ids[i].dev && st.st_ino == ids[i].ino) {
+        fprintf(stderr, "chisel: %s: is the input %s (%s): an output never replaces an input\n", outputs[i].path,
+                inputs[k].path, inputs[k].option);
+        rc = 2;
+      }
+    }
+  }
+  free(ids);
+  return rc;
+}
+
+static const char *signal_name(int sig) {
+  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal";
+}
+
+static void *wait_for_signals(void *arg) {
+  const sigset_t *set = arg;
+  int sig = 0;
+  if (sigwait(set, &sig) != 0) return NULL;
+  int n = ch_file_remove_temporaries();
+  fprintf(stderr, "chisel: interrupted by %s%s\n", signal_name(sig),
+          n ? "; its temporary files removed, previous files untouched" : "");
+  _exit(128 + sig);
+}
+
+void cli_signals_init(void) {
+  static sigset_t set;
+  static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+  sigemptyset(&set);
+  for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++) {
+    struct sigaction old;
+    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+    sigaddset(&set, sigs[i]);
+  }
+  if (pthread_sigmask(SIG_BLOCK, &set, NULL) != 0) return;
+  pthread_attr_t attr;
+  pthread_t thread;
+  int ok = pthread_attr_init(&attr) == 0;
+  ok = ok && pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0 &&
+       pthread_create(&thread, &attr, wait_for_signals, &set) == 0;
+  pthread_attr_destroy(&attr);
+  if (!ok) pthread_sigmask(SIG_UNBLOCK, &set, NULL); /* the default: die without cleaning up */
+}
+
+int cli_run(const cli_command *command, int argc, char **argv) {
+  ch_file_stage_begin();
+  int rc = command->run(argc, argv);
+  if (rc != 0) {
+    ch_file_stage_abort();
+    return rc;
+  }
+  ch_error err = cli_error();
+  return ch_file_stage_commit(&err) ? cli_fail(&err) : 0;
 }

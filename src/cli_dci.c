@@ -79,9 +79,9 @@ static int run(int argc, char **argv) {
   if (!out) return cli_usage_error(cmd, "missing -o MAPS.exr");
   if (have_rect && !(rect[2] > rect[0] && rect[3] > rect[1]))
     return cli_usage_error(cmd, "--rect needs u0 < u1 and v0 < v1");
-  if (png && !strcmp(png, out)) return cli_usage_error(cmd, "--png and -o name the same file");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (png && (rc = cli_check_output(cmd, "--png", png)))) return rc;
+  const cli_file in_files[] = {{"CURVES.svg", svg}}, out_files[] = {{"-o", out}, {"--png", png}};
+  int rc = cli_check_files(cmd, in_files, 1, out_files, 2);
+  if (rc) return rc;
 
   ch_error err = cli_error();
   ch_curve_set set;
@@ -93,7 +93,6 @@ static int run(int argc, char **argv) {
   ch_dci_desc desc = {.resolution = (int)res};
   memcpy(desc.rect, rect, sizeof rect);
   ch_image img = {0};
-  cli_outputs outs = {0};
   ch_status st = ch_dci_build(&set, &desc, &dci, &err);
   if (!st && stats)
     fprintf(stderr,
@@ -111,15 +110,12 @@ static int run(int argc, char **argv) {
         {"chisel:command", "dci"}, {"chisel:rect", rect_text}, {"chisel:resolution", res_text}};
     ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = 3};
     st = ch_exr_write(out, &img, &wd, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && png) {
     st = write_preview(png, &dci, &err);
-    if (!st) cli_outputs_add(&outs, png);
   }
   if (!st && stats)
     fprintf(stderr, "chisel: dci: %d layers written in %.1f ms\n", img.num_channels, 1e3 * (omp_get_wtime() - t_write));
-  if (st) cli_outputs_remove_all(&outs);
   ch_image_free(&img);
   ch_dci_free(&dci);
   ch_curves_free(&set);

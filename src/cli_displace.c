@@ -201,15 +201,10 @@ static int run(int argc, char **argv) {
   if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
   if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
-  const char *outputs[4] = {out, exr, png, ply}, *names[4] = {"-o", "--exr", "--png", "--ply"};
-  for (int i = 0; i < 4; i++) {
-    if (!outputs[i]) continue;
-    for (int j = 0; j < i; j++)
-      if (outputs[j] && !strcmp(outputs[i], outputs[j]))
-        return cli_usage_error(cmd, "%s and %s name the same file", names[j], names[i]);
-    int rc = cli_check_output(cmd, names[i], outputs[i]);
-    if (rc) return rc;
-  }
+  const cli_file in_files[] = {{"BASE.obj", base}, {"CURVES.svg", svg}};
+  const cli_file out_files[] = {{"-o", out}, {"--exr", exr}, {"--png", png}, {"--ply", ply}};
+  int rc = cli_check_files(cmd, in_files, 2, out_files, 4);
+  if (rc) return rc;
 
   ch_error err = cli_error();
   ch_camera camera;
@@ -257,7 +252,6 @@ static int run(int argc, char **argv) {
   ch_tess_result tess = {0};
   ch_height height = {0};
   ch_displace_stats dstats = {0};
-  cli_outputs outs = {0};
   double t_surface = 0, t_height = 0, t_disp = 0, t_write = 0;
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = (ch_recon_method)snap_to};
   ch_warp warp_store = {0};
@@ -304,11 +298,9 @@ static int run(int argc, char **argv) {
   t_write = t_passes;
   if (!st) {
     st = ch_mesh_write_obj(out, result, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && ply) {
     st = ch_mesh_write_ply(ply, result, &err);
-    if (!st) cli_outputs_add(&outs, ply);
   }
   if (!st && (exr || png)) {
     /* The displacement map over the UV square at the pixel centres, and
@@ -354,7 +346,6 @@ static int run(int argc, char **argv) {
         }
         ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = na};
         if (!st) st = ch_exr_write(exr, &maps, &wd, &err);
-        if (!st) cli_outputs_add(&outs, exr);
         free(warp_text);
       }
       ch_image_free(&gimg);
@@ -362,7 +353,6 @@ static int run(int argc, char **argv) {
     }
     if (!st && png) {
       st = ch_png_write_height(png, ch_image_plane(&hmap, 0), hmap.width, hmap.height, &err);
-      if (!st) cli_outputs_add(&outs, png);
     }
     ch_image_free(&maps);
     ch_image_free(&hmap);
@@ -400,7 +390,6 @@ static int run(int argc, char **argv) {
               1e3 * estats.seconds_crossings, 1e3 * estats.seconds_classify, 1e3 * estats.seconds_split,
               1e3 * estats.seconds_cut, 1e3 * estats.seconds_thin, 1e3 * estats.seconds_normals);
   }
-  if (st) cli_outputs_remove_all(&outs);
   ch_warp_free(&warp_store);
   ch_tess_free(&tess);
   ch_mesh_free(&embedded);

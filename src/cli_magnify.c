@@ -77,8 +77,9 @@ static int run(int argc, char **argv) {
   double aspect = (rect[3] - rect[1]) / (rect[2] - rect[0]);
   long out_h = lround(out_res * aspect);
   if (out_h < 1 || out_h > 16384) return cli_usage_error(cmd, "--rect and --out-res give %ld rows (1..16384)", out_h);
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (exr && (rc = cli_check_output(cmd, "--exr", exr)))) return rc;
+  const cli_file in_files[] = {{"MAPS.exr", maps}, {"--curves", curves}}, out_files[] = {{"-o", out}, {"--exr", exr}};
+  int rc = cli_check_files(cmd, in_files, 2, out_files, 2);
+  if (rc) return rc;
 
   ch_error err = cli_error();
   ch_image maps_img = {0};
@@ -126,7 +127,6 @@ static int run(int argc, char **argv) {
         memcpy(rgb + 3 * i, rs.color, sizeof rs.color);
       }
   }
-  cli_outputs outs = {0};
   if (!st) {
     unsigned char *pix = malloc((size_t)W * H * 3);
     if (!pix) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
@@ -146,7 +146,6 @@ static int run(int argc, char **argv) {
         }
       }
       st = ch_png_write(out, W, H, 3, pix, &err);
-      if (!st) cli_outputs_add(&outs, out);
       free(pix);
     }
   }
@@ -157,11 +156,9 @@ static int run(int argc, char **argv) {
     if (!st) {
       memcpy(ch_image_plane(&crop, 0), h, (size_t)W * H * sizeof *h);
       st = ch_exr_write(exr, &crop, NULL, &err);
-      if (!st) cli_outputs_add(&outs, exr);
     }
     ch_image_free(&crop);
   }
-  if (st) cli_outputs_remove_all(&outs);
   free(h);
   free(rgb);
   ch_recon_free(&recon);

@@ -53,10 +53,9 @@ static int run(int argc, char **argv) {
   if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
   if (!res) return cli_usage_error(cmd, "missing --res R");
   if (!out) return cli_usage_error(cmd, "missing -o H.exr");
-  if (png && !strcmp(png, out)) return cli_usage_error(cmd, "--png and -o name the same file");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (png && (rc = cli_check_output(cmd, "--png", png))))
-    return rc;
+  const cli_file in_files[] = {{"CURVES.svg", svg}}, out_files[] = {{"-o", out}, {"--png", png}};
+  int rc = cli_check_files(cmd, in_files, 1, out_files, 2);
+  if (rc) return rc;
 
   ch_error err = cli_error();
   ch_curve_set set;
@@ -67,7 +66,6 @@ static int run(int argc, char **argv) {
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = CH_RECON_EXACT};
   ch_image img = {0};
   const char *names[] = {"h"};
-  cli_outputs outs = {0};
   ch_status st = ch_height_init(&height, &set, &hd, &err);
   if (!st) st = ch_image_init(&img, (int)res, (int)res, 1, names, &err);
   if (!st) {
@@ -80,13 +78,10 @@ static int run(int argc, char **argv) {
                                       {"chisel:supersample", ss_text}};
     ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3};
     st = ch_exr_write(out, &img, &desc, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && png) {
     st = ch_png_write_height(png, ch_image_plane(&img, 0), img.width, img.height, &err);
-    if (!st) cli_outputs_add(&outs, png);
   }
-  if (st) cli_outputs_remove_all(&outs);
   ch_image_free(&img);
   ch_height_free(&height);
   ch_curves_free(&set);

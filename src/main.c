@@ -41,6 +41,7 @@ static const cli_command *find_command(const char *name) {
 }
 
 int main(int argc, char **argv) {
+  cli_signals_init(); /* before any thread: they inherit its mask */
 #ifdef __GLIBC__
   /* The stages allocate and free arrays of hundreds of MB, round after
    * round. glibc serves those with fresh mmap()s, which the kernel zeroes
@@ -87,5 +88,5 @@ int main(int argc, char **argv) {
       return 0;
     }
   }
-  return c->run(argc - 1, argv + 1);
+  return cli_run(c, argc - 1, argv + 1);
 }

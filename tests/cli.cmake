@@ -8,3 +8,7 @@ if(Python3_FOUND)
     ${CMAKE_CURRENT_SOURCE_DIR}/tools/check_sample.py $<TARGET_FILE:chisel>
     ${CMAKE_CURRENT_BINARY_DIR}/sample_ref --files 12 --res 40)
 endif()
+# Faults: outputs that are inputs or not plain files, a full disk for every
+# format, SIGINT/SIGTERM/SIGKILL while writing (tests/test_faults.sh).
+add_test(NAME faults COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_faults.sh $<TARGET_FILE:chisel>
+  ${PROJECT_SOURCE_DIR}/models ${CMAKE_CURRENT_SOURCE_DIR} ${CMAKE_CURRENT_BINARY_DIR}/faults_tmp)
