@@ -88,15 +88,17 @@ typedef struct ch_curve_set {
 
 /* Upper limits that turn absurd files into a clear error: the file's size,
  * its segments, how deep elements nest, and the entity references the XML
- * parser may expand (libxml2 runs in its huge mode, which lifts its own
- * limits of 10 MB per text node and 256 levels, and with them its guard
- * against entity expansion: these caps take their place). */
+ * parser may expand, in number, text and nesting (libxml2 runs in its huge
+ * mode, which lifts its own limits of 10 MB per text node and 256 levels,
+ * and with them its guard against entity expansion: these caps take their
+ * place). */
 enum {
   CH_CURVES_MAX_SEGMENTS = 1 << 24,
   CH_SVG_MAX_BYTES = 256 << 20,
   CH_SVG_MAX_DEPTH = 256,
   CH_SVG_MAX_ENTITY_REFS = 10000,
-  CH_SVG_MAX_ENTITY_BYTES = 1 << 20
+  CH_SVG_MAX_ENTITY_BYTES = 1 << 20,
+  CH_SVG_MAX_ENTITY_DEPTH = 40
 };
 
 /* Reads an SVG file (SPEC §2) into out. Malformed files give CH_ERR_INPUT

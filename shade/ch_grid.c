@@ -57,9 +57,27 @@ ch_status ch_grid_build(ch_grid *g, int n, const double (*boxes)[4], ch_error *e
   free(sizes);
   g->origin[0] = lo[0];
   g->origin[1] = lo[1];
-  g->inv_cell = 1.0 / cell;
-  g->nx = (int)floor((hi[0] - lo[0]) * g->inv_cell) + 1;
-  g->ny = (int)floor((hi[1] - lo[1]) * g->inv_cell) + 1;
+  /* Boxes of very different sizes (a few grooves wider than the square
+   * among many thin ones) would put each big one in millions of cells
+   * (seconds and gigabytes for a few curves): coarser cells until the
+   * items stay within 16 per box plus 4M. A query returns a superset of
+   * the boxes holding the point either way, so answers do not change. */
+  size_t budget = 16 * (size_t)valid + ((size_t)1 << 22);
+  for (;;) {
+    g->inv_cell = 1.0 / cell;
+    g->nx = (int)floor((hi[0] - lo[0]) * g->inv_cell) + 1;
+    g->ny = (int)floor((hi[1] - lo[1]) * g->inv_cell) + 1;
+    size_t items = 0;
+    for (int i = 0; i < n && items <= budget; i++) {
+      const double *b = boxes[i];
+      if (!(b[0] <= b[2] && b[1] <= b[3])) continue;
+      int r[4];
+      cell_range(g, b, r);
+      items += (size_t)(r[2] - r[0] + 1) * (size_t)(r[3] - r[1] + 1);
+    }
+    if (items <= budget || (g->nx == 1 && g->ny == 1)) break;
+    cell *= 2.0;
+  }
   size_t ncells = (size_t)g->nx * (size_t)g->ny;
   g->cell_start = calloc(ncells + 1, sizeof *g->cell_start);
   if (!g->cell_start) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the curve grid");

@@ -19,8 +19,9 @@ typedef struct ch_grid {
 } ch_grid;
 
 /* Builds the grid over n boxes (umin vmin umax vmax). The cell size follows
- * the median box size, capped at 2^22 cells. Empty boxes (umin > umax) are
- * left out. */
+ * the median box size, capped at 2^22 cells, and coarser where boxes would
+ * otherwise fill more than 16 cells each plus 2^22 in all. Empty boxes
+ * (umin > umax) are left out. */
 ch_status ch_grid_build(ch_grid *grid, int n, const double (*boxes)[4], ch_error *err);
 
 void ch_grid_free(ch_grid *grid);

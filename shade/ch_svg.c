@@ -927,7 +927,7 @@ typedef struct xml_guard {
   xmlEntityPtr (*get_entity)(void *, const xmlChar *); /* libxml2's own */
   long refs;
   size_t bytes;
-  int over;            /* 1: too many references, 2: too much text */
+  int over;            /* 1: too many references, 2: too much text, 3: too deep */
   char message[300];   /* the first error, one line */
   int line;
 } xml_guard;
@@ -937,6 +937,12 @@ static xmlEntityPtr count_entity(void *user, const xmlChar *name) {
   xml_guard *g = ctx->_private;
   xmlEntityPtr ent = g->get_entity(user, name);
   if (!ent || g->over) return g->over ? NULL : ent;
+  /* (entities within entities: a file's own are never nested deep) */
+  if (ctx->depth > CH_SVG_MAX_ENTITY_DEPTH) {
+    g->over = 3;
+    xmlStopParser(ctx);
+    return NULL;
+  }
   g->refs++;
   g->bytes += ent->length > 0 ? (size_t)ent->length : 0;
   if (g->refs > CH_SVG_MAX_ENTITY_REFS || g->bytes > CH_SVG_MAX_ENTITY_BYTES) {
@@ -1015,6 +1021,9 @@ ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name, c
     if (guard.over == 1)
       st = ch_error_set(err, CH_ERR_INPUT, "%s: more than %d entity references (an entity expansion attack?)", name,
                         CH_SVG_MAX_ENTITY_REFS);
+    else if (guard.over == 3)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: entities nested deeper than %d levels (an entity expansion attack?)",
+                        name, CH_SVG_MAX_ENTITY_DEPTH);
     else if (guard.over == 2)
       st = ch_error_set(err, CH_ERR_INPUT, "%s: entities expand to more than %d bytes (an entity expansion attack?)",
                         name, CH_SVG_MAX_ENTITY_BYTES);
