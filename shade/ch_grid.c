@@ -15,16 +15,7 @@ void ch_grid_free(ch_grid *grid) {
   memset(grid, 0, sizeof *grid);
 }
 
-static void cell_range(const ch_grid *g, const double b[4], int r[4]) {
-  r[0] = (int)floor((b[0] - g->origin[0]) * g->inv_cell);
-  r[1] = (int)floor((b[1] - g->origin[1]) * g->inv_cell);
-  r[2] = (int)floor((b[2] - g->origin[0]) * g->inv_cell);
-  r[3] = (int)floor((b[3] - g->origin[1]) * g->inv_cell);
-  if (r[0] < 0) r[0] = 0;
-  if (r[1] < 0) r[1] = 0;
-  if (r[2] >= g->nx) r[2] = g->nx - 1;
-  if (r[3] >= g->ny) r[3] = g->ny - 1;
-}
+static void cell_range(const ch_grid *g, const double b[4], int r[4]) { ch_grid_cell_range(g, b, r); }
 
 ch_status ch_grid_build(ch_grid *g, int n, const double (*boxes)[4], ch_error *err) {
   memset(g, 0, sizeof *g);
@@ -114,5 +105,130 @@ ch_status ch_grid_build(ch_grid *g, int n, const double (*boxes)[4], ch_error *e
       for (int x = r[0]; x <= r[2]; x++) g->items[fill[(size_t)y * g->nx + x]++] = i;
   }
   free(fill);
+  return CH_OK;
+}
+
+/* A segment cut into pieces: piece k of m spans t in [k/m, (k+1)/m]; its
+ * box holds the control points of that part of the quadratic (B(a), B(a) +
+ * (b - a)/2 B'(a), B(b)), which hold the part. */
+static void piece_box(const ch_segment *s, int k, int m, double grow, double box[4]) {
+  double a = (double)k / m, b = (double)(k + 1) / m, q[3][2];
+  for (int i = 0; i < 2; i++) {
+    double p0 = s->p[0][i], p1 = s->p[1][i], p2 = s->p[2][i];
+    double ua = 1.0 - a, ub = 1.0 - b;
+    q[0][i] = ua * ua * p0 + 2.0 * ua * a * p1 + a * a * p2;
+    q[2][i] = ub * ub * p0 + 2.0 * ub * b * p1 + b * b * p2;
+    q[1][i] = q[0][i] + (b - a) * (ua * (p1 - p0) + a * (p2 - p1));
+  }
+  box[0] = fmin(q[0][0], fmin(q[1][0], q[2][0])) - grow;
+  box[1] = fmin(q[0][1], fmin(q[1][1], q[2][1])) - grow;
+  box[2] = fmax(q[0][0], fmax(q[1][0], q[2][0])) + grow;
+  box[3] = fmax(q[0][1], fmax(q[1][1], q[2][1])) + grow;
+}
+
+/* Pieces of s for cells of size cell (its control box's extent over it). */
+static int piece_count(const ch_segment *s, double cell) {
+  double b[4];
+  ch_segment_box(s, 0.0, b);
+  double n = ceil(fmax(b[2] - b[0], b[3] - b[1]) / cell);
+  return n < 1.0 ? 1 : n > 65536.0 ? 65536 : (int)n;
+}
+
+/* Counts (fill == NULL) or fills the items of every cell, segments in
+ * order, each once per cell (last: per cell, the last segment listed). */
+static size_t place(const ch_grid *g, const ch_curve_set *set, const double *reach, int *last, int *count,
+                    int *fill, int *items, size_t budget) {
+  size_t total = 0;
+  for (int i = 0; i < set->num_segments && total <= budget; i++) {
+    if (!(reach[i] >= 0.0)) continue;
+    const ch_segment *s = &set->segments[i];
+    /* (grown a hair more than the reach: the pieces' points are rounded) */
+    double grow = reach[i] + 1e-9 / g->inv_cell;
+    int m = piece_count(s, 1.0 / g->inv_cell);
+    for (int k = 0; k < m; k++) {
+      double b[4];
+      int r[4];
+      piece_box(s, k, m, grow, b);
+      ch_grid_cell_range(g, b, r);
+      for (int y = r[1]; y <= r[3]; y++)
+        for (int x = r[0]; x <= r[2]; x++) {
+          size_t c = (size_t)y * g->nx + x;
+          if (last[c] == i) continue;
+          last[c] = i;
+          total++;
+          if (count) count[c + 1]++;
+          if (fill) items[fill[c]++] = i;
+        }
+    }
+  }
+  return total;
+}
+
+ch_status ch_grid_build_curves(ch_grid *g, const ch_curve_set *set, const double *reach, ch_error *err) {
+  memset(g, 0, sizeof *g);
+  int n = set->num_segments, valid = 0;
+  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+  double *sizes = malloc(2 * (size_t)(n > 0 ? n : 1) * sizeof *sizes), *reaches = sizes + (n > 0 ? n : 1);
+  if (!sizes) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the curve grid");
+  for (int i = 0; i < n; i++) {
+    if (!(reach[i] >= 0.0)) continue;
+    double b[4];
+    ch_segment_box(&set->segments[i], reach[i], b);
+    lo[0] = fmin(lo[0], b[0]);
+    lo[1] = fmin(lo[1], b[1]);
+    hi[0] = fmax(hi[0], b[2]);
+    hi[1] = fmax(hi[1], b[3]);
+    sizes[valid] = fmax(b[2] - b[0], b[3] - b[1]);
+    reaches[valid++] = reach[i];
+  }
+  double cell = 1.0;
+  if (valid > 0) {
+    qsort(sizes, (size_t)valid, sizeof *sizes, cmp_double);
+    qsort(reaches, (size_t)valid, sizeof *reaches, cmp_double);
+    cell = fmin(0.5 * sizes[valid / 2], fmax(2.0 * reaches[valid / 2], 0.0));
+    double extent = fmax(hi[0] - lo[0], hi[1] - lo[1]);
+    if (!(cell > 0.0)) cell = 0.5 * sizes[valid / 2];
+    if (!(cell > 0.0)) cell = extent > 0.0 ? extent / 64.0 : 1.0;
+    if (extent / cell > 2048.0) cell = extent / 2048.0;
+  } else {
+    lo[0] = lo[1] = 0.0;
+    hi[0] = hi[1] = 1.0;
+  }
+  free(sizes);
+  g->origin[0] = lo[0];
+  g->origin[1] = lo[1];
+  size_t budget = 16 * (size_t)valid + ((size_t)1 << 22), total = 0;
+  int *last = NULL;
+  for (;;) { /* coarser until within the budget (see ch_grid_build) */
+    g->inv_cell = 1.0 / cell;
+    g->nx = (int)floor((hi[0] - lo[0]) * g->inv_cell) + 1;
+    g->ny = (int)floor((hi[1] - lo[1]) * g->inv_cell) + 1;
+    size_t ncells = (size_t)g->nx * (size_t)g->ny;
+    free(last);
+    last = malloc(ncells * sizeof *last);
+    if (!last) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the curve grid");
+    memset(last, 0xff, ncells * sizeof *last);
+    total = place(g, set, reach, last, NULL, NULL, NULL, budget);
+    if (total <= budget || (g->nx == 1 && g->ny == 1)) break;
+    cell *= 2.0;
+  }
+  size_t ncells = (size_t)g->nx * (size_t)g->ny;
+  g->cell_start = calloc(ncells + 1, sizeof *g->cell_start);
+  g->items = malloc((total > 0 ? total : 1) * sizeof *g->items);
+  int *fill = malloc(ncells * sizeof *fill);
+  if (!g->cell_start || !g->items || !fill || total > (size_t)1 << 30) {
+    free(last);
+    free(fill);
+    ch_grid_free(g);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the curve grid");
+  }
+  memset(last, 0xff, ncells * sizeof *last);
+  place(g, set, reach, last, g->cell_start, NULL, NULL, (size_t)-1);
+  for (size_t c = 0; c < ncells; c++) g->cell_start[c + 1] += g->cell_start[c];
+  memcpy(fill, g->cell_start, ncells * sizeof *fill);
+  memset(last, 0xff, ncells * sizeof *last);
+  place(g, set, reach, last, NULL, fill, g->items, (size_t)-1);
+  free(fill);
+  free(last);
   return CH_OK;
 }

@@ -3,6 +3,7 @@
 #define CH_CLI_H
 
 #include "ch_error.h"
+#include "ch_progress.h"
 
 typedef struct cli_command {
   const char *name;
@@ -72,6 +73,21 @@ int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, con
  * first in main, before any other thread exists (they inherit the blocked
  * mask). */
 void cli_signals_init(void);
+
+/* Progress on a terminal: from cli_progress_start until cli_progress_done,
+ * once the run has taken 2 s, one line on stderr redrawn in place four
+ * times a second with the latest stage (the CLI's own, cli_progress_stage,
+ * or the library's through the returned ch_progress), how far it is when
+ * known, and the time so far. Nothing when stderr is not a terminal (then
+ * NULL is returned, which library calls take as no reports). Warnings and
+ * errors printed through cli_* clear the line first. */
+const ch_progress *cli_progress_start(const char *cmd);
+void cli_progress_stage(const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 1, 2)))
+#endif
+    ;
+void cli_progress_done(void);
 
 /* Runs a command with its outputs staged (ch_file): they are written as
  * temporaries and moved into place together when it returns 0; a failure

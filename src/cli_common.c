@@ -1,3 +1,4 @@
+#define _DEFAULT_SOURCE /* (TIOCGWINSZ) */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <limits.h>
@@ -8,14 +9,117 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "ch_file.h"
 #include "cli.h"
 
+/* ---- progress on a terminal ---- */
+static struct {
+  pthread_mutex_t lock;
+  pthread_cond_t wake;
+  pthread_t thread;
+  int running, stop, shown;
+  double start, fraction;
+  char cmd[32], stage[256];
+} progress = {.lock = PTHREAD_MUTEX_INITIALIZER, .wake = PTHREAD_COND_INITIALIZER};
+
+static double seconds_now(void) {
+  struct timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* (under progress.lock) */
+static void progress_clear_locked(void) {
+  if (progress.shown) fputs("\r\033[K", stderr);
+  progress.shown = 0;
+}
+
+static void progress_draw_locked(void) {
+  char line[512];
+  int n = snprintf(line, sizeof line, "chisel %s: %s", progress.cmd, progress.stage[0] ? progress.stage : "working");
+  if (progress.fraction >= 0.0 && n > 0 && (size_t)n < sizeof line)
+    n += snprintf(line + n, sizeof line - (size_t)n, " %.0f%%", 100.0 * fmin(1.0, progress.fraction));
+  if (n > 0 && (size_t)n < sizeof line)
+    snprintf(line + n, sizeof line - (size_t)n, " (%.0f s)", seconds_now() - progress.start);
+  struct winsize ws;
+  size_t width = ioctl(2, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 1 ? ws.ws_col - 1 : 79;
+  if (strlen(line) > width) line[width] = '\0'; /* one line, never wrapped */
+  fprintf(stderr, "\r%s\033[K", line);
+  fflush(stderr);
+  progress.shown = 1;
+}
+
+static void progress_clear(void) {
+  pthread_mutex_lock(&progress.lock);
+  progress_clear_locked();
+  pthread_mutex_unlock(&progress.lock);
+}
+
+static void *progress_ticker(void *arg) {
+  (void)arg;
+  pthread_mutex_lock(&progress.lock);
+  while (!progress.stop) {
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until);
+    until.tv_nsec += 250000000L;
+    if (until.tv_nsec >= 1000000000L) until.tv_sec++, until.tv_nsec -= 1000000000L;
+    pthread_cond_timedwait(&progress.wake, &progress.lock, &until);
+    if (!progress.stop && seconds_now() - progress.start >= 2.0) progress_draw_locked();
+  }
+  progress_clear_locked();
+  pthread_mutex_unlock(&progress.lock);
+  return NULL;
+}
+
+static void on_progress(void *user, const char *stage, double fraction) {
+  (void)user;
+  pthread_mutex_lock(&progress.lock);
+  snprintf(progress.stage, sizeof progress.stage, "%s", stage);
+  progress.fraction = fraction;
+  pthread_mutex_unlock(&progress.lock);
+}
+
+const ch_progress *cli_progress_start(const char *cmd) {
+  static const ch_progress reporter = {on_progress, NULL};
+  if (progress.running || !isatty(2)) return NULL;
+  snprintf(progress.cmd, sizeof progress.cmd, "%s", cmd);
+  progress.stage[0] = '\0';
+  progress.fraction = -1.0;
+  progress.start = seconds_now();
+  progress.stop = 0;
+  if (pthread_create(&progress.thread, NULL, progress_ticker, NULL) != 0) return NULL;
+  progress.running = 1;
+  return &reporter;
+}
+
+void cli_progress_stage(const char *fmt, ...) {
+  if (!progress.running) return;
+  char text[256];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(text, sizeof text, fmt, ap);
+  va_end(ap);
+  on_progress(NULL, text, -1.0);
+}
+
+void cli_progress_done(void) {
+  if (!progress.running) return;
+  pthread_mutex_lock(&progress.lock);
+  progress.stop = 1;
+  pthread_cond_signal(&progress.wake);
+  pthread_mutex_unlock(&progress.lock);
+  pthread_join(progress.thread, NULL);
+  progress.running = 0;
+}
+
 static void print_warning(void *user, const char *message) {
   (void)user;
+  progress_clear();
   fprintf(stderr, "chisel: warning: %s\n", message);
 }
 
@@ -26,12 +130,14 @@ ch_error cli_error(void) {
 }
 
 int cli_fail(const ch_error *err) {
+  progress_clear();
   fprintf(stderr, "chisel: %s\n", err->message[0] ? err->message : ch_status_name(err->status));
   int code = ch_status_exit_code(err->status);
   return code ? code : 1;
 }
 
 int cli_usage_error(const char *cmd, const char *fmt, ...) {
+  progress_clear();
   fprintf(stderr, "chisel %s: ", cmd);
   va_list ap;
   va_start(ap, fmt);
@@ -194,6 +300,7 @@ static void *wait_for_signals(void *arg) {
   int sig = 0;
   if (sigwait(set, &sig) != 0) return NULL;
   int n = ch_file_remove_temporaries();
+  progress_clear();
   fprintf(stderr, "chisel: interrupted by %s%s\n", signal_name(sig),
           n ? "; its temporary files removed, previous files untouched" : "");
   _exit(128 + sig);
@@ -221,6 +328,7 @@ void cli_signals_init(void) {
 int cli_run(const cli_command *command, int argc, char **argv) {
   ch_file_stage_begin();
   int rc = command->run(argc, argv);
+  cli_progress_done();
   if (rc != 0) {
     ch_file_stage_abort();
     return rc;

@@ -85,6 +85,8 @@ static int run(int argc, char **argv) {
 
   ch_error err = cli_error();
   ch_curve_set set;
+  cli_progress_start(cmd);
+  cli_progress_stage("reading %s", svg);
   if (ch_curves_read_svg(svg, &set, &err)) return cli_fail(&err);
   int steps = 0;
   for (int c = 0; c < set.num_curves; c++) steps += set.curves[c].kind == CH_CURVE_STEP;
@@ -93,7 +95,9 @@ static int run(int argc, char **argv) {
   ch_dci_desc desc = {.resolution = (int)res};
   memcpy(desc.rect, rect, sizeof rect);
   ch_image img = {0};
+  cli_progress_stage("the diffusion-curve image at %ld x %ld", res, res);
   ch_status st = ch_dci_build(&set, &desc, &dci, &err);
+  cli_progress_stage("writing %s", out);
   if (!st && stats)
     fprintf(stderr,
             "chisel: dci %ldx%ld: feature samples %.1f ms, diffusion %.1f ms (%d levels, %d iterations, "
@@ -114,6 +118,7 @@ static int run(int argc, char **argv) {
   if (!st && png) {
     st = write_preview(png, &dci, &err);
   }
+  cli_progress_done();
   if (!st && stats)
     fprintf(stderr, "chisel: dci: %d layers written in %.1f ms\n", img.num_channels, 1e3 * (omp_get_wtime() - t_write));
   ch_image_free(&img);

@@ -210,6 +210,8 @@ static int run(int argc, char **argv) {
   ch_camera camera;
   if (has_camera && ch_camera_init(&camera, camera_values, &err)) return cli_fail(&err);
   double t0 = omp_get_wtime();
+  const ch_progress *progress = cli_progress_start(cmd);
+  cli_progress_stage("reading %s", base);
   ch_mesh mesh;
   if (ch_mesh_read(base, &mesh, &err)) return cli_fail(&err);
   ch_mesh_report report;
@@ -243,6 +245,7 @@ static int run(int argc, char **argv) {
   }
   free(held.text);
   ch_curve_set set;
+  cli_progress_stage("reading %s", svg);
   if (ch_curves_read_svg(svg, &set, &err)) {
     ch_mesh_free(&mesh);
     return cli_fail(&err);
@@ -266,6 +269,7 @@ static int run(int argc, char **argv) {
   }
   if (!st) {
     hd.warp = warp_dci ? warp : NULL;
+    cli_progress_stage("h: the step curves' diffusion at %ld x %ld", res, res);
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime();
   }
@@ -277,13 +281,14 @@ static int run(int argc, char **argv) {
   int passes = 1;
   if (!st) {
     if (no_snap) {
+      cli_progress_stage("tessellating and displacing");
       ch_tess_desc td = {.target_triangles = target, .warp = warp};
       st = ch_tess_build(surface, &td, &tess, &err);
       double t_d = omp_get_wtime();
       if (!st) st = ch_displace_apply(&tess, &height, &dstats, &err);
       t_disp = omp_get_wtime() - t_d;
     } else {
-      ch_embed_desc ed = {.warp = warp};
+      ch_embed_desc ed = {.warp = warp, .progress = progress};
       st = ch_embed_to_target(surface, &height, &ed, target, &tess, &embedded, &estats, &passes, &err);
       result = &embedded;
       dstats.min_h = estats.min_h;
@@ -297,9 +302,11 @@ static int run(int argc, char **argv) {
   double t_passes = omp_get_wtime();
   t_write = t_passes;
   if (!st) {
+    cli_progress_stage("writing %s", out);
     st = ch_mesh_write_obj(out, result, &err);
   }
   if (!st && ply) {
+    cli_progress_stage("writing %s", ply);
     st = ch_mesh_write_ply(ply, result, &err);
   }
   if (!st && (exr || png)) {
@@ -307,6 +314,7 @@ static int run(int argc, char **argv) {
      * with --exr the geometry image it displaces. */
     ch_image hmap = {0}, maps = {0};
     const char *layer[] = {"h"};
+    cli_progress_stage("rendering the maps");
     st = ch_image_init(&hmap, (int)res, (int)res, 1, layer, &err);
     if (!st) ch_height_render_warped(&height, warp, (int)res, 1, ch_image_plane(&hmap, 0));
     if (!st && exr) {
@@ -345,6 +353,7 @@ static int run(int argc, char **argv) {
           for (int k = 0; k < 4; k++, text += strlen(text) + 1) attrs[na++] = (ch_exr_attribute){keys[k], text};
         }
         ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = na};
+        cli_progress_stage("writing %s", exr);
         if (!st) st = ch_exr_write(exr, &maps, &wd, &err);
         free(warp_text);
       }
@@ -352,12 +361,14 @@ static int run(int argc, char **argv) {
       ch_geomimage_free(&gi);
     }
     if (!st && png) {
+      cli_progress_stage("writing %s", png);
       st = ch_png_write_height(png, ch_image_plane(&hmap, 0), hmap.width, hmap.height, &err);
     }
     ch_image_free(&maps);
     ch_image_free(&hmap);
   }
   t_write = omp_get_wtime() - t_write;
+  cli_progress_done();
   if (!st && warp) {
     const ch_warp_stats *ws = &warp->stats;
     double total = omp_get_wtime() - t0, cost = t_warp + height.warp_stats.seconds;

@@ -59,6 +59,8 @@ static int run(int argc, char **argv) {
 
   ch_error err = cli_error();
   ch_curve_set set;
+  cli_progress_start(cmd);
+  cli_progress_stage("reading %s", svg);
   if (ch_curves_read_svg(svg, &set, &err)) return cli_fail(&err);
   /* h_step comes from a DCI at the output resolution, read with the exact
    * curves' sides so that supersampled pixels resolve the walls. */
@@ -66,9 +68,11 @@ static int run(int argc, char **argv) {
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = CH_RECON_EXACT};
   ch_image img = {0};
   const char *names[] = {"h"};
+  cli_progress_stage("h: the step curves' diffusion at %ld x %ld", res, res);
   ch_status st = ch_height_init(&height, &set, &hd, &err);
   if (!st) st = ch_image_init(&img, (int)res, (int)res, 1, names, &err);
   if (!st) {
+    cli_progress_stage("sampling h at %ld x %ld, %ld x %ld per pixel", res, res, ss, ss);
     ch_height_render(&height, (int)res, (int)ss, ch_image_plane(&img, 0));
     char res_text[32], ss_text[32];
     snprintf(res_text, sizeof res_text, "%ld", res);
@@ -77,6 +81,7 @@ static int run(int argc, char **argv) {
                                       {"chisel:resolution", res_text},
                                       {"chisel:supersample", ss_text}};
     ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3};
+    cli_progress_stage("writing %s", out);
     st = ch_exr_write(out, &img, &desc, &err);
   }
   if (!st && png) {

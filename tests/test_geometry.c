@@ -11,6 +11,7 @@
 #include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_groove.h"
+#include "ch_segtree.h"
 #include "ch_test.h"
 
 
@@ -389,6 +390,57 @@ static void test_mixed_box_sizes(void) {
   ch_curves_free(&set);
 }
 
+/* The segment tree against a scan in index order (strictly smaller
+ * distances kept: the lowest index wins ties): per curve without a bound,
+ * over the step curves within a radius; on the mixed set, on a long path,
+ * and on curves that share segments' geometry exactly (ties). */
+static void test_segtree_vs_scan(void) {
+  static const char *files[] = {CHISEL_TEST_DATA "/svg/mixed.svg", CHISEL_MODELS "/curves/relief.svg",
+                                CHISEL_MODELS "/curves/spiral.svg", CHISEL_MODELS "/curves/steps_simple.svg"};
+  /* and twin curves: every segment twice, so every answer is a tie */
+  static const char twins[] = "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+                              "<path data-kind='step' d='M 10 10 L 90 20 Q 50 90 10 10 Z'/>"
+                              "<path data-kind='step' d='M 10 10 L 90 20 Q 50 90 10 10 Z'/>"
+                              "<path d='M 20 80 C 40 10 60 150 80 20'/><path d='M 20 80 C 40 10 60 150 80 20'/></svg>";
+  for (int f = 0; f < 5; f++) {
+    ch_curve_set set;
+    ch_error err = {0};
+    if (f < 4)
+      REQUIRE(ch_curves_read_svg(files[f], &set, &err) == CH_OK);
+    else
+      REQUIRE(ch_curves_parse_svg(twins, sizeof twins - 1, "twins.svg", &set, &err) == CH_OK);
+    ch_segtree tree;
+    REQUIRE(ch_segtree_build(&tree, &set, &err) == CH_OK);
+    int bad = 0, found = 0;
+    for (int i = 0; i < 3000; i++) {
+      double q[2] = {ch_test_rnd() * 1.4 - 0.2, ch_test_rnd() * 1.4 - 0.2};
+      int c = (int)(ch_test_rnd() * set.num_curves);
+      ch_curve_point cp;
+      ch_curve_closest(&set, c, q, &cp);
+      int first, last, seg;
+      double d2 = -1, t = -1;
+      ch_segtree_curve(&tree, &set, c, &first, &last);
+      seg = ch_segtree_closest(&tree, &set, first, last, q, INFINITY, &d2, &t);
+      bad += seg != cp.segment || t != cp.t || sqrt(d2) != cp.distance;
+      /* the nearest step segment within r */
+      double r2 = 0.01 * (1 + i % 10), best = r2, best_t = 0;
+      int want = -1;
+      for (int s = 0; s < set.num_segments; s++) {
+        if (set.curves[set.segments[s].curve].kind != CH_CURVE_STEP) continue;
+        double ts, d = ch_bezier_closest(set.segments[s].p, set.segments[s].is_line, q, &ts);
+        if (d < best) best = d, best_t = ts, want = s;
+      }
+      seg = ch_segtree_closest(&tree, &set, 0, tree.num_step_leaves, q, r2, &d2, &t);
+      found += want >= 0;
+      bad += seg != want || (want >= 0 && (d2 != best || t != best_t));
+    }
+    CHECK_MSG(bad == 0, "set %d: %d of 6000 answers differ from the scan", f, bad);
+    CHECK(f == 2 || found > 0);
+    ch_segtree_free(&tree);
+    ch_curves_free(&set);
+  }
+}
+
 /* h_groove at hand-computed points. */
 static void test_groove_values(void) {
   static const char svg[] =
@@ -454,5 +506,6 @@ int main(void) {
   RUN(test_groove_values);
   RUN(test_field_vs_scan);
   RUN(test_mixed_box_sizes);
+  RUN(test_segtree_vs_scan);
   TEST_MAIN_END();
 }
