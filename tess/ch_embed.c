@@ -2715,8 +2715,12 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
    * ends, the thinning's normals): with step curves alone a coarser one
    * changes nothing, and each coarsening would rerun the pilots (1000
    * small loops: four times, for the same answer). */
-  int has_grooves = 0;
-  for (int c = 0; c < height->set->num_curves; c++) has_grooves |= height->set->curves[c].kind == CH_CURVE_GROOVE;
+  int has_grooves = 0, has_u = 0;
+  for (int c = 0; c < height->set->num_curves; c++) {
+    const ch_curve *cv = &height->set->curves[c];
+    has_grooves |= cv->kind == CH_CURVE_GROOVE;
+    has_u |= cv->kind == CH_CURVE_GROOVE && cv->profile.kind == CH_PROFILE_U;
+  }
   if (!has_grooves) auto_angle = 0;
   for (int pass = 0; pass < 8; pass++) {
     ch_tess_desc td = {.target_triangles = base, .warp = d.warp};
@@ -2752,6 +2756,15 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       miss = fabs(no - (double)target);
     }
     out_free(&kept.o);
+    if (d.count_only && pass == 0 && no > 1.25 * (double)target && !has_u) {
+      /* The first pilot alone is well over the target: the features need
+       * more than it holds at any base, so the fewest triangles the base
+       * gives (by the model), without the second pilot or coarser angles
+       * (each reruns the pilots; without u lines they change only the
+       * caps: 500 grooves through a point, 7 runs to reach the same base) */
+      pilots = 1;
+      auto_angle = 0;
+    }
     if (d.count_only && pass == 0 && rescale_f0 > 0.0) {
       /* After a coarsening only the first pilot runs again: what the
        * features add to the second is taken to change as they did at the
