@@ -1,6 +1,7 @@
 #include "ch_grid.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -126,30 +127,41 @@ static void piece_box(const ch_segment *s, int k, int m, double grow, double box
   box[3] = fmax(q[0][1], fmax(q[1][1], q[2][1])) + grow;
 }
 
-/* Pieces of s for cells of size cell (its control box's extent over it). */
-static int piece_count(const ch_segment *s, double cell) {
+/* Pieces of s about `length` long (its control box's extent over it). */
+static int piece_count(const ch_segment *s, double length) {
   double b[4];
   ch_segment_box(s, 0.0, b);
-  double n = ceil(fmax(b[2] - b[0], b[3] - b[1]) / cell);
+  double n = ceil(fmax(b[2] - b[0], b[3] - b[1]) / length);
   return n < 1.0 ? 1 : n > 65536.0 ? 65536 : (int)n;
 }
 
 /* Counts (fill == NULL) or fills the items of every cell, segments in
- * order, each once per cell (last: per cell, the last segment listed). */
+ * order, each once per cell (last: per cell, the last segment listed).
+ * Stops once the items or the cells visited (4 budgets: pieces far wider
+ * than a cell overlap) are over budget, returning more than it, and in
+ * *over how many times over it all would be (from the part done). */
 static size_t place(const ch_grid *g, const ch_curve_set *set, const double *reach, int *last, int *count,
-                    int *fill, int *items, size_t budget) {
-  size_t total = 0;
-  for (int i = 0; i < set->num_segments && total <= budget; i++) {
+                    int *fill, int *items, size_t budget, double *over) {
+  size_t total = 0, work = 0, work_budget = budget > SIZE_MAX / 4 ? SIZE_MAX : 4 * budget;
+  *over = 1.0;
+  for (int i = 0; i < set->num_segments; i++) {
+    if (total > budget || work > work_budget) {
+      double part = (double)(i > 0 ? i : 1) / set->num_segments;
+      *over = fmax((double)total / budget, (double)work / work_budget) / part;
+      return budget + 1;
+    }
     if (!(reach[i] >= 0.0)) continue;
     const ch_segment *s = &set->segments[i];
     /* (grown a hair more than the reach: the pieces' points are rounded) */
     double grow = reach[i] + 1e-9 / g->inv_cell;
-    int m = piece_count(s, 1.0 / g->inv_cell);
+    /* pieces a cell long, or as long as the reach where that is more */
+    int m = piece_count(s, fmax(1.0 / g->inv_cell, reach[i]));
     for (int k = 0; k < m; k++) {
       double b[4];
       int r[4];
       piece_box(s, k, m, grow, b);
       ch_grid_cell_range(g, b, r);
+      work += (size_t)(r[2] - r[0] + 1) * (size_t)(r[3] - r[1] + 1);
       for (int y = r[1]; y <= r[3]; y++)
         for (int x = r[0]; x <= r[2]; x++) {
           size_t c = (size_t)y * g->nx + x;
@@ -207,10 +219,21 @@ ch_status ch_grid_build_curves(ch_grid *g, const ch_curve_set *set, const double
     free(last);
     last = malloc(ncells * sizeof *last);
     if (!last) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the curve grid");
+    /* the pieces alone first (degenerate curves, rounded to a line far
+     * from the origin, can ask for 65536 each) */
+    size_t pieces = 0;
+    for (int i = 0; i < n; i++)
+      if (reach[i] >= 0.0) pieces += (size_t)piece_count(&set->segments[i], fmax(cell, reach[i]));
+    if (pieces > budget && !(g->nx == 1 && g->ny == 1)) {
+      cell *= fmax(2.0, (double)pieces / budget);
+      continue;
+    }
     memset(last, 0xff, ncells * sizeof *last);
-    total = place(g, set, reach, last, NULL, NULL, NULL, budget);
+    double over;
+    total = place(g, set, reach, last, NULL, NULL, NULL, budget, &over);
     if (total <= budget || (g->nx == 1 && g->ny == 1)) break;
-    cell *= 2.0;
+    /* (items grow like 1 / cell along curves, 1 / cell^2 over areas) */
+    cell *= fmin(1024.0, fmax(2.0, sqrt(over)));
   }
   size_t ncells = (size_t)g->nx * (size_t)g->ny;
   g->cell_start = calloc(ncells + 1, sizeof *g->cell_start);
@@ -223,11 +246,12 @@ ch_status ch_grid_build_curves(ch_grid *g, const ch_curve_set *set, const double
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the curve grid");
   }
   memset(last, 0xff, ncells * sizeof *last);
-  place(g, set, reach, last, g->cell_start, NULL, NULL, (size_t)-1);
+  double over;
+  place(g, set, reach, last, g->cell_start, NULL, NULL, SIZE_MAX / 8, &over);
   for (size_t c = 0; c < ncells; c++) g->cell_start[c + 1] += g->cell_start[c];
   memcpy(fill, g->cell_start, ncells * sizeof *fill);
   memset(last, 0xff, ncells * sizeof *last);
-  place(g, set, reach, last, NULL, fill, g->items, (size_t)-1);
+  place(g, set, reach, last, NULL, fill, g->items, SIZE_MAX / 8, &over);
   free(fill);
   free(last);
   return CH_OK;

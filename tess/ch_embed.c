@@ -29,6 +29,11 @@ enum { MAX_NODES = 192, DENSE_ROUNDS = 4 };
 /* Grooves crowd where a cell of the groove field's grid lists more than
  * this many segments (the bundled sets: 24 at most): compute_crossings. */
 enum { CROWDED_CELL = 48 };
+/* The refinement's cap on working triangles (ch_embed_desc.max_triangles):
+ * 8 per base triangle plus 8M (some GB of working mesh and crossings), far
+ * above what the bundled sets need. */
+#define MAX_REFINED_PER_BASE 8.0
+#define MAX_REFINED_EXTRA 8388608.0
 #define MIN_SPLIT_LENGTH 1e-5
 #define WALL_GROUP (UINT64_C(1) << 62)
 
@@ -2491,6 +2496,17 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       }
     free(refine);
     if (!split) break;
+    /* Each split edge adds about two triangles. Curves that need more than
+     * the cap would take memory and time without end: */
+    double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
+                                                 : MAX_REFINED_PER_BASE * (double)tm->num_faces + MAX_REFINED_EXTRA;
+    if ((double)w.ntris + 2.0 * split > cap) {
+      st = ch_error_set(err, CH_ERR_INPUT,
+                        "feature embedding: the curves need more than %.0f triangles (refinement round %d over %d "
+                        "base triangles): too many curves meet in too small a place; fewer or wider curves, or "
+                        "--no-snap", cap, round + 1, tm->num_faces);
+      goto done;
+    }
     stats.refine_rounds = round + 1;
     stats.refined_edges += split;
     if ((st = split_triangles(&w, &fresh, err))) goto done;
