@@ -40,16 +40,19 @@ static void progress_clear_locked(void) {
 }
 
 static void progress_draw_locked(void) {
-  char line[512];
-  int n = snprintf(line, sizeof line, "chisel %s: %s", progress.cmd, progress.stage[0] ? progress.stage : "working");
-  if (progress.fraction >= 0.0 && n > 0 && (size_t)n < sizeof line)
-    n += snprintf(line + n, sizeof line - (size_t)n, " %.0f%%", 100.0 * fmin(1.0, progress.fraction));
-  if (n > 0 && (size_t)n < sizeof line)
-    snprintf(line + n, sizeof line - (size_t)n, " (%.0f s)", seconds_now() - progress.start);
+  char head[64], tail[64], stage[256];
+  snprintf(head, sizeof head, "chisel %s: ", progress.cmd);
+  if (progress.fraction >= 0.0)
+    snprintf(tail, sizeof tail, " %.0f%% (%.0f s)", 100.0 * fmin(1.0, progress.fraction), seconds_now() - progress.start);
+  else
+    snprintf(tail, sizeof tail, " (%.0f s)", seconds_now() - progress.start);
+  snprintf(stage, sizeof stage, "%s", progress.stage[0] ? progress.stage : "working");
+  /* one line, never wrapped: the stage gives way, the time stays */
   struct winsize ws;
-  size_t width = ioctl(2, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 1 ? ws.ws_col - 1 : 79;
-  if (strlen(line) > width) line[width] = '\0'; /* one line, never wrapped */
-  fprintf(stderr, "\r%s\033[K", line);
+  size_t width = ioctl(2, TIOCGWINSZ, &ws) == 0 && ws.ws_col > 1 ? ws.ws_col - 1u : 79u;
+  size_t room = width > strlen(head) + strlen(tail) + 8 ? width - strlen(head) - strlen(tail) : 8;
+  if (strlen(stage) > room) strcpy(stage + room - 3, "...");
+  fprintf(stderr, "\r%s%s%s\033[K", head, stage, tail);
   fflush(stderr);
   progress.shown = 1;
 }

@@ -1435,9 +1435,9 @@ typedef struct bnode {
 
 typedef enum cut_kind { CUT_NONE, CUT_REGIONS, CUT_COMPLEX } cut_kind;
 
-/* The boundary's nodes into nodes[MAX_NODES]; -1 if there are more (the
+/* The boundary's nodes into nodes[cap]; -1 if there are more (the
  * triangle is then refined, or fanned once refinement is over). */
-static int gather_nodes(const work *w, int t, bnode *nodes) {
+static int gather_nodes_into(const work *w, int t, bnode *nodes, int cap) {
   const wtri *T = &w->tris[t];
   int m = 0;
   for (int k = 0; k < 3; k++) {
@@ -1446,7 +1446,7 @@ static int gather_nodes(const work *w, int t, bnode *nodes) {
     /* room for the corner and its edge's crossings (2000 grooves through
      * one point overran the array by the corner written before a check
      * that counted only the crossings) */
-    if (e->ncross < 0 || m + 1 + e->ncross > MAX_NODES) return -1;
+    if (e->ncross < 0 || m + 1 + e->ncross > cap) return -1;
     bnode *c = &nodes[m++];
     c->corner = T->v[k];
     c->edge = -1;
@@ -1476,6 +1476,8 @@ static int gather_nodes(const work *w, int t, bnode *nodes) {
   }
   return m;
 }
+
+static int gather_nodes(const work *w, int t, bnode *nodes) { return gather_nodes_into(w, t, nodes, MAX_NODES); }
 
 /* Pairs the crossings into chords: two crossings between the same two
  * pieces, in opposite directions. Crossings left unpaired must be where
@@ -1741,6 +1743,8 @@ static int emit_walls(const bnode *nodes, int m, out_mesh *o, ch_embed_stats *st
   return bad;
 }
 
+static int fan_triangle(const labeler *lb, const work *w, const wtri *T, const bnode *nodes, int m, out_mesh *o);
+
 /* Cuts triangle t into its pieces, with walls where h jumps. */
 static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out_mesh *o, ch_embed_stats *stats) {
   const wtri *T = &w->tris[t];
@@ -1760,7 +1764,20 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
    * whole boundary, in the centre's piece: closed, but not following the
    * features inside (counted). */
   stats->unresolved++;
-  if (m < 0) return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
+  bnode *all = nodes;
+  if (m < 0) { /* more nodes than a cut takes: all of them for the fan, so its neighbours' crossings meet it */
+    int total = 3;
+    for (int k = 0; k < 3; k++) total += w->edges[w->tri_edge[3 * (size_t)t + k]].ncross;
+    if (!(all = malloc((size_t)total * sizeof *all))) return -1;
+    m = gather_nodes_into(w, t, all, total);
+  }
+  int bad = fan_triangle(lb, w, T, all, m, o);
+  if (all != nodes) free(all);
+  return bad;
+}
+
+/* The fan of cut_triangle's last resort over nodes[m]. */
+static int fan_triangle(const labeler *lb, const work *w, const wtri *T, const bnode *nodes, int m, out_mesh *o) {
   double cst[2] = {0, 0}, cuv[2] = {0, 0};
   for (int k = 0; k < 3; k++)
     for (int i = 0; i < 2; i++) {
@@ -2332,11 +2349,11 @@ static ch_status embed_finish(const ch_surface *surface, const ch_curve_set *set
 
 /* ch_embed_build; a count-only run hands its cut to *kept if asked. */
 /* Reports a stage of embedding run `run` (1, 2, ... of ch_embed_to_target)
- * over `base` triangles at refinement round `round`. */
-static void report(const ch_embed_desc *desc, int run, int base, int round, const char *what, double fraction) {
+ * at refinement round `round`. */
+static void report(const ch_embed_desc *desc, int run, int round, const char *what, double fraction) {
   if (!desc || !desc->progress) return;
-  ch_progress_reportf(desc->progress, fraction, "embedding, run %d%s (%d triangles), round %d: %s", run,
-                      desc->count_only ? " (pilot)" : "", base, round, what);
+  ch_progress_reportf(desc->progress, fraction, "embedding: run %d%s, round %d, %s", run,
+                      desc->count_only ? " (pilot)" : "", round, what);
 }
 
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
@@ -2450,7 +2467,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   int labelled = 0;
   for (int round = 0;; round++) {
     double ta = omp_get_wtime();
-    report(desc, run, tm->num_faces, round, "labels", -1.0);
+    report(desc, run, round, "labels", -1.0);
     label_vertices(&lb, &w, labelled);
     labelled = w.nverts;
     double tb = omp_get_wtime();
@@ -2461,7 +2478,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     int oom = 0;
     /* (in blocks, so a long search reports how far it is) */
     for (int i0 = 0, block = w.nedges / 32 > 4096 ? w.nedges / 32 : 4096; i0 < w.nedges && !oom; i0 += block) {
-      report(desc, run, tm->num_faces, round, "crossings", (double)i0 / w.nedges);
+      report(desc, run, round, "crossings", (double)i0 / w.nedges);
       int i1 = i0 + block < w.nedges ? i0 + block : w.nedges;
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
       for (int i = i0; i < i1; i++) {
@@ -2475,7 +2492,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     if (round >= max_rounds) break;
     unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
     if (!refine) goto nomem;
-    report(desc, run, tm->num_faces, round, "refinement", -1.0);
+    report(desc, run, round, "refinement", -1.0);
     /* Only triangles made by the last split can have changed: the others
      * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
@@ -2571,7 +2588,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.wall_points += (int)walls;
     free(first);
   }
-  report(desc, run, tm->num_faces, stats.refine_rounds, "cut", -1.0);
+  report(desc, run, stats.refine_rounds, "cut", -1.0);
   /* The cut, in parallel over fixed chunks of triangles: each part numbers
    * its new vertices (junctions) after the shared ones; the parts are then
    * joined in chunk order, so the bytes do not depend on the threads. */
@@ -2622,7 +2639,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * 260k triangles over the UV square) the cut is left as it is. */
   if (!(desc && desc->no_thinning) && reference_edge >= 1.0 / 360.0) {
     double tt = omp_get_wtime();
-    report(desc, run, tm->num_faces, stats.refine_rounds, "thinning", -1.0);
+    report(desc, run, stats.refine_rounds, "thinning", -1.0);
     int thinned = thin_output(&lb, tess, longest_edge, &o);
     if (thinned < 0) goto nomem;
     stats.thinned = thinned;

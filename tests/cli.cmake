@@ -12,3 +12,8 @@ endif()
 # format, SIGINT/SIGTERM/SIGKILL while writing (tests/test_faults.sh).
 add_test(NAME faults COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_faults.sh $<TARGET_FILE:chisel>
   ${PROJECT_SOURCE_DIR}/models ${CMAKE_CURRENT_SOURCE_DIR} ${CMAKE_CURRENT_BINARY_DIR}/faults_tmp)
+# Pathological curve sets at a CI size (tests/test_pathological.sh).
+if(Python3_FOUND)
+  add_test(NAME pathological COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_pathological.sh $<TARGET_FILE:chisel>
+    ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_BINARY_DIR}/pathological_tmp)
+endif()

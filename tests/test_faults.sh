@@ -223,5 +223,20 @@ set +m
 same in.obj in.orig
 same c.svg c.orig
 
+# ---- progress: a line on a terminal once a run has taken 2 s, none otherwise ----
+if command -v script >/dev/null; then
+  start=$(date +%s%N)
+  script -qec "'$chisel' displace in.obj c.svg -o tty.obj --target-tris 130000" /dev/null >tty.txt 2>&1
+  took=$(( ($(date +%s%N) - start) / 1000000 ))
+  checks=$((checks + 1))
+  if [ $took -ge 3000 ]; then # (a faster run may end before the line shows)
+    tr '\r' '\n' <tty.txt | grep -q "^chisel displace: .*(2 s)" || fail "no progress line on a terminal in $took ms"
+  fi
+  tr '\r' '\n' <tty.txt | grep -q "warning\|error" && fail "the terminal run complained: $(cat tty.txt)"
+fi
+expect 0 "$chisel" displace in.obj c.svg -o notty.obj --target-tris 130000
+checks=$((checks + 1))
+grep -q "$(printf '\r')" err.txt && fail "progress drawn though stderr is not a terminal"
+
 echo "$checks checks, $failures failures" >&2
 [ "$failures" = 0 ]
