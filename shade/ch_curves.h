@@ -93,6 +93,7 @@ typedef struct ch_curve_set {
  * and with them its guard against entity expansion: these caps take their
  * place). */
 enum {
+  CH_CURVES_MAX_UV = 1000000, /* |u|, |v| of any point: a million texture widths */
   CH_CURVES_MAX_SEGMENTS = 1 << 24,
   CH_SVG_MAX_BYTES = 256 << 20,
   CH_SVG_MAX_DEPTH = 256,

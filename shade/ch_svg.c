@@ -303,6 +303,16 @@ static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line) 
    * midpoint below): only the ends are checked then. */
   for (int i = 0; i < 3; i++)
     if ((i != 1 || !is_line) && !ch_finite2(q[i])) return fail_curve(ps, "coordinates out of range%s", "");
+  /* Far outside the texture a curve means nothing and its coordinates
+   * have lost their precision (a viewBox 1e80 off its origin folds every
+   * curve onto one line: the grids and trees then list each everywhere). */
+  for (int i = 0; i < 3; i++)
+    if ((i != 1 || !is_line) && !(fabs(q[i][0]) <= CH_CURVES_MAX_UV && fabs(q[i][1]) <= CH_CURVES_MAX_UV)) {
+      char what[96];
+      snprintf(what, sizeof what, " (|u| or |v| above %g: %g texture widths away)", (double)CH_CURVES_MAX_UV,
+               fmax(fabs(q[i][0]), fabs(q[i][1])));
+      return fail_curve(ps, "coordinates far outside the texture%s", what);
+    }
   if (near_equal(q[0], q[2]) && (is_line || near_equal(q[0], q[1]))) return CH_OK;
   ch_curve_set *set = ps->set;
   if (set->num_segments >= CH_CURVES_MAX_SEGMENTS)

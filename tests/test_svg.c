@@ -244,6 +244,7 @@ static void test_malformed_files(void) {
       {"external_entity.svg", "external entity"},
       {"deep_nesting.svg", "<g> (line 1): elements nested deeper than 256 levels"},
       {"huge_entity.svg", "entities expand to more than 1048576 bytes"},
+      {"far_viewbox.svg", "'far' (line 1): coordinates far outside the texture (|u| or |v| above 1e+06"},
   };
   for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
     char path[512];
