@@ -2,8 +2,9 @@
 # Pathological curve sets (bench/pathological.py) through `chisel displace`
 # over the plane at 130k triangles: many small closed step loops, many v
 # grooves through one point, one very long path; each at four sizes, so
-# the table shows how time grows with the curves (the exponent between
-# consecutive sizes: 1 is linear). Also the reading of a 1M-segment SVG
+# the table shows how time grows with the curves (the exponent of the CPU
+# time between consecutive sizes: 1 is linear; CPU time, as the machine
+# may be shared). Also the reading of a 1M-segment SVG
 # (18 MB). Prints wall and CPU time, peak memory, the output's triangles.
 #
 # usage: bench/pathological.sh [BUILD_DIR] [TIMEOUT_S] [SERIES...]
@@ -30,7 +31,7 @@ sizes_of() {
   esac
 }
 kind_of() { case $1 in path) echo path ;; read) echo bigpath ;; *) echo "$1" ;; esac; }
-echo "chisel: $chisel ($(git rev-parse --short HEAD 2>/dev/null || echo '?')), $(nproc) threads, timeout $limit s"
+echo "$("$chisel" --version) ($chisel), $(nproc) threads, timeout $limit s; exponent: of the CPU time between sizes"
 printf "| %-9s | %8s | %9s | %9s | %8s | %9s | %8s | %s\n" series curves wall_s cpu_s peak_MB triangles exponent status
 echo "|---|---|---|---|---|---|---|---|"
 for s in "${series[@]}"; do
@@ -49,7 +50,8 @@ for s in "${series[@]}"; do
     /usr/bin/time -f "%e %U %S %M" -o "$dir/time.txt" timeout "$limit" "${cmd[@]}" >"$dir/stdout.txt" 2>"$dir/stderr.txt"
     rc=$?
     set -e
-    read -r wall user sys rss <"$dir/time.txt" || true
+    # (time's last line: a failed run's has "Command exited with ..." before it)
+    read -r wall user sys rss < <(tail -n 1 "$dir/time.txt") || true
     tris=$(grep -o 'displace [0-9]* triangles' "$dir/stderr.txt" | grep -o '[0-9]*' || true)
     [ "$s" = read ] && tris=$(sed -n 's/^ *segments *\([0-9]*\).*/\1 segs/p' "$dir/stdout.txt")
     status=ok
@@ -59,14 +61,14 @@ for s in "${series[@]}"; do
     elif [ $rc != 0 ]; then
       status="exit $rc: $(grep -v warning "$dir/stderr.txt" | tail -1 | cut -c1-60)"
     fi
+    cpu=$(python3 -c "print('%.1f' % ($user + $sys))" 2>/dev/null || echo "?")
     exponent=""
     if [ $rc = 0 ] && [ -n "$prev_t" ]; then
-      exponent=$(python3 -c "import math; print('%.2f' % (math.log($wall / $prev_t) / math.log($n / $prev_n)))" 2>/dev/null || true)
+      exponent=$(python3 -c "import math; print('%.2f' % (math.log($cpu / $prev_t) / math.log($n / $prev_n)))" 2>/dev/null || true)
     fi
-    cpu=$(python3 -c "print('%.1f' % ($user + $sys))" 2>/dev/null || echo "?")
     printf "| %-9s | %8s | %9s | %9s | %8s | %9s | %8s | %s\n" "$s" "$n" "$wall" "$cpu" "$((rss / 1024))" \
       "${tris:-}" "$exponent" "$status"
-    if [ $rc = 0 ]; then prev_n=$n prev_t=$wall; else prev_t=""; fi
+    if [ $rc = 0 ]; then prev_n=$n prev_t=$cpu; else prev_t=""; fi
   done
 done
 rm -f "$dir/out.obj"
