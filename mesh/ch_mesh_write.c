@@ -250,10 +250,8 @@ ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err
   ch_atomic_file f;
   st = ch_atomic_open(&f, path, err);
   if (st != CH_OK) return st;
-  if (!write_obj_body(f.fp, mesh)) {
-    ch_atomic_abort(&f);
-    return ch_error_set(err, CH_ERR_IO, "%s: out of memory or write error", path);
-  }
+  if (!write_obj_body(f.fp, mesh)) /* a write error names itself (ch_atomic_fail) */
+    return ch_atomic_fail(&f, ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path), err);
   return ch_atomic_commit(&f, err);
 }
 

@@ -94,8 +94,21 @@ typedef struct ch_curve_set {
   double viewbox[4];  /* x0 y0 w h of the source SVG */
 } ch_curve_set;
 
-/* Upper limits that turn absurd files into a clear error. */
-enum { CH_CURVES_MAX_SEGMENTS = 1 << 24, CH_SVG_MAX_BYTES = 256 << 20 };
+/* Upper limits that turn absurd files into a clear error: the file's size,
+ * its segments, how deep elements nest, and the entity references the XML
+ * parser may expand, in number, text and nesting (libxml2 runs in its huge
+ * mode, which lifts its own limits of 10 MB per text node and 256 levels,
+ * and with them its guard against entity expansion: these caps take their
+ * place). */
+enum {
+  CH_CURVES_MAX_UV = 1000000, /* |u|, |v| of any point: a million texture widths */
+  CH_CURVES_MAX_SEGMENTS = 1 << 24,
+  CH_SVG_MAX_BYTES = 256 << 20,
+  CH_SVG_MAX_DEPTH = 256,
+  CH_SVG_MAX_ENTITY_REFS = 10000,
+  CH_SVG_MAX_ENTITY_BYTES = 1 << 20,
+  CH_SVG_MAX_ENTITY_DEPTH = 40
+};
 
 /* How drawings without data- attributes are read (docs/svg.md). Zero
  * means default. */

@@ -4,8 +4,10 @@
  * in UV. Path data follows the SVG 1.1 grammar (implicit repeated commands,
  * numbers without separators, arc flags without separators); arcs use the
  * end-point to centre conversion of SVG 1.1 appendix F.6. */
+#include <libxml/globals.h>
 #include <libxml/parser.h>
 #include <libxml/tree.h>
+#include <libxml/xmlerror.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -321,6 +323,16 @@ static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line) 
    * midpoint below): only the ends are checked then. */
   for (int i = 0; i < 3; i++)
     if ((i != 1 || !is_line) && !ch_finite2(q[i])) return fail_curve(ps, "coordinates out of range%s", "");
+  /* Far outside the texture a curve means nothing and its coordinates
+   * have lost their precision (a viewBox 1e80 off its origin folds every
+   * curve onto one line: the grids and trees then list each everywhere). */
+  for (int i = 0; i < 3; i++)
+    if ((i != 1 || !is_line) && !(fabs(q[i][0]) <= CH_CURVES_MAX_UV && fabs(q[i][1]) <= CH_CURVES_MAX_UV)) {
+      char what[96];
+      snprintf(what, sizeof what, " (|u| or |v| above %g: %g texture widths away)", (double)CH_CURVES_MAX_UV,
+               fmax(fabs(q[i][0]), fabs(q[i][1])));
+      return fail_curve(ps, "coordinates far outside the texture%s", what);
+    }
   if (near_equal(q[0], q[2]) && (is_line || near_equal(q[0], q[1]))) return CH_OK;
   ch_curve_set *set = ps->set;
   if (set->num_segments >= CH_CURVES_MAX_SEGMENTS)
@@ -1029,9 +1041,14 @@ static int is_svg_element(const xmlNode *node) {
           strcmp((const char *)node->ns->href, "http://www.w3.org/2000/svg") == 0);
 }
 
-static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent) {
+static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent, int depth) {
   for (const xmlNode *n = node; n; n = n->next) {
     if (!is_svg_element(n)) continue; /* text, comments, foreign namespaces */
+    if (depth > CH_SVG_MAX_DEPTH) {
+      char msg[96];
+      snprintf(msg, sizeof msg, "elements nested deeper than %d levels", CH_SVG_MAX_DEPTH);
+      return fail_node(ps, n, msg);
+    }
     const char *name = (const char *)n->name;
     /* Non-rendering and descriptive elements: silently skipped. */
     if (!strcmp(name, "title") || !strcmp(name, "desc") || !strcmp(name, "metadata") ||
@@ -1047,7 +1064,7 @@ static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *pare
                    !strcmp(name, "polyline") || !strcmp(name, "polygon");
     if (!strcmp(name, "g") || !strcmp(name, "a")) {
       if ((s = inherit(ps, n, &st))) return s;
-      if ((s = walk(ps, n->children, &st))) return s;
+      if ((s = walk(ps, n->children, &st, depth + 1))) return s;
     } else if (is_shape) {
       if ((s = inherit(ps, n, &st))) return s;
       if ((s = begin_curve(ps, n, &st))) return s;
@@ -1092,6 +1109,98 @@ static ch_status root_mapping(svg_parser *ps, const xmlNode *root, svg_style *st
   return CH_OK;
 }
 
+/* What the XML parser may do on chisel's behalf: libxml2 runs in its huge
+ * mode (no 10 MB cap on a text node, such as the d attribute of a long
+ * path), which also switches off its own guard against entity expansion
+ * (the "billion laughs"); every entity reference it resolves passes
+ * through count_entity, which stops the parse past chisel's caps. Every
+ * message libxml2 raises while parsing (including the encoding and I/O
+ * ones it would print itself) is caught by keep_error; the first error
+ * becomes chisel's one line. */
+typedef struct xml_guard {
+  xmlParserCtxtPtr ctx;
+  xmlEntityPtr (*get_entity)(void *, const xmlChar *); /* libxml2's own */
+  long refs;
+  size_t bytes;
+  int over;            /* 1: too many references, 2: too much text, 3: too deep */
+  char message[300];   /* the first error, one line */
+  int line;
+} xml_guard;
+
+static xmlEntityPtr count_entity(void *user, const xmlChar *name) {
+  xmlParserCtxtPtr ctx = user;
+  xml_guard *g = ctx->_private;
+  xmlEntityPtr ent = g->get_entity(user, name);
+  if (!ent || g->over) return g->over ? NULL : ent;
+  /* (entities within entities: a file's own are never nested deep) */
+  if (ctx->depth > CH_SVG_MAX_ENTITY_DEPTH) {
+    g->over = 3;
+    xmlStopParser(ctx);
+    return NULL;
+  }
+  g->refs++;
+  g->bytes += ent->length > 0 ? (size_t)ent->length : 0;
+  if (g->refs > CH_SVG_MAX_ENTITY_REFS || g->bytes > CH_SVG_MAX_ENTITY_BYTES) {
+    g->over = g->refs > CH_SVG_MAX_ENTITY_REFS ? 1 : 2;
+    xmlStopParser(ctx);
+    return NULL;
+  }
+  return ent;
+}
+
+static void keep_error(void *user, xmlErrorPtr e) {
+  xml_guard *g = user;
+  if (!e || e->level < XML_ERR_ERROR || g->message[0]) return;
+  /* libxml2 ends messages with a newline and sometimes has one inside
+   * (an encoding error's "Bytes: ..."): one line, separated by "; ". */
+  const char *m = e->message ? e->message : "";
+  size_t n = strlen(m), k = 0;
+  while (n > 0 && (m[n - 1] == '\n' || m[n - 1] == ' ')) n--;
+  for (size_t i = 0; i < n && k + 3 < sizeof g->message; i++) {
+    if (m[i] != '\n') {
+      g->message[k++] = m[i];
+    } else {
+      g->message[k++] = ';';
+      g->message[k++] = ' ';
+    }
+  }
+  g->message[k] = '\0';
+  if (!k) snprintf(g->message, sizeof g->message, "not well-formed XML");
+  g->line = e->line;
+}
+
+static void drop_message(void *user, const char *fmt, ...) {
+  (void)user;
+  (void)fmt;
+}
+
+/* Parses data into a tree under the guard; NULL with the reason in g. */
+static xmlDocPtr parse_xml(const char *data, size_t size, const char *name, xml_guard *g) {
+  /* libxml2's error handlers are per thread: set for this parse, then
+   * restored, so other threads and callers are not affected. */
+  xmlStructuredErrorFunc old_structured = xmlStructuredError;
+  void *old_structured_user = xmlStructuredErrorContext;
+  xmlGenericErrorFunc old_generic = xmlGenericError;
+  void *old_generic_user = xmlGenericErrorContext;
+  xmlSetStructuredErrorFunc(g, keep_error);
+  xmlSetGenericErrorFunc(NULL, drop_message);
+  xmlDocPtr doc = NULL;
+  g->ctx = xmlNewParserCtxt();
+  if (g->ctx) {
+    g->ctx->_private = g;
+    g->get_entity = g->ctx->sax->getEntity;
+    g->ctx->sax->getEntity = count_entity;
+    doc = xmlCtxtReadMemory(g->ctx, data, (int)size, name, NULL, XML_PARSE_NONET | XML_PARSE_HUGE);
+    if (doc && (g->over || !g->ctx->wellFormed)) {
+      xmlFreeDoc(doc);
+      doc = NULL;
+    }
+  }
+  xmlSetStructuredErrorFunc(old_structured_user, old_structured);
+  xmlSetGenericErrorFunc(old_generic_user, old_generic);
+  return doc;
+}
+
 ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name, ch_curve_set *out,
                               ch_error *err) {
   return ch_curves_parse_svg_ex(data, size, name, NULL, out, err);
@@ -1101,23 +1210,31 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
                                  ch_curve_set *out, ch_error *err) {
   memset(out, 0, sizeof *out);
   if (size > (size_t)CH_SVG_MAX_BYTES)
-    return ch_error_set(err, CH_ERR_INPUT, "%s: file too large for an SVG (%zu bytes)", name, size);
-  xmlParserCtxtPtr ctx = xmlNewParserCtxt();
+    return ch_error_set(err, CH_ERR_INPUT, "%s: file too large for an SVG (%zu bytes, limit %d)", name, size,
+                        CH_SVG_MAX_BYTES);
+  xml_guard guard = {0};
+  xmlDocPtr doc = parse_xml(data, size, name, &guard);
+  xmlParserCtxtPtr ctx = guard.ctx;
   if (!ctx) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
-  xmlDocPtr doc = xmlCtxtReadMemory(ctx, data, (int)size, name, NULL,
-                                    XML_PARSE_NONET | XML_PARSE_NOERROR | XML_PARSE_NOWARNING);
   if (!doc) {
-    const xmlError *xe = xmlCtxtGetLastError(ctx);
-    char msg[300] = "not well-formed XML";
-    int line = 0;
-    if (xe && xe->message) {
-      snprintf(msg, sizeof msg, "%s", xe->message);
-      size_t n = strlen(msg);
-      while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == ' ')) msg[--n] = '\0';
-      line = xe->line;
-    }
+    ch_status st;
+    if (guard.over == 1)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: more than %d entity references (an entity expansion attack?)", name,
+                        CH_SVG_MAX_ENTITY_REFS);
+    else if (guard.over == 3)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: entities nested deeper than %d levels (an entity expansion attack?)",
+                        name, CH_SVG_MAX_ENTITY_DEPTH);
+    else if (guard.over == 2)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: entities expand to more than %d bytes (an entity expansion attack?)",
+                        name, CH_SVG_MAX_ENTITY_BYTES);
+    else if (guard.line > 0)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: line %d: bad XML: %s", name, guard.line,
+                        guard.message[0] ? guard.message : "not well-formed XML");
+    else /* encoding and I/O errors have no line */
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: bad XML: %s", name,
+                        guard.message[0] ? guard.message : "not well-formed XML");
     xmlFreeParserCtxt(ctx);
-    return ch_error_set(err, CH_ERR_INPUT, "%s: line %d: bad XML: %s", name, line, msg);
+    return st;
   }
   svg_parser ps = {.name = name, .err = err, .set = out};
   ps.fill_height = desc && desc->fill_height != 0.0 ? desc->fill_height : 0.01;
@@ -1132,7 +1249,7 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
     svg_style style = {0};
     st = root_mapping(&ps, root, &style);
     if (!st) st = inherit(&ps, root, &style);
-    if (!st) st = walk(&ps, root->children, &style);
+    if (!st) st = walk(&ps, root->children, &style, 1);
   }
   if (!st && out->num_curves == 0)
     st = ch_error_set(ps.err, CH_ERR_INPUT, "%s: no curves (no <path> or basic shape elements)", name);

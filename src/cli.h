@@ -5,6 +5,7 @@
 #include <stddef.h>
 
 #include "ch_error.h"
+#include "ch_progress.h"
 
 typedef struct cli_command {
   const char *name;
@@ -93,16 +94,52 @@ int cli_parse_fill_height(const char *cmd, const char *text, struct ch_svg_desc 
 /* Whether argv[i] asks for help (-h, --help). */
 int cli_is_help(const char *arg);
 
-/* Output files written by a command, so a failure after the first one can
- * remove what was written: all outputs or none. */
-typedef struct cli_outputs {
-  const char *paths[8];
-  int count;
-} cli_outputs;
+/* A file named on the command line: what named it (an option such as
+ * "--ply", or the operand's name such as "BASE.obj") and its path (NULL:
+ * not given, skipped). */
+typedef struct cli_file {
+  const char *option;
+  const char *path;
+} cli_file;
 
-/* Checks that path's directory exists and is writable (before any work). */
-int cli_check_output(const char *cmd, const char *option, const char *path);
-void cli_outputs_add(cli_outputs *outs, const char *path);
-void cli_outputs_remove_all(cli_outputs *outs);
+/* Checks a command's files before any work, so nothing is lost and no time
+ * is wasted: every output's directory exists and is writable; no output is
+ * a symbolic link, a directory, a device, FIFO or socket, or an existing
+ * read-only file; no output is one of the inputs, or another output (the
+ * same file by device and inode, through links and relative paths, or the
+ * same name in the same directory). On the first problem prints one line
+ * and returns 2; otherwise 0. */
+int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, const cli_file *outputs,
+                    int num_outputs);
+
+/* Makes SIGINT, SIGTERM and SIGHUP end the run cleanly: a thread waits for
+ * them, removes every temporary file (ch_file_remove_temporaries), prints
+ * one line and exits with 128 + the signal (130, 143, 129). Signals the
+ * process inherited as ignored (nohup, background jobs) stay ignored. Call
+ * first in main, before any other thread exists (they inherit the blocked
+ * mask). */
+void cli_signals_init(void);
+
+/* Progress on a terminal: from cli_progress_start until cli_progress_done,
+ * once the run has taken 2 s, one line on stderr redrawn in place four
+ * times a second with the latest stage (the CLI's own, cli_progress_stage,
+ * or the library's through the returned ch_progress), how far it is when
+ * known, and the time so far. Nothing when stderr is not a terminal (then
+ * NULL is returned, which library calls take as no reports). Warnings and
+ * errors printed through cli_* clear the line first. */
+const ch_progress *cli_progress_start(const char *cmd);
+void cli_progress_stage(const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 1, 2)))
+#endif
+    ;
+void cli_progress_done(void);
+
+/* Runs a command with its outputs staged (ch_file): they are written as
+ * temporaries and moved into place together when it returns 0; a failure
+ * (or a failed move) removes them, so a run's outputs appear all together
+ * or not at all and previous files stay as they were. Returns the exit
+ * status. */
+int cli_run(const cli_command *command, int argc, char **argv);
 
 #endif

@@ -88,13 +88,15 @@ static int run(int argc, char **argv) {
   if (png && cli_is_stdout(png)) return cli_refuse_stdout(cmd, "--png", "a PNG");
   if (have_rect && !(rect[2] > rect[0] && rect[3] > rect[1]))
     return cli_usage_error(cmd, "--rect needs u0 < u1 and v0 < v1");
-  if (png && !strcmp(png, out)) return cli_usage_error(cmd, "--png and -o name the same file");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (png && (rc = cli_check_output(cmd, "--png", png)))) return rc;
+  const cli_file in_files[] = {{"CURVES.svg", svg}}, out_files[] = {{"-o", out}, {"--png", png}};
+  int rc = cli_check_files(cmd, in_files, 1, out_files, 2);
+  if (rc) return rc;
 
   double t_start = omp_get_wtime();
   ch_error err = cli_error();
   ch_curve_set set;
+  cli_progress_start(cmd);
+  cli_progress_stage("reading %s", svg);
   if (ch_curves_read_svg_ex(svg, &svg_desc, &set, &err)) return cli_fail(&err);
   int steps = 0;
   for (int c = 0; c < set.num_curves; c++) steps += set.curves[c].kind == CH_CURVE_STEP;
@@ -103,8 +105,9 @@ static int run(int argc, char **argv) {
   ch_dci_desc desc = {.resolution = (int)res};
   memcpy(desc.rect, rect, sizeof rect);
   ch_image img = {0};
-  cli_outputs outs = {0};
+  cli_progress_stage("the diffusion-curve image at %ld x %ld", res, res);
   ch_status st = ch_dci_build(&set, &desc, &dci, &err);
+  cli_progress_stage("writing %s", out);
   if (!st && stats)
     fprintf(stderr,
             "chisel: dci %ldx%ld: feature samples %.1f ms, diffusion %.1f ms (%d levels, %d iterations, "
@@ -129,15 +132,13 @@ static int run(int argc, char **argv) {
     wd.attributes = attrs;
     wd.num_attributes = dci.rgb ? 3 : 5;
     st = ch_exr_write(out, &img, &wd, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && png) {
     st = write_preview(png, &dci, &err);
-    if (!st) cli_outputs_add(&outs, png);
   }
+  cli_progress_done();
   if (!st && stats)
     fprintf(stderr, "chisel: dci: %d layers written in %.1f ms\n", img.num_channels, 1e3 * (omp_get_wtime() - t_write));
-  if (st) cli_outputs_remove_all(&outs);
   if (!st)
     cli_result("wrote %s (%ld x %ld, %d layers)%s%s in %.2f s", out, res, res, img.num_channels + (dci.rgb ? 0 : 1),
                png ? ", " : "", png ? png : "", omp_get_wtime() - t_start);

@@ -273,22 +273,23 @@ static int run(int argc, char **argv) {
   if (cli_is_stdout(png16)) return cli_refuse_stdout(cmd, "--height-png", "a PNG");
   if (json && (cli_is_stdout(out) || cli_is_stdout(ply)))
     return cli_usage_error(cmd, "--json and a mesh on standard output (-) cannot share it");
-  const char *outputs[5] = {out, exr, png, ply, png16}, *names[5] = {"-o", "--exr", "--png", "--ply", "--height-png"};
-  for (int i = 0; i < 5; i++) {
-    if (!outputs[i]) continue;
-    for (int j = 0; j < i; j++)
-      if (outputs[j] && !strcmp(outputs[i], outputs[j]))
-        return cli_usage_error(cmd, "%s and %s name the same %s", names[j], names[i],
-                               cli_is_stdout(outputs[i]) ? "standard output" : "file");
-    if (cli_is_stdout(outputs[i])) continue;
-    int rc = cli_check_output(cmd, names[i], outputs[i]);
-    if (rc) return rc;
-  }
+  if (out && ply && cli_is_stdout(out) && cli_is_stdout(ply))
+    return cli_usage_error(cmd, "-o and --ply name the same standard output");
+  const cli_file in_files[] = {{"BASE.obj", base}, {"CURVES.svg", svg}};
+  const cli_file out_files[] = {{"-o", cli_is_stdout(out) ? NULL : out},
+                                {"--exr", exr},
+                                {"--png", png},
+                                {"--ply", cli_is_stdout(ply) ? NULL : ply},
+                                {"--height-png", png16}};
+  int rc = cli_check_files(cmd, in_files, 2, out_files, 5);
+  if (rc) return rc;
 
   ch_error err = cli_error();
   ch_camera camera;
   if (has_camera && ch_camera_init(&camera, camera_values, &err)) return cli_fail(&err);
   double t0 = omp_get_wtime();
+  const ch_progress *progress = cli_progress_start(cmd);
+  cli_progress_stage("reading %s", base);
   ch_mesh mesh;
   if (ch_mesh_read(base, &mesh, &err)) return cli_fail(&err);
   /* UDIM: UVs beyond the unit square, in tiles; each tile has its curves,
@@ -346,6 +347,7 @@ static int run(int argc, char **argv) {
   char one_tile[4096];
   if (!is_udim && cli_udim_curve_path(svg, 1001, one_tile, sizeof one_tile, 0) && strstr(svg, "<UDIM>"))
     svg = one_tile; /* a <UDIM> pattern on a mesh in tile 1001 */
+  cli_progress_stage("reading %s", svg);
   if (!is_udim && ch_curves_read_svg_ex(svg, &svg_desc, &set, &err)) {
     ch_mesh_free(&mesh);
     return cli_fail(&err);
@@ -355,7 +357,6 @@ static int run(int argc, char **argv) {
   ch_tess_result tess = {0};
   ch_height height = {0};
   ch_displace_stats dstats = {0};
-  cli_outputs outs = {0};
   double t_surface = 0, t_height = 0, t_disp = 0, t_write = 0;
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = (ch_recon_method)snap_to};
   ch_warp warp_store = {0};
@@ -370,6 +371,7 @@ static int run(int argc, char **argv) {
   }
   if (!st) {
     hd.warp = warp_dci ? warp : NULL;
+    cli_progress_stage("h: the step curves' diffusion at %ld x %ld", res, res);
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime();
   }
@@ -381,13 +383,14 @@ static int run(int argc, char **argv) {
   int passes = 1;
   if (!st) {
     if (no_snap) {
+      cli_progress_stage("tessellating and displacing");
       ch_tess_desc td = {.target_triangles = target, .warp = warp};
       st = ch_tess_build(surface, &td, &tess, &err);
       double t_d = omp_get_wtime();
       if (!st) st = ch_displace_apply(&tess, &height, &dstats, &err);
       t_disp = omp_get_wtime() - t_d;
     } else {
-      ch_embed_desc ed = {.warp = warp};
+      ch_embed_desc ed = {.warp = warp, .progress = progress};
       st = ch_embed_to_target(surface, &height, &ed, target, &tess, &embedded, &estats, &passes, &err);
       result = &embedded;
       dstats.min_h = estats.min_h;
@@ -412,12 +415,12 @@ static int run(int argc, char **argv) {
   /* Files first; a mesh for standard output last, once nothing else can
    * fail (a stream cannot be taken back). */
   if (!st && !cli_is_stdout(out)) {
+    cli_progress_stage("writing %s", out);
     st = ch_mesh_write_obj(out, result, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && ply && !cli_is_stdout(ply)) {
+    cli_progress_stage("writing %s", ply);
     st = ch_mesh_write_ply(ply, result, &err);
-    if (!st) cli_outputs_add(&outs, ply);
   }
   double height_scale = 0.0;
   if (!st && (exr || png || png16)) {
@@ -425,6 +428,7 @@ static int run(int argc, char **argv) {
      * with --exr the geometry image it displaces. */
     ch_image hmap = {0}, maps = {0};
     const char *layer[] = {"h"};
+    cli_progress_stage("rendering the maps");
     st = ch_image_init(&hmap, (int)res, (int)res, 1, layer, &err);
     if (!st) ch_height_render_warped(&height, warp, (int)res, 1, ch_image_plane(&hmap, 0));
     if (!st && exr) {
@@ -470,20 +474,19 @@ static int run(int argc, char **argv) {
         attrs[na++] = (ch_exr_attribute){"chisel:Y", CLI_Y_NOTE};
         wd.attributes = attrs;
         wd.num_attributes = na;
+        cli_progress_stage("writing %s", exr);
         if (!st) st = ch_exr_write(exr, &maps, &wd, &err);
-        if (!st) cli_outputs_add(&outs, exr);
         free(warp_text);
       }
       ch_image_free(&gimg);
       ch_geomimage_free(&gi);
     }
     if (!st && png) {
+      cli_progress_stage("writing %s", png);
       st = ch_png_write_height(png, ch_image_plane(&hmap, 0), hmap.width, hmap.height, &err);
-      if (!st) cli_outputs_add(&outs, png);
     }
     if (!st && png16) {
       st = ch_png_write_height16(png16, ch_image_plane(&hmap, 0), hmap.width, hmap.height, &height_scale, &err);
-      if (!st) cli_outputs_add(&outs, png16);
     }
     ch_image_free(&maps);
     ch_image_free(&hmap);
@@ -491,6 +494,7 @@ static int run(int argc, char **argv) {
   if (!st && cli_is_stdout(out)) st = ch_mesh_write_obj_stream(stdout, "(standard output)", result, &err);
   if (!st && cli_is_stdout(ply)) st = ch_mesh_write_ply_stream(stdout, "(standard output)", result, &err);
   t_write = omp_get_wtime() - t_write;
+  cli_progress_done();
   if (!st && warp && !cli_quiet) {
     const ch_warp_stats *ws = &warp->stats;
     double total = omp_get_wtime() - t0, cost = t_warp + height.warp_stats.seconds;
@@ -523,7 +527,6 @@ static int run(int argc, char **argv) {
               1e3 * estats.seconds_crossings, 1e3 * estats.seconds_classify, 1e3 * estats.seconds_split,
               1e3 * estats.seconds_cut, 1e3 * estats.seconds_thin, 1e3 * estats.seconds_normals);
   }
-  if (st) cli_outputs_remove_all(&outs);
   double total = omp_get_wtime() - t0;
   if (!st) {
     char what[1024] = "";

@@ -87,8 +87,9 @@ static int run(int argc, char **argv) {
   if (out_h < 1 || out_h > 16384) return cli_usage_error(cmd, "--rect and --out-res give %ld rows (1..16384)", out_h);
   if (cli_is_stdout(out)) return cli_refuse_stdout(cmd, "-o", "a PNG");
   if (cli_is_stdout(exr)) return cli_refuse_stdout(cmd, "--exr", "an EXR");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (exr && (rc = cli_check_output(cmd, "--exr", exr)))) return rc;
+  const cli_file in_files[] = {{"MAPS.exr", maps}, {"--curves", curves}}, out_files[] = {{"-o", out}, {"--exr", exr}};
+  int rc = cli_check_files(cmd, in_files, 2, out_files, 2);
+  if (rc) return rc;
   double t_start = omp_get_wtime();
 
   ch_error err = cli_error();
@@ -137,7 +138,6 @@ static int run(int argc, char **argv) {
         memcpy(rgb + 3 * i, rs.color, sizeof rs.color);
       }
   }
-  cli_outputs outs = {0};
   if (!st) {
     unsigned char *pix = malloc((size_t)W * H * 3);
     if (!pix) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
@@ -157,7 +157,6 @@ static int run(int argc, char **argv) {
         }
       }
       st = ch_png_write(out, W, H, 3, pix, &err);
-      if (!st) cli_outputs_add(&outs, out);
       free(pix);
     }
   }
@@ -174,11 +173,9 @@ static int run(int argc, char **argv) {
       wd.attributes = attrs;
       wd.num_attributes = 2;
       st = ch_exr_write(exr, &crop, &wd, &err);
-      if (!st) cli_outputs_add(&outs, exr);
     }
     ch_image_free(&crop);
   }
-  if (st) cli_outputs_remove_all(&outs);
   if (!st)
     cli_result("wrote %s (%d x %d)%s%s in %.2f s", out, W, H, exr ? ", " : "", exr ? exr : "",
                omp_get_wtime() - t_start);

@@ -72,20 +72,19 @@ static int run(int argc, char **argv) {
   if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
   if (!res) return cli_usage_error(cmd, "missing --res R");
   if (!out) return cli_usage_error(cmd, "missing -o H.exr");
-  if (png && !strcmp(png, out)) return cli_usage_error(cmd, "--png and -o name the same file");
-  if (png16 && (!strcmp(png16, out) || (png && !strcmp(png16, png))))
-    return cli_usage_error(cmd, "--height-png names the same file as another output");
   if (cli_is_stdout(out)) return cli_refuse_stdout(cmd, "-o", "an EXR");
   if (cli_is_stdout(png)) return cli_refuse_stdout(cmd, "--png", "a PNG");
   if (cli_is_stdout(png16)) return cli_refuse_stdout(cmd, "--height-png", "a PNG");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (png && (rc = cli_check_output(cmd, "--png", png))) ||
-      (png16 && (rc = cli_check_output(cmd, "--height-png", png16))))
-    return rc;
+  const cli_file in_files[] = {{"CURVES.svg", svg}},
+                 out_files[] = {{"-o", out}, {"--png", png}, {"--height-png", png16}};
+  int rc = cli_check_files(cmd, in_files, 1, out_files, 3);
+  if (rc) return rc;
   double t_start = omp_get_wtime();
 
   ch_error err = cli_error();
   ch_curve_set set;
+  cli_progress_start(cmd);
+  cli_progress_stage("reading %s", svg);
   if (ch_curves_read_svg_ex(svg, &svg_desc, &set, &err)) return cli_fail(&err);
   /* h_step comes from a DCI at the output resolution, read with the exact
    * curves' sides so that supersampled pixels resolve the walls. */
@@ -93,10 +92,11 @@ static int run(int argc, char **argv) {
   ch_height_desc hd = {.dci_resolution = (int)res, .step_method = CH_RECON_EXACT};
   ch_image img = {0};
   const char *names[] = {"h"};
-  cli_outputs outs = {0};
+  cli_progress_stage("h: the step curves' diffusion at %ld x %ld", res, res);
   ch_status st = ch_height_init(&height, &set, &hd, &err);
   if (!st) st = ch_image_init(&img, (int)res, (int)res, 1, names, &err);
   if (!st) {
+    cli_progress_stage("sampling h at %ld x %ld, %ld x %ld per pixel", res, res, ss, ss);
     ch_height_render(&height, (int)res, (int)ss, ch_image_plane(&img, 0));
     char res_text[32], ss_text[32];
     snprintf(res_text, sizeof res_text, "%ld", res);
@@ -111,18 +111,15 @@ static int run(int argc, char **argv) {
                                       {"chisel:Y", CLI_Y_NOTE}};
     desc.attributes = attrs;
     desc.num_attributes = 5;
+    cli_progress_stage("writing %s", out);
     st = ch_exr_write(out, &img, &desc, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
   if (!st && png) {
     st = ch_png_write_height(png, ch_image_plane(&img, 0), img.width, img.height, &err);
-    if (!st) cli_outputs_add(&outs, png);
   }
   if (!st && png16) {
     st = ch_png_write_height16(png16, ch_image_plane(&img, 0), img.width, img.height, NULL, &err);
-    if (!st) cli_outputs_add(&outs, png16);
   }
-  if (st) cli_outputs_remove_all(&outs);
   if (!st) {
     float lo = INFINITY, hi = -INFINITY;
     const float *p = ch_image_plane(&img, 0);

@@ -940,6 +940,47 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
   return st;
 }
 
+/* Every file the study writes into dir (as run() names them), checked
+ * against its inputs and each other before any work (cli_check_files);
+ * nothing to check while dir does not exist. 0 or the exit status. */
+static int check_outputs(const char *cmd, const char *scene_path, const study *s, const char *dir) {
+  struct stat sb;
+  if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) return 0;
+  static const char *const truth_files[] = {"truth.exr", "truth.png", "truth.class.png", "montage.png"};
+  static const char *const method_files[] = {"exr", "png", "class.png", "normal.png", "depth.png"};
+  static const char *const study_files[] = {"summary.csv", "summary.json", "index.html"};
+  int per_view = 4 + 5 * s->num_methods, n = s->num_views * per_view + 3, k = 0;
+  cli_file *outs = calloc((size_t)n, sizeof *outs);
+  cli_file *ins = calloc((size_t)s->num_methods + 2, sizeof *ins);
+  char *names = malloc((size_t)n * 4096);
+  if (!outs || !ins || !names) {
+    free(outs);
+    free(ins);
+    free(names);
+    fprintf(stderr, "chisel: out of memory\n");
+    return 1;
+  }
+  for (int v = 0; v < s->num_views; v++) {
+    for (int i = 0; i < 4; i++, k++)
+      snprintf(names + (size_t)k * 4096, 4096, "%s/%s.%s", dir, s->views[v].name, truth_files[i]);
+    for (int m = 0; m < s->num_methods; m++)
+      for (int i = 0; i < 5; i++, k++)
+        snprintf(names + (size_t)k * 4096, 4096, "%s/%s.%s.%s", dir, s->views[v].name, s->methods[m].name,
+                 method_files[i]);
+  }
+  for (int i = 0; i < 3; i++, k++) snprintf(names + (size_t)k * 4096, 4096, "%s/%s", dir, study_files[i]);
+  for (int i = 0; i < n; i++) outs[i] = (cli_file){names + (size_t)i * 4096, names + (size_t)i * 4096};
+  int ni = 0;
+  ins[ni++] = (cli_file){"SCENE.json", scene_path};
+  ins[ni++] = (cli_file){"curves", s->curves_path};
+  for (int m = 0; m < s->num_methods; m++) ins[ni++] = (cli_file){s->methods[m].name, s->methods[m].path};
+  int rc = cli_check_files(cmd, ins, ni, outs, n);
+  free(outs);
+  free(ins);
+  free(names);
+  return rc;
+}
+
 static int run(int argc, char **argv) {
   const char *cmd = "study";
   const char *scene_path = NULL, *dir = NULL;
@@ -987,6 +1028,12 @@ static int run(int argc, char **argv) {
     for (const char *c = a; *c; c++)
       if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=,:+@%", *c)) plain = 0;
     clen += (size_t)snprintf(command + clen, sizeof command - clen, plain ? " %s" : " '%s'", a);
+  }
+  int rc = check_outputs(cmd, scene_path, &s, dir);
+  if (rc) {
+    free(scene_text);
+    study_free(&s);
+    return rc;
   }
   double t_start = omp_get_wtime();
   /* Every input is read and checked before anything is written. */
@@ -1103,7 +1150,8 @@ static int run(int argc, char **argv) {
     cli_result("wrote %s/index.html and %d files (%d views x %d methods) in %.1f s", dir, w.count - 1, s.num_views,
                s.num_methods, omp_get_wtime() - t_start);
   free(scene_text);
-  written_free(&w, st != CH_OK);
+  written_free(&w, 0); /* staged (cli_run): on failure they are removed, previous files kept */
+  if (st) ch_file_stage_abort(); /* before the folder it made goes */
   if (st && made_dir) rmdir(dir);
   free(rows);
   ch_trace_destroy(truth_scene);

@@ -200,6 +200,7 @@ static int prepare_args(const cli_command *c, int argc, char **argv, char **args
 }
 
 int main(int argc, char **argv) {
+  cli_signals_init(); /* before any thread: they inherit its mask */
 #ifdef __GLIBC__
   /* The stages allocate and free arrays of hundreds of MB, round after
    * round. glibc serves those with fresh mmap()s, which the kernel zeroes
@@ -250,7 +251,7 @@ int main(int argc, char **argv) {
     rc = 1;
   } else {
     rc = prepare_args(c, argc - 1, argv + 1, args, &n, owned, &num_owned);
-    if (!rc) rc = c->run(n, args);
+    if (!rc) rc = cli_run(c, n, args);
   }
   for (int i = 0; i < num_owned; i++) free(owned[i]);
   free(owned);

@@ -27,3 +27,12 @@ if(Python3_FOUND AND CHISEL_BLENDER AND CHISEL_OIIOTOOL AND CHISEL_CONVERT AND C
 else()
   message(WARNING "test interop left out: it needs blender, oiiotool, convert and exrheader (scripts/install-deps.sh)")
 endif()
+# Faults: outputs that are inputs or not plain files, a full disk for every
+# format, SIGINT/SIGTERM/SIGKILL while writing (tests/test_faults.sh).
+add_test(NAME faults COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_faults.sh $<TARGET_FILE:chisel>
+  ${PROJECT_SOURCE_DIR}/models ${CMAKE_CURRENT_SOURCE_DIR} ${CMAKE_CURRENT_BINARY_DIR}/faults_tmp)
+# Pathological curve sets at a CI size (tests/test_pathological.sh).
+if(Python3_FOUND)
+  add_test(NAME pathological COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_pathological.sh $<TARGET_FILE:chisel>
+    ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_BINARY_DIR}/pathological_tmp)
+endif()

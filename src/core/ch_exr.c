@@ -820,8 +820,7 @@ ch_status ch_exr_write(const char *path, const ch_image *img, const ch_exr_write
   if (rv != EXR_ERR_SUCCESS) {
     st = exr_fail(&io, err, rv, CH_ERR_INTERNAL, "cannot start writing");
     if (ctx) exr_finish(&ctx);
-    ch_atomic_abort(&f);
-    return st;
+    return ch_atomic_fail(&f, st, err);
   }
   st = write_body(ctx, &io, img, d, err);
   io_reset_message(&io);
@@ -830,9 +829,6 @@ ch_status ch_exr_write(const char *path, const ch_image *img, const ch_exr_write
     st = exr_fail(&io, err, rv, CH_ERR_INTERNAL, "cannot finish file");
   if (st == CH_OK && io.os_errno)
     st = ch_error_set(err, CH_ERR_IO, "%s: write error: %s", path, strerror(io.os_errno));
-  if (st != CH_OK) {
-    ch_atomic_abort(&f);
-    return st;
-  }
+  if (st != CH_OK) return ch_atomic_fail(&f, st, err); /* a failed write names its errno */
   return ch_atomic_commit(&f, err);
 }

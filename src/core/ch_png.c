@@ -65,8 +65,8 @@ ch_status ch_png_write(const char *path, int width, int height, int channels,
   }
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    ch_atomic_abort(&f);
-    return ch_error_set(err, CH_ERR_IO, "%s: cannot write PNG: %s", path, msg.text);
+    /* libpng says "Write Error"; the file knows which */
+    return ch_atomic_fail(&f, ch_error_set(err, CH_ERR_IO, "%s: cannot write PNG: %s", path, msg.text), err);
   }
   png_init_io(png, f.fp);
   png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 8,
