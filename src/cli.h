@@ -31,7 +31,9 @@ extern int cli_argc;
 extern char **cli_argv;
 
 /* The one line every successful run ends with, "chisel: MESSAGE", on
- * stderr (stdout may carry data: -o -, --json); nothing with -q. */
+ * stderr (stdout may carry data: -o -, --json); nothing with -q. Held
+ * until cli_run has moved the staged outputs into place, so it never
+ * announces files a failed commit took back. */
 void cli_result(const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 1, 2)))

@@ -330,8 +330,13 @@ void cli_signals_init(void) {
   if (!ok) pthread_sigmask(SIG_UNBLOCK, &set, NULL); /* the default: die without cleaning up */
 }
 
+/* The result line waits for cli_run: it says what was written, so it is
+ * printed only once the staged outputs are in place. */
+static char pending_result[2048];
+
 int cli_run(const cli_command *command, int argc, char **argv) {
   ch_file_stage_begin();
+  pending_result[0] = '\0';
   int rc = command->run(argc, argv);
   cli_progress_done();
   if (rc != 0) {
@@ -339,7 +344,9 @@ int cli_run(const cli_command *command, int argc, char **argv) {
     return rc;
   }
   ch_error err = cli_error();
-  return ch_file_stage_commit(&err) ? cli_fail(&err) : 0;
+  if (ch_file_stage_commit(&err)) return cli_fail(&err);
+  if (pending_result[0]) fprintf(stderr, "chisel: %s\n", pending_result);
+  return 0;
 }
 
 int cli_quiet = 0;
@@ -348,12 +355,10 @@ char **cli_argv = NULL;
 
 void cli_result(const char *fmt, ...) {
   if (cli_quiet) return;
-  fputs("chisel: ", stderr);
   va_list ap;
   va_start(ap, fmt);
-  vfprintf(stderr, fmt, ap);
+  vsnprintf(pending_result, sizeof pending_result, fmt, ap);
   va_end(ap);
-  fputc('\n', stderr);
 }
 
 int cli_is_stdout(const char *path) { return path && !strcmp(path, "-"); }
