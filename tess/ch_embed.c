@@ -2821,11 +2821,24 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     }
     out_free(&kept.o);
     if (d.count_only && pass == 0 && no > 1.25 * (double)target && !has_u) {
-      /* The first pilot alone is well over the target: the features need
-       * more than it holds at any base, so the fewest triangles the base
-       * gives (by the model), without the second pilot or coarser angles
-       * (each reruns the pilots; without u lines they change only the
-       * caps: 500 grooves through a point, 7 runs to reach the same base) */
+      /* The first pilot alone is well over the target. Without u lines the
+       * angle step shapes only the caps of open ends: the coarsest step at
+       * once (one rerun of the first pilot, not four: bricks at 60k needs
+       * it), and if the features still need more than the target, the
+       * fewest triangles the base gives (by the model), without the second
+       * pilot (500 grooves through a point: 7 runs to reach the same base). */
+      if (auto_angle && coarsenings < 4) {
+        double step = coarsenings == 0 ? ch_embed_angle_deg(d.reference_edge) : d.normal_tolerance_deg;
+        for (; coarsenings < 4; coarsenings++) step *= 1.5;
+        d.normal_tolerance_deg = step;
+        ch_tess_free(&cur_tess);
+        ch_mesh_free(&cur);
+        memset(&cur_tess, 0, sizeof cur_tess);
+        memset(&cur, 0, sizeof cur);
+        pass = -1;
+        base = first_base;
+        continue;
+      }
       pilots = 1;
       auto_angle = 0;
     }
