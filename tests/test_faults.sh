@@ -216,7 +216,7 @@ checks=$((checks + 1))
 interrupt KILL 137
 checks=$((checks + 1))
 ls o | grep -q '^out\.obj\.tmp\.chisel-[0-9]*-......$' || fail "SIGKILL: no temporary left to clean (the test saw: $(ls o))"
-expect 0 "$chisel" displace in.obj c.svg -o o/out.obj "${small[@]}" && one_line_with "left by an interrupted run"
+expect 0 "$chisel" displace -q in.obj c.svg -o o/out.obj "${small[@]}" && one_line_with "left by an interrupted run"
 checks=$((checks + 1))
 [ -z "$(ls o | grep '^out\.obj\.tmp\.')" ] || fail "the stale temporary of out.obj was not removed: $(ls o)"
 set +m
