@@ -1,7 +1,7 @@
 /* accuracy: the accuracy figures of issue 4 ("Measure: the accuracy
  * figures") for a displaced mesh over the planar base B = (u, v, 0), whose
  * vertices (x, y, z) should satisfy z = h(x, y) with h the exact height of
- * SPEC §3.
+ * docs/spec.md §3.
  *
  * On the cell centres ((i + 1/2) / G, (j + 1/2) / G) of a G x G grid over
  * the unit square, the mesh's non-vertical triangles (|n_z| > 1e-3, polygons

@@ -20,7 +20,7 @@ static const char usage[] =
     "\n"
     "Writes the n x n uniform grid of the unit square (2 n^2 triangles, n such that\n"
     "2 n^2 is closest to N, diagonals alternating in a checkerboard) with every\n"
-    "vertex at z = h(x, y), the exact height of SPEC §3; vt = (x, y), no normals.\n"
+    "vertex at z = h(x, y), the exact height of docs/spec.md §3; vt = (x, y), no normals.\n"
     "  --target-tris N  triangle count to approach, 2..1e9\n"
     "  --dci-res R      resolution of the step curves' DCI (default 4096)\n"
     "  --raster R       heights read bilinearly from an R x R raster of h (pixel\n"

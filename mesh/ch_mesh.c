@@ -1,5 +1,5 @@
 /* ch_mesh.c: releasing a mesh and checking it for use as a base surface
- * (SPEC §1).
+ * (docs/spec.md §1).
  *
  * Topology is read from positions: an edge is an unordered pair of position
  * indices, and the face sides using it are found by sorting. UV charts join

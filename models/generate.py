@@ -10,7 +10,7 @@ float formatting, no timestamps, no randomness). The committed files in
 models/ are this script's output (OUTDIR = models); ctest's
 models_up_to_date regenerates them into a temporary folder and diffs.
 
-Conventions (SPEC.md §1-§2):
+Conventions (docs/spec.md §1-§2):
 - OBJ: `v`, `vt`, `f v/vt` only; one `v` per position (shared across UV
   seams), `vt` duplicated along seams; faces counter-clockwise seen from
   outside, and counter-clockwise in UV (every chart maps UV to the surface
@@ -932,7 +932,7 @@ def svg_glyphs():
              'disc, a flowering reed, a water ripple and a bread loaf; an eye of Horus,',
              'an ankh, a djed pillar, two reeds and three water lines. Each glyph is drawn',
              'in its own coordinates and placed by a group transform; widths stay in viewBox',
-             'units whatever the transform (SPEC §2).']
+             'units whatever the transform (docs/spec.md §2).']
 
     def reed():
         return [E('path', d='M 0 15 V -1'),

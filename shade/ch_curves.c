@@ -1,4 +1,4 @@
-/* Curve sets and groove profiles (SPEC §2-3). */
+/* Curve sets and groove profiles (docs/spec.md §2-3). */
 #include "ch_curves.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* ch_curves: feature curves in UV space and their SVG reader (SPEC §2).
+/* ch_curves: feature curves in UV space and their SVG reader (docs/spec.md §2).
  *
  * A curve is one SVG path (or basic shape): one or more subpaths made of
  * quadratic Bezier segments in UV (u right, v up). Lines are stored as
@@ -16,10 +16,11 @@
 extern "C" {
 #endif
 
-/* Cubic and arc approximation tolerance in UV. SPEC §2 asks for 1e-4; we
- * use 1e-6 so the quadratics follow the drawn cubic far below a texel even
- * at 16k resolution, and so h_groove agrees with an evaluation on the exact
- * cubic to about 1e-6 for usual groove slopes. */
+/* Cubic and arc approximation tolerance in UV (docs/spec.md §2). The
+ * original SPEC asked for 1e-4; we use 1e-6 so the quadratics follow the
+ * drawn cubic far below a texel even at 16k resolution, and so h_groove
+ * agrees with an evaluation on the exact cubic to about 1e-6 for usual
+ * groove slopes. */
 #define CH_CURVES_SPLIT_TOLERANCE 1e-6
 
 typedef enum ch_curve_kind { CH_CURVE_GROOVE = 0, CH_CURVE_STEP = 1 } ch_curve_kind;
@@ -74,7 +75,7 @@ typedef struct ch_curve {
   int first_segment, num_segments;
   int first_subpath, num_subpaths;
   double bbox[4];            /* umin vmin umax vmax of the control polygon */
-  /* What decided the kind and the width (SPEC §2, docs/svg.md), for
+  /* What decided the kind and the width (docs/spec.md §2, docs/svg.md), for
    * `chisel info`: "data-attributes" (own or inherited),
    * "stroke" (a stroked path without them), "fill" (a filled closed shape
    * without stroke: a step raised by the fill height), "default" (none of
@@ -116,7 +117,7 @@ typedef struct ch_svg_desc {
   double fill_height; /* a filled shape's inside, object units; 0 -> 0.01 */
 } ch_svg_desc;
 
-/* Reads an SVG file (SPEC §2) into out. Malformed files give CH_ERR_INPUT
+/* Reads an SVG file (docs/spec.md §2) into out. Malformed files give CH_ERR_INPUT
  * with one line naming the file, the element (id or index, and line) and
  * the problem. Ignored elements produce warnings through err. out is zeroed
  * on failure. */

@@ -5,7 +5,7 @@
  * curve to its side's value, taken from the exact feature samples; texels
  * near open ends stay free so values flow round the ends, as in the paper.
  *
- * Reblur (SPEC §3, Jeschke et al. 2009): the blur radius is diffused like a
+ * Reblur (docs/spec.md §3, Jeschke et al. 2009): the blur radius is diffused like a
  * colour (the curve's radius on blurred curves, 0 on sharp ones), capped at
  * d / (3 sqrt 2), d the distance to the nearest sharp curve, and applied as
  * a separable Gaussian truncated at 3 sigma: both passes together stay in

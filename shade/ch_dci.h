@@ -1,6 +1,6 @@
 /* ch_dci: a diffusion-curve image (diffusion-curves-on-surfaces §3.2-3.3):
  * the feature samples of the step curves, the diffused values (h_step of
- * SPEC §3, and RGB when curves carry colours) and the reblur. Together with
+ * docs/spec.md §3, and RGB when curves carry colours) and the reblur. Together with
  * ch_recon it evaluates h_step crisply at any UV. */
 #ifndef CH_DCI_H
 #define CH_DCI_H

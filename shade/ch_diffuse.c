@@ -1,6 +1,6 @@
 /* ch_diffuse: Laplace's equation with fixed texels, by Galerkin multigrid.
  *
- * Implements the diffusion of SPEC §3 "Steps" (papers/diffusion-curves-on-
+ * Implements the diffusion of docs/spec.md §3 "Steps" (papers/diffusion-curves-on-
  * surfaces.txt §3.2). The paper runs Jeschke et al. 2009's variable-stencil
  * solver, a fixed number of GPU passes that is not converged; issue 3 wants
  * a relative residual of 1e-6 and exact piecewise-constant regions, so this

@@ -1,4 +1,4 @@
-/* ch_diffuse: the diffusion solver behind diffusion-curve images (SPEC §3
+/* ch_diffuse: the diffusion solver behind diffusion-curve images (docs/spec.md §3
  * "Steps"): Laplace's equation on a texel grid with fixed (Dirichlet) texels
  * and zero-flux image borders, by Galerkin multigrid. Which texels are fixed
  * and to what is decided by the caller (the curve rasterisation). */

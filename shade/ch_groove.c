@@ -1,7 +1,7 @@
-/* Exact groove heights (SPEC §3). Profiles are evaluated on the signed
+/* Exact groove heights (docs/spec.md §3). Profiles are evaluated on the signed
  * distance to the exact quadratic segments; crossings combine by the CSG
  * rule of the path-based groove paper (§4: material added before it is
- * removed), as SPEC §3 states it. */
+ * removed), as docs/spec.md §3 states it. */
 #include "ch_groove.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* ch_groove: exact queries on the feature curves (SPEC §3): closest point,
+/* ch_groove: exact queries on the feature curves (docs/spec.md §3): closest point,
  * signed distance with the side rule and rounded caps, and the groove
  * height field h_groove(u, v) with its CSG rule. */
 #ifndef CH_GROOVE_H
@@ -18,13 +18,13 @@ typedef struct ch_curve_point {
   double t;           /* its parameter there */
   double point[2];    /* the closest point, UV */
   double distance;    /* |query - point| */
-  double signed_distance; /* positive on the left (SPEC §3) */
+  double signed_distance; /* positive on the left (docs/spec.md §3) */
 } ch_curve_point;
 
 /* Which side of the curve q lies on, given its closest point (segment, t):
  * +1 left, -1 right. Inside a segment: the side of its tangent there. At a
  * joint: the sector between the two pieces that q falls in. At an open end:
- * the side of the tangent line at that end (SPEC §3's rounded cap). Points
+ * the side of the tangent line at that end (docs/spec.md §3's rounded cap). Points
  * on a tangent line count as left. */
 int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q[2]);
 
@@ -64,7 +64,7 @@ typedef struct ch_groove_sample {
   double active_signed_distance; /* to the active curve */
 } ch_groove_sample;
 
-/* h_groove(u, v) per SPEC §3: if any g_i < 0, min g_i, else max(0, max g_i).
+/* h_groove(u, v) per docs/spec.md §3: if any g_i < 0, min g_i, else max(0, max g_i).
  * detail may be NULL. */
 double ch_groove_field_eval(const ch_groove_field *field, double u, double v,
                             ch_groove_sample *detail);

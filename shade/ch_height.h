@@ -1,4 +1,4 @@
-/* ch_height: the displacement h = h_step + h_groove of SPEC §3 at any UV:
+/* ch_height: the displacement h = h_step + h_groove of docs/spec.md §3 at any UV:
  * exact grooves, and steps from a diffusion-curve image read through
  * feature reconstruction. */
 #ifndef CH_HEIGHT_H
@@ -51,7 +51,7 @@ void ch_height_step_side(const ch_height *h, double u, double v, int curve, int 
 /* h(u, v), u v in original UV. Thread-safe. */
 double ch_height_eval(const ch_height *h, double u, double v);
 
-/* SPEC §5 sampling: an R x R plane (row 0 on top), each pixel the mean of
+/* docs/spec.md §5 sampling: an R x R plane (row 0 on top), each pixel the mean of
  * an S x S grid of point samples inside it (S = 1: the centre). Parallel
  * over rows; identical to a serial run. */
 void ch_height_render(const ch_height *h, int resolution, int supersample, float *plane);

@@ -2,7 +2,7 @@
  * relief mapping on arbitrary polygonal surfaces") and parallax occlusion
  * mapping (Tatarchuk 2006: "Dynamic parallax occlusion mapping with
  * approximate soft shadows"), the per-pixel displacement methods game
- * engines use, on an R x R height texture of SPEC §3's h: the baselines
+ * engines use, on an R x R height texture of docs/spec.md §3's h: the baselines
  * the path-based groove textures (ch_gtex) are measured against.
  *
  * Set up as an engine user would: the height map is what `chisel sample
@@ -58,7 +58,7 @@ typedef struct ch_relief_desc {
 typedef struct ch_relief {
   int resolution, steps, min_steps;
   ch_relief_method method;
-  float *h;              /* R x R, row 0 at v = 1 (SPEC §5's layout) */
+  float *h;              /* R x R, row 0 at v = 1 (docs/spec.md §5's layout) */
   double hmin, hmax;
 } ch_relief;
 

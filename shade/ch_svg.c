@@ -1,4 +1,4 @@
-/* The SVG reader of SPEC §2: libxml2 builds the tree; we walk it carrying
+/* The SVG reader of docs/spec.md §2: libxml2 builds the tree; we walk it carrying
  * the current transform (user space -> UV) and the inherited data-
  * attributes, and turn every path and basic shape into quadratic segments
  * in UV. Path data follows the SVG 1.1 grammar (implicit repeated commands,
@@ -747,7 +747,7 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
 
   c->kind = CH_CURVE_GROOVE;
   ps->fill_curve = 0;
-  /* Drawings without data- attributes mean what they show (SPEC §2). */
+  /* Drawings without data- attributes mean what they show (docs/spec.md §2). */
   int stroked = paints(st->stroke), filled = paints(st->fill) && strcmp(c->element, "line") != 0;
   double stroke_w = 1.0; /* SVG's initial stroke-width */
   int has_stroke_w = st->stroke_width[0] != '\0';
@@ -871,7 +871,7 @@ static void reverse_subpath(ch_curve_set *set, const ch_subpath *sp) {
 
 /* A fill's step curve: every subpath is turned so that the filled side
  * (by the fill rule, tested just beside its longest segment) is on its
- * left, which then holds the fill height (SPEC §2: a filled shape's inside
+ * left, which then holds the fill height (docs/spec.md §2: a filled shape's inside
  * is raised). */
 static void orient_fill(svg_parser *ps) {
   ch_curve_set *set = ps->set;
@@ -1100,7 +1100,7 @@ static ch_status root_mapping(svg_parser *ps, const xmlNode *root, svg_style *st
     if (!(vb[2] > 0.0) || !(vb[3] > 0.0)) return fail_node(ps, root, "width and height must be positive");
   }
   memcpy(ps->set->viewbox, vb, sizeof vb);
-  /* u = (x - x0)/w, v = 1 - (y - y0)/h (SPEC §2). */
+  /* u = (x - x0)/w, v = 1 - (y - y0)/h (docs/spec.md §2). */
   double m[6] = {1.0 / vb[2], 0.0, 0.0, -1.0 / vb[3], -vb[0] / vb[2], 1.0 + vb[1] / vb[3]};
   memcpy(st->ctm, m, sizeof m);
   /* Widths are lengths in viewBox units; with a non-square viewBox the

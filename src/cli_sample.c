@@ -1,4 +1,4 @@
-/* chisel sample: the exact displacement h of SPEC §3 as an R x R EXR. */
+/* chisel sample: the exact displacement h of docs/spec.md §3 as an R x R EXR. */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -16,12 +16,13 @@ static const char usage[] =
     "usage: chisel sample CURVES.svg --res R -o H.exr [--supersample S] [--png P.png]\n"
     "                    [--height-png H16.png] [--fill-height H]\n"
     "\n"
-    "Writes the displacement h = h_step + h_groove of the curves (SPEC §3) as an\n"
-    "R x R float32 EXR with the channel h, and beside it Y = 0.5 + h / (2 s),\n"
-    "s = max |h| (the attribute chisel:height_scale and the result line), the\n"
-    "grey channel image viewers, ImageMagick and Blender's image texture read\n"
-    "(in Blender: Non-Color, Displace modifier with midlevel 0.5 and strength\n"
-    "2 s). Pixel (x, y), y counted down from the top row, covers u in\n"
+    "Writes the displacement h = h_step + h_groove of the curves (docs/spec.md\n"
+    "§3) as an R x R float32 EXR with the channel h, and beside it\n"
+    "Y = 0.5 + h / (2 s), s = max |h| (the attribute chisel:height_scale and\n"
+    "the result line), the grey channel image viewers, ImageMagick and\n"
+    "Blender's image texture read (in Blender: Non-Color, Displace modifier\n"
+    "with midlevel 0.5 and strength 2 s). Pixel (x, y), y counted down from\n"
+    "the top row, covers u in\n"
     "[x/R, (x+1)/R] and v in [1-(y+1)/R, 1-y/R].\n"
     "Grooves are exact; steps are diffused on an R x R grid (chisel dci) and read\n"
     "with the exact curves' sides, so walls are sharp inside pixels.\n"

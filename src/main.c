@@ -1,5 +1,5 @@
 /* chisel: vector features drawn in texture space -> crisp displaced
- * geometry. This file dispatches the subcommands (SPEC §5). */
+ * geometry. This file dispatches the subcommands (docs/spec.md §5). */
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>

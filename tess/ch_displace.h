@@ -1,4 +1,4 @@
-/* ch_displace: the displaced surface S = B + h N (SPEC §3) on a
+/* ch_displace: the displaced surface S = B + h N (docs/spec.md §3) on a
  * tessellation of the base surface, with normals for shading. */
 #ifndef CH_DISPLACE_H
 #define CH_DISPLACE_H

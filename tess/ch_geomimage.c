@@ -1,5 +1,5 @@
 /* Geometry images: the base surface sampled on a grid in UV. Every face's
- * UV map is bilinear on each of its quad patches (SPEC §1), so a texel
+ * UV map is bilinear on each of its quad patches (docs/spec.md §1), so a texel
  * centre is located by inverting a bilinear map in closed form and then
  * evaluated exactly on the surface. */
 #include "ch_geomimage.h"

@@ -1,7 +1,7 @@
 # The command line end to end: exit codes, messages, outputs.
 add_test(NAME cli COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_cli.sh $<TARGET_FILE:chisel>
   ${CMAKE_CURRENT_SOURCE_DIR} ${PROJECT_SOURCE_DIR}/models ${CMAKE_CURRENT_BINARY_DIR}/cli_tmp)
-# chisel sample against an independent Python implementation of SPEC §3.
+# chisel sample against an independent Python implementation of docs/spec.md §3.
 find_package(Python3 COMPONENTS Interpreter)
 if(Python3_FOUND)
   add_test(NAME sample_vs_reference COMMAND ${Python3_EXECUTABLE}

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The chisel command line end to end: exit statuses (SPEC §5), one-line
+# The chisel command line end to end: exit statuses (docs/spec.md §5), one-line
 # messages naming the file and the problem, no output file on failure,
 # deterministic output.
 # usage: test_cli.sh CHISEL TESTS_DIR MODELS_DIR TMP_DIR

@@ -1,5 +1,5 @@
 /* Path-based groove textures (shade/ch_gtex) against answers a person can
- * check and against two independent implementations of SPEC §3's h: the
+ * check and against two independent implementations of docs/spec.md §3's h: the
  * groove field (exact closest points, shade/ch_groove) point by point, and
  * the Embree-traced truth (src/validate) ray by ray.
  *

@@ -1,5 +1,5 @@
 /* Relief mapping and parallax occlusion mapping (shade/ch_relief) on
- * height textures of SPEC §3's h, against answers a person can check.
+ * height textures of docs/spec.md §3's h, against answers a person can check.
  *
  * - The texture is `chisel sample`'s: each texel the mean of 4 x 4 point
  *   samples of h (ch_height_render), read bilinearly; 4 bytes a texel.

@@ -1,4 +1,4 @@
-/* The SVG reader (SPEC §2): every path command, shapes, transforms,
+/* The SVG reader (docs/spec.md §2): every path command, shapes, transforms,
  * inheritance and the viewBox mapping on valid input; one clear message for
  * every malformed file in data/svg/bad. */
 #include <math.h>

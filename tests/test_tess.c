@@ -1,4 +1,4 @@
-/* Tests of tess/ch_surface: the base surface B, N and UV of SPEC §1 and
+/* Tests of tess/ch_surface: the base surface B, N and UV of docs/spec.md §1 and
  * the watertight tessellation.
  * - bilinear plane: B = (u, v, 0), N = (0, 0, 1) exactly; catmark plane too;
  * - the documented bilinear weights of triangles and n-gons;

@@ -45,7 +45,7 @@ void ch_warn(ch_error *err, const char *fmt, ...)
 #endif
     ;
 
-/* The process exit status SPEC §5 gives for a status: 0, 1 or 2. */
+/* The process exit status docs/spec.md §5 gives for a status: 0, 1 or 2. */
 int ch_status_exit_code(ch_status status);
 
 /* A short name for a status ("bad input", "out of memory", ...). */

@@ -1,6 +1,6 @@
 /* ch_image: a float image with named channels, stored planar (one W*H plane
  * per channel), row 0 at the top as EXR stores it. Texel (x, y) covers
- * u in [x/W, (x+1)/W], v in [1-(y+1)/H, 1-y/H] (SPEC §5). */
+ * u in [x/W, (x+1)/W], v in [1-(y+1)/H, 1-y/H] (docs/spec.md §5). */
 #ifndef CH_IMAGE_H
 #define CH_IMAGE_H
 

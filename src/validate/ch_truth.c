@@ -1,4 +1,4 @@
-/* The true surface of SPEC §3 over the planar base, intersected exactly
+/* The true surface of docs/spec.md §3 over the planar base, intersected exactly
  * (see ch_truth.h for the method and why). The cell walk and bisection
  * follow the path-based-grooves paper §5.1 (Algorithm 1: skip texels whose
  * maximum height the ray passes over), with conservative bounds instead of
@@ -202,7 +202,7 @@ static void bound_disk(const ch_truth *T, const int *items, int n, const double 
     int both = D <= rr;
     double plo, phi;
     if (!both && !T->symmetric[curve]) {
-      /* Beyond an open end the side flips off the curve (SPEC §3's cap). */
+      /* Beyond an open end the side flips off the curve (docs/spec.md §3's cap). */
       for (int j = first; j < k && !both; j++) {
         const ch_segment *sg = &set->segments[items[j]];
         for (int e = 0; e < 2; e++) {

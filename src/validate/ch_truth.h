@@ -1,4 +1,4 @@
-/* ch_truth: the true displaced surface of SPEC §3 over the planar base
+/* ch_truth: the true displaced surface of docs/spec.md §3 over the planar base
  * B(u, v) = (u, v, 0), N = +z, on the unit square: the height field
  * z = h(u, v) of the exact h (ch_height), plus the vertical walls where h
  * jumps (step curves, box / bevel / custom jumps of groove profiles).

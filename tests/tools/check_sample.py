@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
-"""`chisel sample` against an independent implementation of SPEC §3.
+"""`chisel sample` against an independent implementation of docs/spec.md §3.
 
-Generates random SPEC-conformant SVG files of grooves from geometry known in
-UV (lines, quadratics, cubics, circular arcs; open and closed subpaths;
+Generates random SVG files (docs/spec.md §2) of grooves from geometry known
+in UV (lines, quadratics, cubics, circular arcs; open and closed subpaths;
 absolute and relative commands; group transforms; inherited attributes),
 runs `chisel sample --supersample 1`, reads the EXR with our own Python EXR
 reader, and compares every pixel centre with h computed here: closest points
 by dense sampling refined by golden-section search on the exact curves
 (cubics and arcs are not split), the side rule, the profiles and the CSG
-rule written again from SPEC §3. Shares no code with chisel.
+rule written again from docs/spec.md §3. Shares no code with chisel.
 
 usage: check_sample.py CHISEL TMPDIR [--files N] [--res R] [--seed S]
 """
@@ -157,7 +157,7 @@ def closest_on_piece(piece, q):
     return best
 
 
-# ---- profiles and the height (SPEC §3) ----
+# ---- profiles and the height (docs/spec.md §3) ----
 
 def profile_value(name, t):
     if abs(t) >= 0.5:
@@ -337,11 +337,11 @@ def random_scene(rnd, index, path):
     body = []
     for i in range(rnd.randint(2, 6)):
         profile = rnd.choice(["v", "u", "box", "ridge", "bevel"])
-        # chisel splits cubics and arcs into quadratics within 1e-6 UV (SPEC
-        # allows 1e-4), so h can differ by slope x 1e-6 there. Box walls and
-        # the u profile's vertical ends have unbounded slope: keep them on
-        # the exact pieces (lines, quadratics); give the others widths whose
-        # slope stays below 2/3.
+        # chisel splits cubics and arcs into quadratics within 1e-6 UV (the
+        # original SPEC allowed 1e-4), so h can differ by slope x 1e-6
+        # there. Box walls and the u profile's vertical ends have unbounded
+        # slope: keep them on the exact pieces (lines, quadratics); give the
+        # others widths whose slope stays below 2/3.
         curves_ok = profile not in ("box", "u")
         subpaths = [random_subpath(rnd, curves_ok) for _ in range(rnd.choice([1, 1, 2]))]
         width_vb = rnd.uniform(6.0 if curves_ok else 3.0, 12.0) * w.W / 100.0
