@@ -1,4 +1,5 @@
-/* The accuracy figures of issue 4: see accuracy.h for the definitions. */
+/* The accuracy figures over the planar base: see accuracy.h for the
+ * definitions. */
 #include "accuracy.h"
 
 #include <math.h>

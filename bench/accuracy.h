@@ -1,5 +1,5 @@
-/* accuracy: the accuracy figures of issue 4 ("Measure: the accuracy
- * figures") for a displaced mesh over the planar base B = (u, v, 0), whose
+/* accuracy: how close a displaced mesh over the planar base B = (u, v, 0)
+ * comes to the exact surface (the README's accuracy table), whose
  * vertices (x, y, z) should satisfy z = h(x, y) with h the exact height of
  * docs/spec.md §3.
  *
@@ -104,7 +104,7 @@ void ch_accuracy_reference_free(ch_accuracy_reference *ref);
 ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mesh *mesh,
                                         ch_accuracy *out, ch_error *err);
 
-/* The figures above, on a grid x grid sample grid (issue 4: 2048). height
+/* The figures above, on a grid x grid sample grid (the README's: 2048). height
  * must evaluate h of set (steps read with CH_RECON_EXACT from a fine DCI). */
 ch_status ch_accuracy_measure(const ch_mesh *mesh, const ch_height *height, const ch_curve_set *set,
                               int grid /* 2048 */, ch_accuracy *out, ch_error *err);

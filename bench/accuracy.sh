@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Issue 4's accuracy figures: for every bundled curve set over the planar
-# base, at about 130k, 520k and 2.1M triangles, the snapped mesh (chisel
-# displace; for sets with step curves also --snap-to recon5, walls on the
-# curves reconstructed from the DCI), the naive mesh (--no-snap) and the
-# uniform grid with exact
-# vertex heights (chisel-uniform-grid) and, where Debian's blender is
-# installed, Blender's Subdivision Surface + Displace with a 2048^2 raster
-# height map (bench/blender/displace.py), measured by chisel-accuracy on a
+# The accuracy figures (bench/accuracy.h): for every bundled curve set
+# over the planar base, at about 130k, 520k and 2.1M triangles, the
+# snapped mesh (chisel displace; for sets with step curves also --snap-to
+# recon5, walls on the curves reconstructed from the DCI), the naive mesh
+# (--no-snap) and the uniform grid with exact vertex heights
+# (chisel-uniform-grid) and, where Debian's blender is installed,
+# Blender's Subdivision Surface + Displace with a 2048^2 raster height map
+# (bench/blender/displace.py), measured by chisel-accuracy on a
 # 2048^2 grid (L1, band, normal error near features, holes).
 #
 # Usage: bench/accuracy.sh [BUILD_DIR] [SIZES...]   (default: build 130000 520000 2100000)

@@ -1,4 +1,4 @@
-/* chisel-accuracy: the accuracy figures of issue 4 for displaced meshes over
+/* chisel-accuracy: the accuracy figures for displaced meshes over
  * the planar base (see accuracy.h for the definitions).
  *
  * usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid 2048]
@@ -25,7 +25,7 @@ static const char usage[] =
     "\n"
     "Rasterises each mesh's non-vertical triangles in xy on the cell centres of a\n"
     "G x G grid over the unit square (planar base: z should be h(x, y)) and prints\n"
-    "L1, band error, normal error near features (mean, p95) and holes (issue 4).\n"
+    "L1, band error, normal error near features (mean, p95) and holes.\n"
     "  --grid G      sample grid, 16..16384 (default 2048)\n"
     "  --dci-res R   resolution of the step curves' DCI for the exact h (default 4096)\n"
     "  --json        one JSON object per mesh instead of a text line\n"
@@ -36,7 +36,7 @@ static const char usage[] =
     "                the samples the normal figures use\n"
     "  --camera ex,ey,ez,ax,ay,az,fov  count only the samples this camera sees\n"
     "                (chisel displace --camera): (u, v, 0) inside its square frustum\n"
-    "                and in front of it, from above the plane (issue 5's figures)\n";
+    "                and in front of it, from above the plane (bench/warp.sh)\n";
 
 static void print_warning(void *user, const char *message) {
   (void)user;

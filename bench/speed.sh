@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 4's speed figures: `chisel displace` from files to files at about
+# The speed figures: `chisel displace` from files to files at about
 # 130k, 520k and 2.1M output triangles, split by stage (its --stats line),
 # against Blender doing what its users do at the same triangle count
 # (bench/blender/displace.py: OBJ import, subdivision, Displace modifier with

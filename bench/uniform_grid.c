@@ -1,11 +1,11 @@
-/* chisel-uniform-grid: the baseline of issue 4's accuracy figures, "the best
- * uniform grid with exact vertex heights" on the planar base: an n x n grid
- * of the unit square in 2 n^2 triangles (n such that 2 n^2 is closest to N;
+/* chisel-uniform-grid: the baseline of the accuracy figures (accuracy.h),
+ * "the best uniform grid with exact vertex heights" on the planar base: an
+ * n x n grid of the unit square in 2 n^2 triangles (n such that 2 n^2 is closest to N;
  * diagonals alternate in a checkerboard), vertex z = exact h there, written
  * as OBJ with vt = (x, y) and no normals. With --raster R the vertex heights
  * are read instead from an R x R raster of h (pixel centres, bilinear,
  * edges clamped): what a displacement modifier with a height texture gives
- * (issue 6's "raster-displaced mesh").
+ * (the study's "raster-displaced mesh", scripts/study.sh).
  *
  * usage: chisel-uniform-grid CURVES.svg -o OUT.obj --target-tris N [--dci-res 4096] [--raster R] */
 #include <errno.h>

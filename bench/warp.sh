@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Issue 5's figures: the view-dependent warp (chisel displace --camera) on
+# The warp's figures: the view-dependent warp (chisel displace --camera) on
 # every bundled curve set over the planar base, for two close views and a
 # full view, against the unwarped run at the same --res and --target-tris,
-# snapped and --no-snap: the accuracy figures of issue 4 counted only on
+# snapped and --no-snap: the accuracy figures (accuracy.h) counted only on
 # what the camera sees (chisel-accuracy --camera), the virtual resolution
 # and visible share the warp reports, and the warp's share of the run.
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The accuracy study of issue 6 on the bundled curve sets over the planar
+# The accuracy study (chisel study) on the bundled curve sets over the planar
 # base (models/plane.obj): for each set, chisel's snapped mesh, the
 # --no-snap mesh and a raster-displaced mesh (a uniform grid with its
 # heights read bilinearly from a 2048^2 height raster: what a subdivided

@@ -2,9 +2,9 @@
  *
  * Implements the diffusion of docs/spec.md §3 "Steps" (papers/diffusion-curves-on-
  * surfaces.txt §3.2). The paper runs Jeschke et al. 2009's variable-stencil
- * solver, a fixed number of GPU passes that is not converged; issue 3 wants
- * a relative residual of 1e-6 and exact piecewise-constant regions, so this
- * is a converging multigrid instead. The curve rasterisation (which texels
+ * solver, a fixed number of GPU passes that is not converged; we want a
+ * relative residual of 1e-6 and exact piecewise-constant regions
+ * (docs/spec.md §3), so this is a converging multigrid instead. The curve rasterisation (which texels
  * are fixed, to what) is the caller's.
  *
  * Discretisation: free texels carry the 5-point Laplacian, spacing 1; a

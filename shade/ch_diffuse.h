@@ -19,7 +19,7 @@ typedef struct ch_diffuse_desc { /* zero = defaults */
 } ch_diffuse_desc;
 
 typedef struct ch_diffuse_stats {
-  int iterations; /* outer iterations (V-cycles or PCG steps) */
+  int iterations; /* outer iterations (multigrid cycles) */
   int levels;     /* multigrid levels */
   double relative_residual[CH_DIFFUSE_MAX_CHANNELS];
   double seconds;

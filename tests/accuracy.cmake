@@ -1,2 +1,2 @@
-# The accuracy metric of issue 4 (bench/accuracy.c): hand-checkable cases.
+# The accuracy metric (bench/accuracy.c): hand-checkable cases.
 ch_add_test(NAME test_accuracy SOURCES test_accuracy.c LIBS chisel_accuracy)

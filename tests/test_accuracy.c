@@ -1,4 +1,4 @@
-/* The accuracy metric of issue 4 (bench/accuracy.h) checked on cases whose
+/* The accuracy metric (bench/accuracy.h) checked on cases whose
  * figures a person can work out: a flat plane over no features, a missing
  * triangle, a v groove meshed exactly, a box groove and a step on a uniform
  * grid whose lines miss the walls (counted row by row here, and the 20%

@@ -14,7 +14,7 @@
  *   and steps crossing its UV seam) none is left. Walls are vertical.
  * - No triangle folds over: every non-wall triangle keeps the orientation
  *   of its base face in UV.
- * - Accuracy (issue 4 figures) on bundled curve sets against the uniform
+ * - Accuracy (bench/accuracy.h's figures) on bundled curve sets against the uniform
  *   grid with exact vertex heights, at equal triangle counts.
  * - Same bytes with 1 and 2 threads.
  * - Thinning (the default) keeps the facets of a u groove within bounds
@@ -260,7 +260,7 @@ static void test_deterministic(void) {
   scene_free(&s);
 }
 
-/* Issue 4's figures against the uniform grid with exact heights, on a
+/* The accuracy figures against the uniform grid with exact heights, on a
  * 1024 grid at about 60k triangles (the embedding adds its triangles to a
  * coarser tessellation so the counts match within 5%). Bounds measured
  * with margin; see the README's accuracy table for the full figures. */
@@ -448,8 +448,9 @@ static void test_cap_walls(void) {
 /* The view-dependent warp: a close camera over the plane. For steps
  * (walls on the curves, also with the DCI diffused in warped UV) the warped
  * mesh leaves only its chords' slivers, finer than the unwarped one's; for glyphs at 130k triangles the visible
- * part is at least 2x more accurate in L1 at the same count (the issue's
- * target; bench/warp.sh measures every set). */
+ * part is at least 2x more accurate in L1 at the same count (the warp's
+ * purpose: the texels and triangles go where the camera looks;
+ * bench/warp.sh measures every set). */
 static void test_warped(void) {
   static const double camera[7] = {0.35, 0.1, 0.25, 0.35, 0.35, 0.0, 40.0};
   static const char *sets[] = {"steps_simple", "glyphs"};

@@ -1,5 +1,6 @@
 /* ch_metrics: a method's render against the truth's, pixel by pixel, for
- * the same camera (issue 6 "Metrics"). Both are ch_render outputs. */
+ * the same camera (docs/cli.md, chisel study: the summary's columns). Both
+ * are ch_render outputs. */
 #ifndef CH_METRICS_H
 #define CH_METRICS_H
 
