@@ -4,7 +4,7 @@
  * the point (s, t) of that face, and the surface's position and normal
  * there, evaluated exactly through ch_surface (not interpolated).
  *
- * It lives in tess/ rather than mesh/ (where DESIGN.md lists geometry
+ * It lives in tess/ rather than mesh/ (where the original design put geometry
  * images) because it evaluates the OpenSubdiv surface, and mesh/ must not
  * depend on tess/. */
 #ifndef CH_GEOMIMAGE_H

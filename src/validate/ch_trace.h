@@ -1,5 +1,5 @@
 /* ch_trace: Embree scenes for validation (the only file group that uses
- * Embree, DESIGN.md): the true surface as an Embree user geometry (one
+ * Embree, docs/architecture.md): the true surface as an Embree user geometry (one
  * primitive per tile of the truth's bounds grid, so Embree's BVH culls
  * tiles by their z bounds and ch_truth intersects inside a tile), and any
  * triangle mesh as an Embree triangle geometry.
