@@ -12,7 +12,7 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(CHISEL_LIBRARIES chisel_core chisel_mesh chisel_shade chisel_tess chisel_validate)
+set(CHISEL_LIBRARIES chisel_core chisel_mesh chisel_shade chisel_tess chisel_pipeline chisel_validate)
 foreach(lib ${CHISEL_LIBRARIES})
   string(REPLACE "chisel_" "" short ${lib})
   set_target_properties(${lib} PROPERTIES EXPORT_NAME ${short})
@@ -33,7 +33,7 @@ install(TARGETS ${CHISEL_LIBRARIES} chisel_all EXPORT chiselTargets
 
 # Public headers: every header of the library folders (private ones, if a
 # module ever needs them, end in _internal.h and stay behind).
-foreach(dir src/core mesh shade tess src/validate)
+foreach(dir src/core mesh shade tess src/pipeline src/validate)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/chisel
           FILES_MATCHING PATTERN "*.h" PATTERN "*_internal.h" EXCLUDE)
 endforeach()

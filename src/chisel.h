@@ -46,6 +46,10 @@
 #include "ch_embed.h"
 #include "ch_thin.h"
 
+/* src/pipeline: one call per job (displace), and UDIM tiles */
+#include "ch_udim.h"
+#include "ch_pipeline.h"
+
 /* src/validate: the Embree truth, traces, renders and metrics */
 #include "ch_truth.h"
 #include "ch_trace.h"

@@ -40,17 +40,6 @@ void cli_result(const char *fmt, ...)
 #endif
     ;
 
-/* An EXR's Y for a height channel h, as image viewers and Blender's image
- * texture read it: Y = 0.5 + h / (2 s) with s = max |h| (0.5 is h = 0, the
- * same map as --height-png), so carved and raised parts both show; h stays
- * exact beside it. Sets desc's luminance fields for channel `name` of plane
- * (n values) and fills scale_text with s for the chisel:height_scale
- * attribute; returns s. */
-#define CLI_Y_NOTE "Y = 0.5 + h / (2 s), s = chisel:height_scale; Blender Displace: midlevel 0.5, strength 2 s"
-struct ch_exr_write_desc;
-double cli_height_luminance(const float *plane, size_t n, const char *name, struct ch_exr_write_desc *desc,
-                            char *scale_text, size_t scale_size);
-
 /* Whether an output path names standard output ("-"). */
 int cli_is_stdout(const char *path);
 

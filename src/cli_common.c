@@ -414,15 +414,3 @@ int cli_parse_fill_height(const char *cmd, const char *text, ch_svg_desc *desc) 
   desc->fill_height = h;
   return 0;
 }
-
-double cli_height_luminance(const float *plane, size_t n, const char *name, ch_exr_write_desc *desc,
-                            char *scale_text, size_t scale_size) {
-  double s = 0.0;
-  for (size_t i = 0; i < n; i++)
-    if (isfinite(plane[i])) s = fmax(s, fabs((double)plane[i]));
-  desc->luminance = name;
-  desc->luminance_offset = 0.5;
-  desc->luminance_scale = s > 0.0 ? 0.5 / s : 0.5;
-  snprintf(scale_text, scale_size, "%.9g", s);
-  return s;
-}

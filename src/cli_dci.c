@@ -8,6 +8,7 @@
 #include "ch_dci.h"
 #include "ch_exr.h"
 #include "ch_png.h"
+#include "ch_pipeline.h"
 #include "cli.h"
 
 static const char usage[] =
@@ -123,12 +124,12 @@ static int run(int argc, char **argv) {
     char scale_text[32];
     ch_exr_write_desc wd = {0};
     if (!dci.rgb) /* colours are what a viewer shows; else h as grey */
-      cli_height_luminance(dci.h, (size_t)res * (size_t)res, "h", &wd, scale_text, sizeof scale_text);
+      ch_pipeline_height_luminance(dci.h, (size_t)res * (size_t)res, "h", &wd, scale_text, sizeof scale_text);
     const ch_exr_attribute attrs[] = {{"chisel:command", "dci"},
                                       {"chisel:rect", rect_text},
                                       {"chisel:resolution", res_text},
                                       {"chisel:height_scale", scale_text},
-                                      {"chisel:Y", CLI_Y_NOTE}};
+                                      {"chisel:Y", CH_PIPELINE_Y_NOTE}};
     wd.attributes = attrs;
     wd.num_attributes = dci.rgb ? 3 : 5;
     st = ch_exr_write(out, &img, &wd, &err);

@@ -11,6 +11,7 @@
 #include "ch_exr.h"
 #include "ch_png.h"
 #include "ch_recon.h"
+#include "ch_pipeline.h"
 #include "cli.h"
 
 static const char usage[] =
@@ -168,8 +169,8 @@ static int run(int argc, char **argv) {
       memcpy(ch_image_plane(&crop, 0), h, (size_t)W * H * sizeof *h);
       char scale_text[32];
       ch_exr_write_desc wd = {0};
-      cli_height_luminance(h, (size_t)W * H, "h", &wd, scale_text, sizeof scale_text);
-      const ch_exr_attribute attrs[] = {{"chisel:height_scale", scale_text}, {"chisel:Y", CLI_Y_NOTE}};
+      ch_pipeline_height_luminance(h, (size_t)W * H, "h", &wd, scale_text, sizeof scale_text);
+      const ch_exr_attribute attrs[] = {{"chisel:height_scale", scale_text}, {"chisel:Y", CH_PIPELINE_Y_NOTE}};
       wd.attributes = attrs;
       wd.num_attributes = 2;
       st = ch_exr_write(exr, &crop, &wd, &err);

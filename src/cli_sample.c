@@ -10,6 +10,7 @@
 #include "ch_height.h"
 #include "ch_image.h"
 #include "ch_png.h"
+#include "ch_pipeline.h"
 #include "cli.h"
 
 static const char usage[] =
@@ -104,12 +105,12 @@ static int run(int argc, char **argv) {
     snprintf(ss_text, sizeof ss_text, "%ld", ss);
     char scale_text[32];
     ch_exr_write_desc desc = {0};
-    cli_height_luminance(ch_image_plane(&img, 0), (size_t)res * (size_t)res, "h", &desc, scale_text, sizeof scale_text);
+    ch_pipeline_height_luminance(ch_image_plane(&img, 0), (size_t)res * (size_t)res, "h", &desc, scale_text, sizeof scale_text);
     const ch_exr_attribute attrs[] = {{"chisel:command", "sample"},
                                       {"chisel:resolution", res_text},
                                       {"chisel:supersample", ss_text},
                                       {"chisel:height_scale", scale_text},
-                                      {"chisel:Y", CLI_Y_NOTE}};
+                                      {"chisel:Y", CH_PIPELINE_Y_NOTE}};
     desc.attributes = attrs;
     desc.num_attributes = 5;
     cli_progress_stage("writing %s", out);

@@ -3,7 +3,8 @@
 # umbrella header src/chisel.h names every one of them.
 file(GLOB CHISEL_PUBLIC_HEADERS
   ${PROJECT_SOURCE_DIR}/src/core/*.h ${PROJECT_SOURCE_DIR}/mesh/*.h
-  ${PROJECT_SOURCE_DIR}/shade/*.h ${PROJECT_SOURCE_DIR}/tess/*.h ${PROJECT_SOURCE_DIR}/src/validate/*.h)
+  ${PROJECT_SOURCE_DIR}/shade/*.h ${PROJECT_SOURCE_DIR}/tess/*.h ${PROJECT_SOURCE_DIR}/src/pipeline/*.h
+  ${PROJECT_SOURCE_DIR}/src/validate/*.h)
 list(FILTER CHISEL_PUBLIC_HEADERS EXCLUDE REGEX "_internal\\.h$")
 set(includes "")
 file(READ ${PROJECT_SOURCE_DIR}/src/chisel.h umbrella)
@@ -23,7 +24,7 @@ add_executable(test_headers_c ${CMAKE_CURRENT_BINARY_DIR}/headers_c.c)
 add_executable(test_headers_cpp ${CMAKE_CURRENT_BINARY_DIR}/headers_cpp.cpp)
 foreach(t test_headers_c test_headers_cpp)
   target_include_directories(${t} PRIVATE ${PROJECT_SOURCE_DIR}/src/core ${PROJECT_SOURCE_DIR}/mesh
-    ${PROJECT_SOURCE_DIR}/shade ${PROJECT_SOURCE_DIR}/tess ${PROJECT_SOURCE_DIR}/src/validate
+    ${PROJECT_SOURCE_DIR}/shade ${PROJECT_SOURCE_DIR}/tess ${PROJECT_SOURCE_DIR}/src/pipeline ${PROJECT_SOURCE_DIR}/src/validate
     ${PROJECT_BINARY_DIR}/include)
   target_compile_options(${t} PRIVATE -Werror)
   add_test(NAME ${t} COMMAND ${t})

@@ -1,4 +1,4 @@
-/* UDIM for `chisel displace`: a base mesh whose UVs span tiles (u in
+/* UDIM for displace (ch_pipeline): a base mesh whose UVs span tiles (u in
  * [k, k + 1], tile 1001 + k + 10 l for v in [l, l + 1], as Mari and Blender
  * number them) takes one curve file per tile. The pipeline works on the UV
  * square, so the tiles are laid side by side in an atlas of it, each in a
@@ -14,12 +14,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli.h"
-#include "cli_udim.h"
+#include "ch_udim.h"
 
 static int tile_number(int tu, int tv) { return 1001 + tu + 10 * tv; }
 
-ch_status cli_udim_tiles(const ch_mesh *mesh, const char *name, cli_udim *u, ch_error *err) {
+ch_status ch_udim_tiles(const ch_mesh *mesh, const char *name, ch_udim *u, ch_error *err) {
   memset(u, 0, sizeof *u);
   if (!mesh->corner_uv) return CH_OK;
   for (int f = 0; f < mesh->num_faces; f++) {
@@ -44,8 +43,8 @@ ch_status cli_udim_tiles(const ch_mesh *mesh, const char *name, cli_udim *u, ch_
     int t = tile_number(tu, tv), k = 0;
     while (k < u->num_tiles && u->tiles[k] != t) k++;
     if (k == u->num_tiles) {
-      if (u->num_tiles == CLI_UDIM_MAX_TILES)
-        return ch_error_set(err, CH_ERR_INPUT, "%s: UVs span more than %d UDIM tiles", name, CLI_UDIM_MAX_TILES);
+      if (u->num_tiles == CH_UDIM_MAX_TILES)
+        return ch_error_set(err, CH_ERR_INPUT, "%s: UVs span more than %d UDIM tiles", name, CH_UDIM_MAX_TILES);
       u->tiles[u->num_tiles++] = t;
     }
   }
@@ -58,7 +57,7 @@ ch_status cli_udim_tiles(const ch_mesh *mesh, const char *name, cli_udim *u, ch_
   return CH_OK;
 }
 
-int cli_udim_curve_path(const char *arg, int tile, char *out, size_t size, int variant) {
+int ch_udim_curve_path(const char *arg, int tile, char *out, size_t size, int variant) {
   const char *token = strstr(arg, "<UDIM>");
   if (token)
     return variant == 0 && snprintf(out, size, "%.*s%d%s", (int)(token - arg), arg, tile, token + 6) < (int)size;
@@ -74,7 +73,7 @@ int cli_udim_curve_path(const char *arg, int tile, char *out, size_t size, int v
   return snprintf(out, size, "%.*s%c%d.svg", (int)stem, arg, variant == 0 ? '.' : '_', tile) < (int)size;
 }
 
-void cli_udim_layout(cli_udim *u, double reach) {
+void ch_udim_layout(ch_udim *u, double reach) {
   int g = 1;
   while (g * g < u->num_tiles) g++;
   u->grid = g;
@@ -90,7 +89,7 @@ void cli_udim_layout(cli_udim *u, double reach) {
   }
 }
 
-static int tile_index(const cli_udim *u, int tile) {
+static int tile_index(const ch_udim *u, int tile) {
   for (int k = 0; k < u->num_tiles; k++)
     if (u->tiles[k] == tile) return k;
   return -1;
@@ -107,7 +106,7 @@ static int cmp_ref(const void *a, const void *b) {
   return (x->corner > y->corner) - (x->corner < y->corner);
 }
 
-ch_status cli_udim_to_atlas(ch_mesh *mesh, const cli_udim *u, ch_error *err) {
+ch_status ch_udim_to_atlas(ch_mesh *mesh, const ch_udim *u, ch_error *err) {
   size_t nc = (size_t)mesh->num_corners;
   corner_ref *refs = malloc((nc ? nc : 1) * sizeof *refs);
   double *uvs = malloc((nc ? nc : 1) * 2 * sizeof *uvs);
@@ -147,7 +146,7 @@ ch_status cli_udim_to_atlas(ch_mesh *mesh, const cli_udim *u, ch_error *err) {
   return CH_OK;
 }
 
-void cli_udim_from_atlas(ch_mesh *mesh, const cli_udim *u) {
+void ch_udim_from_atlas(ch_mesh *mesh, const ch_udim *u) {
   double cell = 1.0 / u->grid;
   for (int i = 0; i < mesh->num_uvs; i++) {
     double *p = &mesh->uvs[2 * (size_t)i];
@@ -163,7 +162,7 @@ void cli_udim_from_atlas(ch_mesh *mesh, const cli_udim *u) {
   }
 }
 
-ch_status cli_udim_merge(const ch_curve_set *sets, const cli_udim *u, ch_curve_set *out, ch_error *err) {
+ch_status ch_udim_merge(const ch_curve_set *sets, const ch_udim *u, ch_curve_set *out, ch_error *err) {
   memset(out, 0, sizeof *out);
   int nc = 0, ns = 0, np = 0;
   for (int k = 0; k < u->num_tiles; k++) {
@@ -210,7 +209,7 @@ ch_status cli_udim_merge(const ch_curve_set *sets, const cli_udim *u, ch_curve_s
   return CH_OK;
 }
 
-double cli_udim_reach(const ch_curve_set *set) {
+double ch_udim_reach(const ch_curve_set *set) {
   double r = 0.0;
   for (int i = 0; i < set->num_curves; i++) {
     const ch_curve *c = &set->curves[i];
@@ -219,7 +218,7 @@ double cli_udim_reach(const ch_curve_set *set) {
   return r;
 }
 
-int cli_udim_open_steps(const ch_curve_set *set) {
+int ch_udim_open_steps(const ch_curve_set *set) {
   for (int i = 0; i < set->num_curves; i++) {
     const ch_curve *c = &set->curves[i];
     if (c->kind != CH_CURVE_STEP) continue;
@@ -228,4 +227,47 @@ int cli_udim_open_steps(const ch_curve_set *set) {
       if (!set->subpaths[c->first_subpath + k].closed) return 1;
   }
   return 0;
+}
+
+ch_status ch_udim_read_curves(const char *base, const char *arg, const ch_svg_desc *desc, ch_udim *u,
+                                 ch_mesh *mesh, ch_curve_set *set, ch_error *err) {
+  ch_curve_set *sets = calloc((size_t)u->num_tiles, sizeof *sets);
+  if (!sets) return ch_error_set(err, CH_ERR_NOMEM, "out of memory");
+  ch_status st = CH_OK;
+  double reach = 0.0;
+  int open_steps = 0;
+  for (int k = 0; k < u->num_tiles && !st; k++) {
+    char path[4096], tried[2][4096];
+    int found = 0, n = 0;
+    for (int v = 0; v < 2 && !found; v++) {
+      if (!ch_udim_curve_path(arg, u->tiles[k], path, sizeof path, v)) continue;
+      snprintf(tried[n++], sizeof tried[0], "%s", path);
+      FILE *fp = fopen(path, "rb");
+      if (fp) fclose(fp), found = 1;
+    }
+    if (!found) {
+      char tiles[512] = "";
+      for (int j = 0; j < u->num_tiles && strlen(tiles) < 480; j++)
+        snprintf(tiles + strlen(tiles), sizeof tiles - strlen(tiles), "%s%d", j ? ", " : "", u->tiles[j]);
+      st = ch_error_set(err, CH_ERR_INPUT,
+                        "%s: UVs span UDIM tiles %s: no curve file for tile %d (looked for %s%s%s; one file per "
+                        "tile, NAME.%d.svg or NAME_%d.svg, see docs/udim.md)",
+                        base, tiles, u->tiles[k], n ? tried[0] : arg, n > 1 ? " and " : "", n > 1 ? tried[1] : "",
+                        u->tiles[k], u->tiles[k]);
+      break;
+    }
+    st = ch_curves_read_svg_ex(path, desc, &sets[k], err);
+    if (!st) reach = fmax(reach, ch_udim_reach(&sets[k])), open_steps |= ch_udim_open_steps(&sets[k]);
+  }
+  if (!st) {
+    ch_udim_layout(u, reach);
+    st = ch_udim_to_atlas(mesh, u, err);
+  }
+  if (!st) st = ch_udim_merge(sets, u, set, err);
+  if (!st && open_steps)
+    ch_warn(err, "%s: open step curves, or steps with a value outside them, are diffused over all the UDIM tiles "
+            "as one image, so they may reach into a neighbouring tile (closed fills do not)", arg);
+  for (int k = 0; k < u->num_tiles; k++) ch_curves_free(&sets[k]);
+  free(sets);
+  return st;
 }
