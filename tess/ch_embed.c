@@ -1,6 +1,7 @@
 /* Feature embedding by cutting the tessellation along piece boundaries of h
  * (see ch_embed.h for the method and why). */
 #include "ch_embed.h"
+#include "ch_embed_internal.h"
 
 #include <math.h>
 #include <omp.h>
@@ -10,6 +11,7 @@
 
 #include "ch_alloc.h"
 #include "ch_bezier.h"
+#include "ch_count.h"
 #include "ch_geomimage.h"
 #include "ch_grid.h"
 #include "ch_math.h"
@@ -2367,18 +2369,19 @@ static ch_status embed_finish(const ch_surface *surface, const ch_curve_set *set
   return CH_OK;
 }
 
-/* ch_embed_build; a count-only run hands its cut to *kept if asked. */
 /* Reports a stage of embedding run `run` (1, 2, ... of ch_embed_to_target)
  * at refinement round `round`. */
-static void report(const ch_embed_desc *desc, int run, int round, const char *what, double fraction) {
+static void report(const ch_embed_desc *desc, const ch_embed_pilot *pilot, int round, const char *what,
+                   double fraction) {
   if (!desc || !desc->progress) return;
-  ch_progress_reportf(desc->progress, fraction, "embedding: run %d%s, round %d, %s", run,
-                      desc->count_only ? " (pilot)" : "", round, what);
+  ch_progress_reportf(desc->progress, fraction, "embedding: run %d%s, round %d, %s", pilot->run,
+                      pilot->count_only ? " (pilot)" : "", round, what);
 }
 
+/* ch_embed_run; a count-only run hands its cut to *kept if asked. */
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
-                           const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats_out, embed_kept *kept,
-                           int run, ch_error *err) {
+                           const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
+                           ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {
   memset(out, 0, sizeof *out);
   ch_embed_stats stats = {0};
   const ch_mesh *tm = &tess->mesh;
@@ -2446,7 +2449,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * be, about 7 degrees at 130k triangles over the UV square, 3.5 at 520k
    * (measured on the bundled curve sets: finer steps starve the rest of
    * the mesh at a fixed count, coarser ones leave the normals faceted). */
-  double reference_edge = desc && desc->reference_edge > 0.0 ? desc->reference_edge : mean_edge;
+  double reference_edge = pilot->reference_edge > 0.0 ? pilot->reference_edge : mean_edge;
   double angle_deg = desc && desc->normal_tolerance_deg > 0.0 ? desc->normal_tolerance_deg
                                                               : ch_embed_angle_deg(reference_edge);
   double angle = angle_deg * CH_PI / 180.0;
@@ -2487,7 +2490,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   int labelled = 0;
   for (int round = 0;; round++) {
     double ta = omp_get_wtime();
-    report(desc, run, round, "labels", -1.0);
+    report(desc, pilot, round, "labels", -1.0);
     label_vertices(&lb, &w, labelled);
     labelled = w.nverts;
     double tb = omp_get_wtime();
@@ -2498,7 +2501,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     int oom = 0;
     /* (in blocks, so a long search reports how far it is) */
     for (int i0 = 0, block = w.nedges / 32 > 4096 ? w.nedges / 32 : 4096; i0 < w.nedges && !oom; i0 += block) {
-      report(desc, run, round, "crossings", (double)i0 / w.nedges);
+      report(desc, pilot, round, "crossings", (double)i0 / w.nedges);
       int i1 = i0 + block < w.nedges ? i0 + block : w.nedges;
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
       for (int i = i0; i < i1; i++) {
@@ -2512,7 +2515,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     if (round >= max_rounds) break;
     unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
     if (!refine) goto nomem;
-    report(desc, run, round, "refinement", -1.0);
+    report(desc, pilot, round, "refinement", -1.0);
     /* Only triangles made by the last split can have changed: the others
      * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
@@ -2608,7 +2611,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.wall_points += (int)walls;
     free(first);
   }
-  report(desc, run, stats.refine_rounds, "cut", -1.0);
+  report(desc, pilot, stats.refine_rounds, "cut", -1.0);
   /* The cut, in parallel over fixed chunks of triangles: each part numbers
    * its new vertices (junctions) after the shared ones; the parts are then
    * joined in chunk order, so the bytes do not depend on the threads. */
@@ -2670,7 +2673,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * 260k triangles over the UV square) the cut is left as it is. */
   if (!(desc && desc->no_thinning) && reference_edge >= 1.0 / 360.0) {
     double tt = omp_get_wtime();
-    report(desc, run, stats.refine_rounds, "thinning", -1.0);
+    report(desc, pilot, stats.refine_rounds, "thinning", -1.0);
     int thinned = thin_output(&lb, tess, longest_edge, &o);
     if (thinned < 0) goto nomem;
     stats.thinned = thinned;
@@ -2679,7 +2682,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   stats.angle_deg = angle_deg;
   stats.seconds_refine = t1 - t0;
   stats.seconds_cut = omp_get_wtime() - t1;
-  if (desc && desc->count_only) {
+  if (pilot->count_only) {
     stats.triangles = o.ntri;
     if (stats_out) *stats_out = stats;
     if (kept) { /* the caller may finish it */
@@ -2707,36 +2710,95 @@ done:
 
 ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                          const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err) {
-  return embed_run(surface, tess, height, desc, out, stats, NULL, 1, err);
+  ch_embed_pilot one = {.run = 1};
+  return embed_run(surface, tess, height, desc, &one, out, stats, NULL, err);
 }
 
-/* The base count b with b + c0 + c1 sqrt(b) = target (bisection; 1 if
- * none is above 1). */
-static double model_base(double target, double c0, double c1) {
-  double lo = 1.0, hi = target;
-  for (int it = 0; it < 80; it++) {
-    double mid = 0.5 * (lo + hi);
-    if (mid + c0 + c1 * sqrt(mid) < target)
-      lo = mid;
-    else
-      hi = mid;
-  }
-  return lo;
+ch_status ch_embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
+                       const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out, ch_embed_stats *stats,
+                       ch_error *err) {
+  ch_embed_pilot one = {.run = 1};
+  return embed_run(surface, tess, height, desc, pilot ? pilot : &one, out, stats, NULL, err);
 }
 
-/* The base count b with b + f2 (b / b2)^p = target, p the power through
- * (b1, f1) and (b2, f2) within [0, 1]: what the features add at two runs. */
-static double power_base(double target, double b1, double f1, double b2, double f2) {
-  double pw = fmin(1.0, fmax(0.0, log(f2 / f1) / log(b2 / b1)));
-  double lo = 1.0, hi = target;
-  for (int it = 0; it < 80; it++) {
-    double mid = 0.5 * (lo + hi);
-    if (mid + f2 * pow(mid / b2, pw) < target)
-      lo = mid;
-    else
-      hi = mid;
+/* ch_embed_to_target's side of the count model (ch_count.h): the runs it
+ * asks for, and the current and the closest full run. */
+typedef struct target_runs {
+  const ch_surface *surface;
+  const ch_height *height;
+  const ch_embed_desc *desc; /* the caller's (never NULL) */
+  double default_angle;      /* the caller's normal_tolerance_deg (0: auto) */
+  ch_embed_desc d;
+  ch_embed_pilot pilot;
+  long target;
+  ch_tess_result cur_tess, best_tess;
+  ch_mesh cur, best;
+  ch_embed_stats cur_stats, best_stats;
+  embed_kept kept; /* the last pilot's cut */
+  ch_error *err;
+} target_runs;
+
+static void target_drop_current(target_runs *r) {
+  ch_tess_free(&r->cur_tess);
+  ch_mesh_free(&r->cur);
+  out_free(&r->kept.o);
+  memset(&r->cur_tess, 0, sizeof r->cur_tess);
+  memset(&r->cur, 0, sizeof r->cur);
+  memset(&r->kept, 0, sizeof r->kept);
+}
+
+static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_reply *rp) {
+  target_runs *r = ctx;
+  ch_status st;
+  if (rq->kind == CH_COUNT_KEEP) {
+    ch_tess_free(&r->best_tess);
+    ch_mesh_free(&r->best);
+    r->best_tess = r->cur_tess;
+    r->best = r->cur;
+    r->best_stats = r->cur_stats;
+    memset(&r->cur_tess, 0, sizeof r->cur_tess);
+    memset(&r->cur, 0, sizeof r->cur);
+    return CH_OK;
   }
-  return lo;
+  if (rq->kind == CH_COUNT_FINISH) {
+    r->cur_stats = r->kept.stats;
+    st = embed_finish(r->surface, r->height->set, &r->kept.o, &r->cur_stats, &r->cur, r->err);
+    out_free(&r->kept.o);
+    memset(&r->kept, 0, sizeof r->kept);
+    if (!st) rp->count = (double)r->cur_stats.triangles;
+    return st;
+  }
+  target_drop_current(r);
+  ch_tess_desc td = {.target_triangles = rq->base, .warp = r->d.warp};
+  if ((st = ch_tess_build(r->surface, &td, &r->cur_tess, r->err))) return st;
+  if (!(r->pilot.reference_edge > 0.0)) {
+    /* The mean UV edge at the target's density, from this run's area. */
+    const ch_mesh *m = &r->cur_tess.mesh;
+    double area = 0.0;
+    for (int f = 0; f < m->num_faces; f++) {
+      const double *a = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f]];
+      const double *b = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f + 1]];
+      const double *c = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f + 2]];
+      area += 0.5 * fabs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]));
+    }
+    r->pilot.reference_edge = sqrt(2.0 * area / (double)r->target);
+  }
+  /* The angle step, coarsened by 1.5 a step at a time (the same rounding
+   * whether the steps come one by one or at once). */
+  r->d.normal_tolerance_deg = r->default_angle;
+  if (rq->coarsenings > 0) {
+    double step = ch_embed_angle_deg(r->pilot.reference_edge);
+    for (int k = 0; k < rq->coarsenings; k++) step *= 1.5;
+    r->d.normal_tolerance_deg = step;
+  }
+  r->pilot.count_only = rq->kind == CH_COUNT_PILOT;
+  r->pilot.run = rq->run;
+  if ((st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats,
+                      r->pilot.count_only ? &r->kept : NULL, r->err)))
+    return st;
+  rp->base = r->cur_tess.mesh.num_faces;
+  rp->count = (double)r->cur_stats.triangles;
+  return CH_OK;
 }
 
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
@@ -2744,37 +2806,18 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
                              ch_error *err) {
   memset(tess, 0, sizeof *tess);
   memset(out, 0, sizeof *out);
-  ch_tess_result best_tess = {0}, cur_tess = {0};
-  ch_mesh best = {0}, cur = {0};
-  ch_embed_stats best_stats = {0}, cur_stats = {0};
-  double best_miss = INFINITY;
-  double xs[8], ys[8]; /* base triangles, output triangles of each run */
-  int runs = 0;
-  ch_status st = CH_OK;
+  ch_embed_desc none = {0};
+  target_runs r = {.surface = surface, .height = height, .desc = desc ? desc : &none, .target = target, .err = err};
+  r.d = *r.desc;
+  r.default_angle = r.d.normal_tolerance_deg;
+  ch_status st;
   /* The fewest triangles the base mesh gives (every edge at rate 1). */
   ch_tess_desc one = {.uniform_rate = 1};
-  if ((st = ch_tess_build(surface, &one, &cur_tess, err))) return st;
-  long fewest = cur_tess.mesh.num_faces;
-  ch_tess_free(&cur_tess);
-  memset(&cur_tess, 0, sizeof cur_tess);
-  if (target < fewest) target = fewest;
-  /* Cheap pilots first: at 1/64 and 1/16 of the target (fewer for small
-   * targets). Where the base mesh allows only the second, another at twice
-   * it, below a quarter of the target: one pilot gives no model of what
-   * does not grow with the base, and taken as growing all (c0 = 0) it
-   * coarsened the u lines twice over the vase at 130k (ornament: 6 runs). */
-  long pilot[2];
-  int pilots = 0;
-  for (int k = 0; k < 2; k++) {
-    long b = target / (k == 0 ? 64 : 16);
-    if (b >= 2000 && b >= fewest) pilot[pilots++] = b;
-  }
-  if (pilots == 1 && pilot[0] == target / 16 && 2 * pilot[0] <= target / 4) pilot[pilots++] = 2 * pilot[0];
-  long first_base = pilots > 0 ? pilot[0] : target, base = first_base;
-  double model_c1 = 0.0; /* the pilots' sqrt term, kept for the first correction */
-  double rescale_f0 = 0.0, rescale_f1 = 0.0; /* what the features added to the pilots before a coarsening */
-  ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
-  int auto_angle = !(d.normal_tolerance_deg > 0.0), coarsenings = 0;
+  if ((st = ch_tess_build(surface, &one, &r.cur_tess, err))) return st;
+  long fewest = r.cur_tess.mesh.num_faces;
+  ch_tess_free(&r.cur_tess);
+  memset(&r.cur_tess, 0, sizeof r.cur_tess);
+  if (target < fewest) r.target = target = fewest;
   /* The angle step shapes only grooves (their u lines, the caps of open
    * ends, the thinning's normals): with step curves alone a coarser one
    * changes nothing, and each coarsening would rerun the pilots (1000
@@ -2785,171 +2828,19 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     has_grooves |= cv->kind == CH_CURVE_GROOVE;
     has_u |= cv->kind == CH_CURVE_GROOVE && cv->profile.kind == CH_PROFILE_U;
   }
-  if (!has_grooves) auto_angle = 0;
-  for (int pass = 0; pass < 8; pass++) {
-    ch_tess_desc td = {.target_triangles = base, .warp = d.warp};
-    if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
-    if (pass == 0 && !(d.reference_edge > 0.0)) {
-      /* The mean UV edge at the target's density, from this run's area. */
-      const ch_mesh *m = &cur_tess.mesh;
-      double area = 0.0;
-      for (int f = 0; f < m->num_faces; f++) {
-        const double *a = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f]];
-        const double *b = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f + 1]];
-        const double *c = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)f + 2]];
-        area += 0.5 * fabs((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]));
-      }
-      d.reference_edge = sqrt(2.0 * area / (double)target);
-    }
-    /* Pilots only count; one that lands is finished from its cut. */
-    d.count_only = pass < pilots;
-    embed_kept kept = {0};
-    st = embed_run(surface, &cur_tess, height, &d, &cur, &cur_stats, d.count_only ? &kept : NULL, runs + 1, err);
-    if (st) break;
-    runs++;
-    double nb = cur_tess.mesh.num_faces, no = (double)cur_stats.triangles, miss = fabs(no - (double)target);
-    xs[pass] = nb;
-    ys[pass] = no;
-    if (d.count_only && miss <= 0.04 * (double)target) {
-      d.count_only = 0;
-      cur_stats = kept.stats;
-      st = embed_finish(surface, height->set, &kept.o, &cur_stats, &cur, err);
-      out_free(&kept.o);
-      if (st) break;
-      no = ys[pass] = (double)cur_stats.triangles; /* the cleanup's count */
-      miss = fabs(no - (double)target);
-    }
-    out_free(&kept.o);
-    if (d.count_only && pass == 0 && no > 1.25 * (double)target && !has_u) {
-      /* The first pilot alone is well over the target. Without u lines the
-       * angle step shapes only the caps of open ends: the coarsest step at
-       * once (one rerun of the first pilot, not four: bricks at 60k needs
-       * it), and if the features still need more than the target, the
-       * fewest triangles the base gives (by the model), without the second
-       * pilot (500 grooves through a point: 7 runs to reach the same base). */
-      if (auto_angle && coarsenings < 4) {
-        double step = coarsenings == 0 ? ch_embed_angle_deg(d.reference_edge) : d.normal_tolerance_deg;
-        for (; coarsenings < 4; coarsenings++) step *= 1.5;
-        d.normal_tolerance_deg = step;
-        ch_tess_free(&cur_tess);
-        ch_mesh_free(&cur);
-        memset(&cur_tess, 0, sizeof cur_tess);
-        memset(&cur, 0, sizeof cur);
-        pass = -1;
-        base = first_base;
-        continue;
-      }
-      pilots = 1;
-      auto_angle = 0;
-    }
-    if (d.count_only && pass == 0 && rescale_f0 > 0.0) {
-      /* After a coarsening only the first pilot runs again: what the
-       * features add to the second is taken to change as they did at the
-       * first (glyphs over the tablet at 130k: 0.4% off its rerun). */
-      ys[1] = xs[1] + rescale_f1 * (no - nb) / rescale_f0;
-      rescale_f0 = 0.0;
-      pass = 1;
-    }
-    if (!d.count_only && miss < best_miss) { /* keep the closest full run */
-      ch_tess_free(&best_tess);
-      ch_mesh_free(&best);
-      best_tess = cur_tess;
-      best = cur;
-      best_stats = cur_stats;
-      best_miss = miss;
-    } else {
-      ch_tess_free(&cur_tess);
-      ch_mesh_free(&cur);
-    }
-    memset(&cur_tess, 0, sizeof cur_tess);
-    memset(&cur, 0, sizeof cur);
-    /* A full run's count is exact: SPEC's 5% is enough (a pilot's is
-     * before the cleanup, hence 4% above). */
-    if (best_miss <= 0.05 * (double)target) break;
-    /* Next base count: after the pilots, the model out = base + c0 + c1
-     * sqrt(base) through them (what the cut adds grows like the length of
-     * the feature lines over the edge length, plus what does not grow: the
-     * refinement at junctions and ends, the rims' last slices; on the
-     * bundled sets it predicts a 16x larger run within about 1%), then the
-     * secant through the last two runs. One pilot: c0 = 0. */
-    double next;
-    if (pass + 1 < pilots) {
-      next = (double)pilot[pass + 1];
-    } else if (pass + 1 == pilots) {
-      double c0 = 0.0, c1 = no > nb ? (no - nb) / sqrt(nb) : 0.0;
-      if (pilots >= 2) {
-        int i0 = pass - 1, i1 = pass; /* the two pilots */
-        double s0 = sqrt(xs[i0]), s1 = sqrt(xs[i1]);
-        c1 = fmax(0.0, ((ys[i1] - xs[i1]) - (ys[i0] - xs[i0])) / (s1 - s0));
-        c0 = (ys[i1] - xs[i1]) - c1 * s1;
-      }
-      model_c1 = c1;
-      next = model_base((double)target, c0, c1);
-      if (next < (double)target / 8.0 && auto_angle && coarsenings < 4) {
-        /* The u lines would take more than 7/8 of the triangles and starve
-         * everything else (crossings, CSG seams, the flat parts): coarser
-         * angle steps, and the pilots again (the first only, below). */
-        d.normal_tolerance_deg = (coarsenings == 0 ? ch_embed_angle_deg(d.reference_edge) : d.normal_tolerance_deg) * 1.5;
-        coarsenings++;
-        if (pilots >= 2 && ys[0] > xs[0] && ys[1] > xs[1]) {
-          rescale_f0 = ys[0] - xs[0];
-          rescale_f1 = ys[1] - xs[1];
-        }
-        pass = -1;
-        base = first_base;
-        ch_tess_free(&best_tess);
-        ch_mesh_free(&best);
-        memset(&best_tess, 0, sizeof best_tess);
-        memset(&best, 0, sizeof best);
-        best_miss = INFINITY;
-        continue;
-      }
-    } else if (pass == 0) {
-      next = xs[0] * (double)target / no; /* no pilot (a small target) */
-    } else if (pilots >= 2 && pass > pilots && (ys[pass] - ys[pass - 1]) * (xs[pass] - xs[pass - 1]) <= 0.0 &&
-               no > nb && ys[1] > xs[1] && nb != xs[1]) {
-      /* Two full runs whose counts fall as the base grows (thinning
-       * makes the count bumpy: bricks at 130k): no secant, the power
-       * model through the last run and the second pilot again. */
-      next = power_base((double)target, xs[1], ys[1] - xs[1], nb, no - nb);
-    } else if (pass == pilots && pilots > 0) {
-      /* The first full run missed: what the features add taken as a power
-       * of the base through it and the second pilot (thinning makes it
-       * grow faster than the pilots' sqrt model says: bricks at 130k, 6 ->
-       * 5 runs); without two pilots, the model through it, its slope kept
-       * (a secant to a pilot far below runs too flat or too steep). */
-      if (pilots >= 2 && no > nb && ys[pass - 1] > xs[pass - 1] && nb != xs[pass - 1]) {
-        next = power_base((double)target, xs[pass - 1], ys[pass - 1] - xs[pass - 1], nb, no - nb);
-      } else {
-        next = model_base((double)target, (no - nb) - model_c1 * sqrt(nb), model_c1);
-      }
-    } else {
-      double dx = xs[pass] - xs[pass - 1], dy = ys[pass] - ys[pass - 1];
-      next = dy != 0.0 ? xs[pass] + ((double)target - ys[pass]) * dx / dy : xs[pass] * (double)target / no;
-      if (!(next > 0.0)) next = xs[pass] * 0.5;
-    }
-    long nl = (long)llround(fmin(next, 4.0 * (double)target));
-    if (nl < fewest) nl = fewest;
-    if (nl == base) break;
-    base = nl;
-  }
-  ch_tess_free(&cur_tess);
-  ch_mesh_free(&cur);
-  if (!st && best_miss == INFINITY) { /* only pilots ran (the next base was a pilot's): that one in full */
-    ch_tess_desc td = {.target_triangles = base, .warp = d.warp};
-    d.count_only = 0;
-    if (!(st = ch_tess_build(surface, &td, &best_tess, err)))
-      st = ch_embed_build(surface, &best_tess, height, &d, &best, &best_stats, err);
-    runs++;
-  }
-  if (passes) *passes = runs;
+  ch_count_desc cd = {
+      .target = target, .fewest = fewest, .can_coarsen = !(r.d.normal_tolerance_deg > 0.0) && has_grooves, .has_u = has_u};
+  ch_count_result res;
+  st = ch_count_search(&cd, target_run, &r, &res);
+  target_drop_current(&r);
+  if (passes) *passes = res.runs;
   if (st) {
-    ch_tess_free(&best_tess);
-    ch_mesh_free(&best);
+    ch_tess_free(&r.best_tess);
+    ch_mesh_free(&r.best);
     return st;
   }
-  *tess = best_tess;
-  *out = best;
-  if (stats) *stats = best_stats;
+  *tess = r.best_tess;
+  *out = r.best;
+  if (stats) *stats = r.best_stats;
   return CH_OK;
 }
