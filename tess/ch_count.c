@@ -51,7 +51,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
   }
   if (pilots == 1 && pilot[0] == target / 16 && 2 * pilot[0] <= target / 4) pilot[pilots++] = 2 * pilot[0];
   long first_base = pilots > 0 ? pilot[0] : target, base = first_base;
-  double model_c1 = 0.0; /* the pilots' sqrt term, kept for the first correction */
+  double model_c1 = 0.0;                     /* the pilots' sqrt term, kept for the first correction */
   double rescale_f0 = 0.0, rescale_f1 = 0.0; /* what the features added to the pilots before a coarsening */
   int auto_angle = desc->can_coarsen, coarsenings = 0, has_u = desc->has_u;
   for (int pass = 0; pass < 8; pass++) {

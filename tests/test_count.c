@@ -33,17 +33,21 @@ typedef struct fake {
   double kept;        /* the count of the run kept */
   int kept_coarsenings;
   int calls, bad;
-  double min_full;    /* the fewest output triangles of any full run */
+  double min_full; /* the fewest output triangles of any full run */
 } fake;
 
 static double fake_base(long b) { return (double)b * (1.0 + 0.004 * sin((double)b)); }
 
 static double fake_count(const fake *f, double b, int coarsenings) {
   switch (f->kind) {
-  case SQRT_MODEL: return b + f->c0 + f->c1 * sqrt(b);
-  case BUMPY: return b + f->c1 * pow(b, 0.8) * (1.0 + 0.06 * sin(b / 700.0));
-  case OVER: return b + 200000.0;
-  case U_LINES: return b + f->c1 / pow(1.5, coarsenings) * sqrt(b);
+    case SQRT_MODEL:
+      return b + f->c0 + f->c1 * sqrt(b);
+    case BUMPY:
+      return b + f->c1 * pow(b, 0.8) * (1.0 + 0.06 * sin(b / 700.0));
+    case OVER:
+      return b + 200000.0;
+    case U_LINES:
+      return b + f->c1 / pow(1.5, coarsenings) * sqrt(b);
   }
   return 0.0;
 }
@@ -52,24 +56,24 @@ static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply 
   fake *f = ctx;
   f->calls++;
   switch (rq->kind) {
-  case CH_COUNT_PILOT:
-  case CH_COUNT_FULL:
-    if (rq->base < f->fewest || rq->coarsenings < 0 || rq->coarsenings > 4) f->bad++;
-    rp->base = fake_base(rq->base);
-    f->last_full = fake_count(f, rp->base, rq->coarsenings);
-    rp->count = rq->kind == CH_COUNT_PILOT ? floor(f->last_full * 1.003) : f->last_full;
-    if (rq->kind == CH_COUNT_FULL) f->min_full = fmin(f->min_full, rp->count);
-    break;
-  case CH_COUNT_FINISH:
-    if (f->last != CH_COUNT_PILOT) f->bad++;
-    rp->count = f->last_full;
-    f->min_full = fmin(f->min_full, rp->count);
-    break;
-  case CH_COUNT_KEEP:
-    if (f->last != CH_COUNT_FULL && f->last != CH_COUNT_FINISH) f->bad++;
-    f->kept = f->last_full;
-    f->kept_coarsenings = rq->coarsenings;
-    break;
+    case CH_COUNT_PILOT:
+    case CH_COUNT_FULL:
+      if (rq->base < f->fewest || rq->coarsenings < 0 || rq->coarsenings > 4) f->bad++;
+      rp->base = fake_base(rq->base);
+      f->last_full = fake_count(f, rp->base, rq->coarsenings);
+      rp->count = rq->kind == CH_COUNT_PILOT ? floor(f->last_full * 1.003) : f->last_full;
+      if (rq->kind == CH_COUNT_FULL) f->min_full = fmin(f->min_full, rp->count);
+      break;
+    case CH_COUNT_FINISH:
+      if (f->last != CH_COUNT_PILOT) f->bad++;
+      rp->count = f->last_full;
+      f->min_full = fmin(f->min_full, rp->count);
+      break;
+    case CH_COUNT_KEEP:
+      if (f->last != CH_COUNT_FULL && f->last != CH_COUNT_FINISH) f->bad++;
+      f->kept = f->last_full;
+      f->kept_coarsenings = rq->coarsenings;
+      break;
   }
   f->last = rq->kind;
   return CH_OK;
