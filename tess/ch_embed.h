@@ -121,10 +121,10 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
  * Where the model says the u lines would take more than 7/8 of the
  * target, their angle step is coarsened (by 1.5, up to 4 times) and the
  * pilots rerun. A pilot that lands is finished from its cut (not run
- * again). The run closest to the target is kept: tess receives its
- * tessellation (free it with ch_tess_free), out its embedded mesh; passes
- * the number of embedding runs, pilots and reruns after a coarsening
- * included. */
+ * again). ch_count_search (ch_count.h) decides the runs. The run closest
+ * to the target is kept: tess receives its tessellation (free it with
+ * ch_tess_free), out its embedded mesh; passes the number of embedding
+ * runs, pilots and reruns after a coarsening included. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);

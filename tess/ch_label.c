@@ -353,12 +353,12 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
       lb->step_boxes[i][2] = 0.0; /* empty: not in the grid */
     }
   }
-  /* Box grids for one curve's distance (closest_in_cell), whose answer
+  /* Box grids for one curve's distance (ch_curve_closest_in_cell), whose answer
    * beyond reach is the cell's (so the level functions the crossing search
    * follows, and the bytes out, stay as they were); the groove field's
    * own grid lists long segments only along their way. */
   ch_status st = ch_grid_build(&lb->step_grid, set->num_segments, (const double(*)[4])lb->step_boxes, err);
-  if (!st) st = ch_grid_build(&lb->groove_grid, set->num_segments, (const double(*)[4])height->grooves.boxes, err);
+  if (!st) st = ch_grid_build(&lb->groove_grid, set->num_segments, (const double(*)[4])ch_groove_field_boxes(&height->grooves), err);
   if (!st) st = ch_segtree_build(&lb->tree, set, err);
   if (!st) st = find_step_corners(lb, err);
   if (!st) st = find_open_ends(lb, err);
@@ -474,54 +474,13 @@ uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]) {
   return g << 32 | s;
 }
 
-/* The segment of curve c closest to uv among those in uv's cell of grid
- * whose box (grown by reach) holds uv: they hold the closest one wherever
- * it is within reach. With `beyond`, if none is within reach, the closest
- * of c's other segments in the cell (not always the least distance, but
- * one beyond reach still). Ties go to the first segment, as in
- * ch_curve_closest. Returns the segment (-1: none in the cell), its
- * squared distance and parameter in *d2 and *t. */
-static int closest_in_cell(const ch_curve_set *set, const ch_grid *grid, const double (*boxes)[4], int c,
-                           const double uv[2], double reach, int beyond, double *d2, double *t) {
-  const int *items = NULL;
-  int n = ch_grid_query(grid, uv[0], uv[1], &items), best_seg = -1;
-  /* The cell's items ascend and c's segments are consecutive: its run
-   * (by bisection: cells near many curves hold thousands of items). */
-  int s0 = set->curves[c].first_segment, s1 = s0 + set->curves[c].num_segments, k0 = 0, k1 = n;
-  while (k0 < k1) { /* the first item >= s0 */
-    int mid = k0 + (k1 - k0) / 2;
-    if (items[mid] < s0)
-      k0 = mid + 1;
-    else
-      k1 = mid;
-  }
-  for (k1 = k0; k1 < n && items[k1] < s1;) k1++;
-  double best = INFINITY, best_t = 0.0;
-  for (int pass = 0; pass < (beyond ? 2 : 1) && !(best <= reach * reach); pass++)
-    for (int k = k0; k < k1; k++) {
-      const ch_segment *sg = &set->segments[items[k]];
-      const double *b = boxes[items[k]];
-      int inside = !(uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]);
-      if (inside != (pass == 0)) continue;
-      double tk, dk = ch_bezier_closest(sg->p, sg->is_line, uv, &tk);
-      if (dk < best || (dk == best && items[k] < best_seg)) {
-        best = dk;
-        best_t = tk;
-        best_seg = items[k];
-      }
-    }
-  *d2 = best;
-  *t = best_t;
-  return best_seg;
-}
-
-/* Curve c's signed distance at uv from closest_in_cell over grid and
+/* Curve c's signed distance at uv from ch_curve_closest_in_cell over grid and
  * boxes (grown by reach); over all of c's segments where the cell has none
  * of them, or (without `beyond`) none within reach. */
-double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double (*boxes)[4], int c,
+double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double *boxes, int c,
                                    const double uv[2], double reach, int beyond, int *segment) {
   double d2, t;
-  int seg = closest_in_cell(lb->set, grid, boxes, c, uv, reach, beyond, &d2, &t);
+  int seg = ch_curve_closest_in_cell(lb->set, grid, boxes, c, uv, reach, beyond, &d2, &t);
   if (seg < 0 || (!(d2 <= reach * reach) && !beyond)) {
     /* the whole curve (ch_curve_closest's answer), through the tree: a
      * scan of a path of 500k segments per point took minutes */
@@ -546,7 +505,7 @@ double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, 
  * of a long curve less). */
 double ch_label_groove_distance_in(const ch_label_ctx *lb, int c, const double uv[2], int *segment, int cell_beyond) {
   const ch_groove_field *gf = &lb->height->grooves;
-  return ch_label_signed_distance_in(lb, &lb->groove_grid, (const double(*)[4])gf->boxes, c, uv,
+  return ch_label_signed_distance_in(lb, &lb->groove_grid, ch_groove_field_boxes(gf), c, uv,
                                      0.5 * lb->set->curves[c].width, cell_beyond, segment);
 }
 
@@ -580,7 +539,7 @@ double ch_label_piece_height(const ch_label_ctx *lb, uint64_t label, const doubl
   double t = ch_label_groove_distance(lb, curve, at) / c->width;
   if (c->profile.kind == CH_PROFILE_U) {
     t = fmax(-0.5, fmin(0.5, t));
-    return value - c->depth * sqrt(fmax(0.0, 1.0 - 4.0 * t * t));
+    return value + c->depth * ch_profile_eval(&c->profile, t);
   }
   /* Piece k lies between break points k-1 and k: a line through two
    * points well inside it. */

@@ -86,9 +86,9 @@ enum { LEVELS = 2 };
 uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]);
 
 /* Curve c's signed distance at uv from closest_in_cell over grid and
- * boxes (grown by reach); over all of c's segments where the cell has none
+ * boxes (4 per segment, grown by reach); over all of c's segments where the cell has none
  * of them, or (without `beyond`) none within reach. */
-double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double (*boxes)[4], int c,
+double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double *boxes, int c,
                                    const double uv[2], double reach, int beyond, int *segment);
 
 /* Signed distance s from uv to groove curve c: over c's segments in the

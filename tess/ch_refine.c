@@ -149,7 +149,7 @@ double ch_refine_edge_length(const ch_refine_mesh *w, const ch_refine_edge *e) {
  * beyond the radius there), or over all of c's segments if the cell has
  * none. */
 static double step_distance_at(const ch_label_ctx *lb, int c, const double uv[2], int *segment) {
-  return ch_label_signed_distance_in(lb, &lb->step_grid, (const double(*)[4])lb->step_boxes, c, uv, lb->radius, 1,
+  return ch_label_signed_distance_in(lb, &lb->step_grid, (const double *)lb->step_boxes, c, uv, lb->radius, 1,
                                      segment);
 }
 
@@ -360,9 +360,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
   int count = 0, cap = 0;
   double x0 = 0.0;
   uint64_t l0 = w->verts[e->a].label;
-  const int *items;
-  int crowded =
-      ch_grid_query(&lb->height->grooves.grid, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), &items) > CROWDED_CELL;
+  int crowded = ch_groove_field_count(&lb->height->grooves, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])) > CROWDED_CELL;
   /* An edge with MAX_NODES crossings makes every triangle holding it one
    * that cannot be cut: the search stops there (what is found is kept). */
   for (int i = 1; i <= n && count < MAX_NODES; i++) {
@@ -755,7 +753,7 @@ static int coarse_at_cap(const ch_label_ctx *lb, const double c[2], double longe
         const double *q = sg->p[end == 0 ? 0 : 2];
         if (longest > lb->cap_angle * ch_label_local_factor(lb, q) * half &&
             hypot(c[0] - q[0], c[1] - q[1]) <= half + longest &&
-            ch_grid_cell_holds(&lb->groove_grid, lb->height->grooves.boxes[s], c[0], c[1]))
+            ch_grid_cell_holds(&lb->groove_grid, ch_groove_field_boxes(&lb->height->grooves) + 4 * (size_t)s, c[0], c[1]))
           return 1;
       }
   return 0;
