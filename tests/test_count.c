@@ -18,6 +18,7 @@
  * and the callback checks the protocol: FINISH only right after a PILOT,
  * KEEP only after a FULL or FINISH, never a base below the fewest. */
 #include <math.h>
+#include <stdio.h>
 
 #include "ch_count.h"
 #include "ch_test.h"
@@ -91,6 +92,9 @@ static ch_count_result search(fake *f, long target, int can_coarsen, int has_u) 
   CHECK(r.runs >= 1 && r.runs <= 41);
   CHECK(f->kept >= 0.0 && r.count == f->kept); /* the result is the run kept */
   CHECK(r.coarsenings == f->kept_coarsenings);
+  static const char *names[] = {"sqrt model", "bumpy", "over", "u lines"};
+  fprintf(stderr, "  %-10s target %7ld: %2d runs, kept %9.0f (%+.2f%%), base %7ld, %d coarsenings\n", names[f->kind],
+          target, r.runs, r.count, 100.0 * (r.count - (double)target) / (double)target, r.base, r.coarsenings);
   return r;
 }
 
