@@ -93,6 +93,23 @@ double ch_profile_eval(const ch_profile *pr, double t) {
   return 0.0;
 }
 
+double ch_profile_slope(const ch_profile *pr, double t) {
+  double a = fabs(t);
+  switch (pr->kind) {
+  case CH_PROFILE_V: return a < 0.5 ? (t < 0.0 ? -2.0 : 2.0) : 0.0;
+  case CH_PROFILE_U: return a < 0.5 ? 4.0 * t / sqrt(1.0 - 4.0 * t * t) : 0.0;
+  case CH_PROFILE_BOX: return 0.0;
+  case CH_PROFILE_RIDGE: return a < 0.5 ? (t < 0.0 ? 2.0 : -2.0) : 0.0;
+  case CH_PROFILE_BEVEL: return t > 0.0 && t < 0.5 ? 2.0 : 0.0;
+  case CH_PROFILE_CUSTOM:
+    /* The piece holding t (the one to the right at a point). */
+    for (int i = 0; i + 1 < pr->num_points; i++)
+      if (t >= pr->t[i] && t < pr->t[i + 1]) return (pr->h[i + 1] - pr->h[i]) / (pr->t[i + 1] - pr->t[i]);
+    return 0.0;
+  }
+  return 0.0;
+}
+
 static const struct {
   const char *name;
   ch_profile_kind kind;

@@ -139,6 +139,11 @@ void ch_curves_free(ch_curve_set *set);
  * untouched surface), which for box gives 0 at t = +-1/2. */
 double ch_profile_eval(const ch_profile *profile, double t);
 
+/* The profile's slope dP/dt at t (0 outside its support and on flat
+ * pieces; at a break point, the slope of the piece to its right; u's
+ * 4t / sqrt(1 - 4t^2) grows without bound towards its rims). */
+double ch_profile_slope(const ch_profile *profile, double t);
+
 /* Parses a profile attribute value ("v", "u", "box", "ridge", "bevel" or
  * "t0,h0 t1,h1 ..."). Returns 0 on success, else writes a reason. */
 int ch_profile_parse(const char *text, ch_profile *out, char *why, size_t why_size);

@@ -67,6 +67,40 @@ void ch_curve_closest(const ch_curve_set *set, int curve, const double q[2], ch_
   out->signed_distance = out->distance * ch_curve_side(set, best_seg, best_t, q);
 }
 
+int ch_curve_closest_in_cell(const ch_curve_set *set, const ch_grid *grid, const double *boxes, int c,
+                             const double q[2], double reach, int beyond, double *d2, double *t) {
+  const int *items = NULL;
+  int n = ch_grid_query(grid, q[0], q[1], &items), best_seg = -1;
+  /* The cell's items ascend and c's segments are consecutive: its run
+   * (by bisection: cells near many curves hold thousands of items). */
+  int s0 = set->curves[c].first_segment, s1 = s0 + set->curves[c].num_segments, k0 = 0, k1 = n;
+  while (k0 < k1) { /* the first item >= s0 */
+    int mid = k0 + (k1 - k0) / 2;
+    if (items[mid] < s0)
+      k0 = mid + 1;
+    else
+      k1 = mid;
+  }
+  for (k1 = k0; k1 < n && items[k1] < s1;) k1++;
+  double best = INFINITY, best_t = 0.0;
+  for (int pass = 0; pass < (beyond ? 2 : 1) && !(best <= reach * reach); pass++)
+    for (int k = k0; k < k1; k++) {
+      const ch_segment *sg = &set->segments[items[k]];
+      const double *b = &boxes[4 * (size_t)items[k]];
+      int inside = !(q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]);
+      if (inside != (pass == 0)) continue;
+      double tk, dk = ch_bezier_closest(sg->p, sg->is_line, q, &tk);
+      if (dk < best || (dk == best && items[k] < best_seg)) {
+        best = dk;
+        best_t = tk;
+        best_seg = items[k];
+      }
+    }
+  *d2 = best;
+  *t = best_t;
+  return best_seg;
+}
+
 ch_status ch_groove_field_init(ch_groove_field *f, const ch_curve_set *set, ch_error *err) {
   memset(f, 0, sizeof *f);
   f->set = set;
@@ -202,3 +236,25 @@ double ch_groove_field_eval(const ch_groove_field *f, double u, double v, ch_gro
   }
   return h;
 }
+
+void ch_groove_field_closest(const ch_groove_field *f, int curve, const double q[2], ch_curve_point *out) {
+  double d2, t;
+  int seg = ch_curve_closest_in_cell(f->set, &f->grid, (const double *)f->boxes, curve, q,
+                                     0.5 * f->set->curves[curve].width, 1, &d2, &t);
+  if (seg < 0) {
+    ch_curve_closest(f->set, curve, q, out);
+    return;
+  }
+  out->segment = seg;
+  out->t = t;
+  ch_segment_point(&f->set->segments[seg], t, out->point);
+  out->distance = sqrt(d2);
+  out->signed_distance = out->distance * ch_curve_side(f->set, seg, t, q);
+}
+
+int ch_groove_field_count(const ch_groove_field *f, double u, double v) {
+  const int *items;
+  return ch_grid_query(&f->grid, u, v, &items);
+}
+
+const double *ch_groove_field_boxes(const ch_groove_field *f) { return (const double *)f->boxes; }

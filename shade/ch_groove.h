@@ -37,6 +37,20 @@ int ch_joint_side(const double tin[2], const double tout[2], const double d[2]);
  * to the first segment. */
 void ch_curve_closest(const ch_curve_set *set, int curve, const double q[2], ch_curve_point *out);
 
+/* The closest point of curve c to q among c's segments that grid lists in
+ * q's cell, first those whose box (boxes: 4 per segment, umin vmin umax
+ * vmax, as given to ch_grid_build, grown by reach) holds q: they hold the
+ * closest point wherever it is within reach. With `beyond`, if none is
+ * within reach, the closest of c's other segments in the cell (not always
+ * the least distance, but one beyond reach still). Ties go to the first
+ * segment, as in ch_curve_closest. Returns the segment (-1: none of c's in
+ * the cell, or without `beyond` none whose box holds q), its squared
+ * distance and parameter in *d2 and *t; the caller scans the whole curve
+ * where it needs an answer beyond the cell (ch_curve_closest, or a
+ * ch_segtree). Reads only: safe from many threads. */
+int ch_curve_closest_in_cell(const ch_curve_set *set, const ch_grid *grid, const double *boxes, int c,
+                             const double q[2], double reach, int beyond, double *d2, double *t);
+
 /* h_groove over a curve set, with a grid over the grooves' segments (each
  * box grown by half its groove's width) so a query looks at nearby grooves
  * only. Read-only after creation: safe to query from many threads. */
@@ -49,6 +63,22 @@ typedef struct ch_groove_field {
 
 ch_status ch_groove_field_init(ch_groove_field *field, const ch_curve_set *set, ch_error *err);
 void ch_groove_field_free(ch_groove_field *field);
+
+/* The closest point of groove `curve` to q: over its segments the field's
+ * grid lists at q (ch_curve_closest_in_cell, reach half its width, beyond
+ * it the others in the cell), else over all its segments
+ * (ch_curve_closest). Fills every field of out (the signed distance by
+ * ch_curve_side). Reads only: safe from many threads. */
+void ch_groove_field_closest(const ch_groove_field *field, int curve, const double q[2], ch_curve_point *out);
+
+/* How many segments the field's grid lists at (u, v): how crowded the
+ * grooves are there (0 outside the grid). */
+int ch_groove_field_count(const ch_groove_field *field, double u, double v);
+
+/* The boxes of the field's segments, 4 per segment (umin vmin umax vmax,
+ * grown by half the groove's width; empty for step curves): owned by the
+ * field, valid while it lives. */
+const double *ch_groove_field_boxes(const ch_groove_field *field);
 
 /* What decides h at a point. */
 typedef struct ch_groove_sample {

@@ -253,16 +253,8 @@ static void exact_edge(const ch_recon *r, int curve, double u, double v, edge *o
   const ch_samples *s = &r->dci->samples;
   double q[2] = {u, v};
   ch_curve_point cp = {.segment = -1};
-  const int *items;
-  int n = ch_grid_query(&r->grid, u, v, &items);
-  double best = INFINITY;
-  for (int k = 0; k < n; k++) {
-    const ch_segment *sg = &r->set->segments[items[k]];
-    const double *b = r->boxes[items[k]];
-    if (sg->curve != curve || u < b[0] || u > b[2] || v < b[1] || v > b[3]) continue;
-    double t, d2 = ch_bezier_closest(sg->p, sg->is_line, q, &t);
-    if (d2 < best) best = d2, cp.segment = items[k], cp.t = t;
-  }
+  double best;
+  cp.segment = ch_curve_closest_in_cell(r->set, &r->grid, (const double *)r->boxes, curve, q, 0.0, 0, &best, &cp.t);
   if (cp.segment >= 0) {
     ch_segment_point(&r->set->segments[cp.segment], cp.t, cp.point);
     cp.distance = sqrt(best);

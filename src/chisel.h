@@ -43,6 +43,7 @@
 #include "ch_surface.h"
 #include "ch_geomimage.h"
 #include "ch_displace.h"
+#include "ch_count.h"
 #include "ch_embed.h"
 #include "ch_thin.h"
 

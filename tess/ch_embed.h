@@ -55,22 +55,19 @@ typedef struct ch_embed_desc {
                               profiles are refined until an edge spans at
                               most 4 times this around the end point; 0 ->
                               1800 e degrees within [1, 10], e the reference
-                              edge below in UV */
+                              edge in UV: the tessellation's mean UV edge
+                              (ch_embed_to_target uses the target's, so the
+                              lines do not change between its runs) */
   int no_thinning;         /* keep every vertex the cut makes inside a groove
                               (by default its layers are thinned, ch_thin.h,
-                              where the reference edge below is at least
+                              where the reference edge above is at least
                               1/360 UV: coarse targets, where it pays) */
-  int count_only;          /* only count the triangles the cut makes
-                              (stats->triangles; out stays empty): the
-                              pilots of ch_embed_to_target */
-  double reference_edge;   /* e for that rule; 0 -> the tessellation's mean
-                              UV edge (ch_embed_to_target sets the target's,
-                              so the lines do not change between its runs) */
   const struct ch_warp *warp; /* NULL, or the warp the tessellation follows
                               (ch_embed_to_target passes it to ch_tess_build):
                               a groove's lines and chords are then as fine as
                               the mesh where the warp is densest over the
-                              curve (e / sqrt(slope_u slope_v) for e above) */
+                              curve (e / sqrt(slope_u slope_v), e the
+                              reference edge) */
   long max_triangles;      /* the refinement stops with CH_ERR_INPUT ("the
                               curves need more than N triangles") before its
                               working mesh would exceed this; 0 -> 8 per base
@@ -92,8 +89,9 @@ typedef struct ch_embed_stats {
   double unresolved_box[4];/* and the UV box of all their centres */
   int thinned;             /* vertices the thinning of the grooves' layers removed */
   double angle_deg;        /* the angle step of the u lines the run used */
-  long triangles;          /* output triangles (with count_only: before the
-                              cleanup, which removes a fraction of a percent) */
+  long triangles;          /* output triangles (a pilot of ch_embed_to_target
+                              counts before the cleanup, which removes a
+                              fraction of a percent) */
   double min_h, max_h;
   double seconds_refine, seconds_cut, seconds_normals;
   /* parts of seconds_refine: */
@@ -123,10 +121,10 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
  * Where the model says the u lines would take more than 7/8 of the
  * target, their angle step is coarsened (by 1.5, up to 4 times) and the
  * pilots rerun. A pilot that lands is finished from its cut (not run
- * again). The run closest to the target is kept: tess receives its
- * tessellation (free it with ch_tess_free), out its embedded mesh; passes
- * the number of embedding runs, pilots and reruns after a coarsening
- * included. */
+ * again). ch_count_search (ch_count.h) decides the runs. The run closest
+ * to the target is kept: tess receives its tessellation (free it with
+ * ch_tess_free), out its embedded mesh; passes the number of embedding
+ * runs, pilots and reruns after a coarsening included. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);

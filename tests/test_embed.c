@@ -28,6 +28,7 @@
 #include "accuracy.h"
 #include "ch_curves.h"
 #include "ch_embed.h"
+#include "ch_embed_internal.h"
 #include "ch_height.h"
 #include "ch_mesh.h"
 #include "ch_surface.h"
@@ -393,8 +394,9 @@ static void test_thinning(void) {
     ch_error err = {0};
     /* lines and chords as for a finer target than this tessellation (as the
      * pilots of ch_embed_to_target leave them): refined along the circle */
-    ch_embed_desc d = {.normal_tolerance_deg = 7.0, .reference_edge = 0.004, .no_thinning = k};
-    REQUIRE(ch_embed_build(s.surface, &s.tess, &s.height, &d, &m[k], &stats[k], &err) == CH_OK);
+    ch_embed_desc d = {.normal_tolerance_deg = 7.0, .no_thinning = k};
+    ch_embed_pilot pilot = {.reference_edge = 0.004, .run = 1};
+    REQUIRE(ch_embed_run(s.surface, &s.tess, &s.height, &d, &pilot, &m[k], &stats[k], &err) == CH_OK);
     ch_accuracy r;
     REQUIRE(ch_accuracy_measure(&m[k], &s.height, &s.set, 1024, &r, &err) == CH_OK);
     l1[k] = r.l1;

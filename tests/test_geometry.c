@@ -346,6 +346,75 @@ static void test_field_vs_scan(void) {
   ch_curves_free(&set);
 }
 
+/* The curve queries tess/ and validate/ use: the closest point of a groove
+ * by the field's grid agrees with a scan of the whole curve wherever it is
+ * within half the width (where it matters: inside the groove), and is a
+ * point of the curve farther than that elsewhere; the profile's slope is
+ * the derivative of its value (central differences away from its breaks,
+ * and u's 4t / sqrt(1 - 4t^2) = 1.5 at t = 0.3 by hand). */
+static void test_curve_queries(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_read_svg(CHISEL_TEST_DATA "/svg/mixed.svg", &set, &err) == CH_OK);
+  ch_groove_field field;
+  REQUIRE(ch_groove_field_init(&field, &set, &err) == CH_OK);
+  int mismatches = 0, inside = 0, bad_far = 0, bad_cell = 0;
+  for (int i = 0; i < 20000; i++) {
+    double q[2] = {ch_test_rnd() * 1.2 - 0.1, ch_test_rnd() * 1.2 - 0.1};
+    for (int c = 0; c < set.num_curves; c++) {
+      if (set.curves[c].kind != CH_CURVE_GROOVE) continue;
+      ch_curve_point scan, near;
+      ch_curve_closest(&set, c, q, &scan);
+      ch_groove_field_closest(&field, c, q, &near);
+      double half = 0.5 * set.curves[c].width;
+      if (scan.distance <= half) {
+        inside++;
+        mismatches += fabs(near.signed_distance - scan.signed_distance) > 1e-12 || near.segment != scan.segment;
+      } else {
+        double p[2];
+        ch_segment_point(&set.segments[near.segment], near.t, p);
+        bad_far += near.distance < scan.distance - 1e-12 || near.distance <= half ||
+                   fabs(hypot(q[0] - p[0], q[1] - p[1]) - near.distance) > 1e-12;
+      }
+      /* without `beyond`: only segments whose box holds q */
+      double d2, t;
+      int s = ch_curve_closest_in_cell(&set, &field.grid, ch_groove_field_boxes(&field), c, q, half, 0, &d2, &t);
+      if (s >= 0) {
+        const double *b = ch_groove_field_boxes(&field) + 4 * (size_t)s;
+        bad_cell += set.segments[s].curve != c || q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3];
+      } else {
+        bad_cell += scan.distance <= half; /* inside the groove its segment's box holds q */
+      }
+    }
+  }
+  CHECK_MSG(inside > 100, "%d points inside grooves", inside);
+  CHECK_MSG(mismatches == 0, "%d of %d points inside grooves differ from the scan", mismatches, inside);
+  CHECK_MSG(bad_far == 0, "%d answers beyond the half width are wrong", bad_far);
+  CHECK_MSG(bad_cell == 0, "%d in-cell answers are wrong", bad_cell);
+  ch_groove_field_free(&field);
+  ch_curves_free(&set);
+
+  const char *names[] = {"v", "u", "box", "ridge", "bevel", "-0.5,0 -0.25,-0.6 0,-0.6 0.25,-1 0.5,0"};
+  char why[200];
+  ch_profile p;
+  REQUIRE(ch_profile_parse("u", &p, why, sizeof why) == 0);
+  CHECK_NEAR(ch_profile_slope(&p, 0.3), 1.5, 1e-15);
+  CHECK_NEAR(ch_profile_slope(&p, -0.3), -1.5, 1e-15);
+  CHECK(ch_profile_slope(&p, 0.6) == 0.0);
+  for (int k = 0; k < 6; k++) {
+    REQUIRE(ch_profile_parse(names[k], &p, why, sizeof why) == 0);
+    int bad = 0;
+    for (int i = 0; i < 1000; i++) {
+      double t = ch_test_rnd() * 1.2 - 0.6, e = 1e-7;
+      /* away from the breaks (-1/2, -1/4, 0, 1/4, 1/2) and u's rims */
+      if (fabs(t * 4.0 - round(t * 4.0)) < 0.02 || fabs(fabs(t) - 0.5) < 0.05) continue;
+      double fd = (ch_profile_eval(&p, t + e) - ch_profile_eval(&p, t - e)) / (2.0 * e);
+      bad += fabs(fd - ch_profile_slope(&p, t)) > 1e-6 * (1.0 + fabs(fd));
+    }
+    CHECK_MSG(bad == 0, "profile %s: %d slopes differ from the value's differences", names[k], bad);
+  }
+}
+
 /* A few grooves far wider than the square among many thin ones (a fuzzed
  * file took 6 s and 1.3 GB here): the grid stays within its budget of
  * items, and the field still agrees with a scan of every curve. */
@@ -505,6 +574,7 @@ int main(void) {
   RUN(test_arc_split);
   RUN(test_groove_values);
   RUN(test_field_vs_scan);
+  RUN(test_curve_queries);
   RUN(test_mixed_box_sizes);
   RUN(test_segtree_vs_scan);
   TEST_MAIN_END();

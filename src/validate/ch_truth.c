@@ -37,24 +37,7 @@ struct ch_truth {
   step_pyramid steps;
 };
 
-/* ---- profiles ---- */
-
-static double profile_slope(const ch_profile *pr, double t) {
-  double a = fabs(t);
-  switch (pr->kind) {
-  case CH_PROFILE_V: return a < 0.5 ? (t < 0.0 ? -2.0 : 2.0) : 0.0;
-  case CH_PROFILE_U: return a < 0.5 ? 4.0 * t / sqrt(1.0 - 4.0 * t * t) : 0.0;
-  case CH_PROFILE_BOX: return 0.0;
-  case CH_PROFILE_RIDGE: return a < 0.5 ? (t < 0.0 ? 2.0 : -2.0) : 0.0;
-  case CH_PROFILE_BEVEL: return t > 0.0 && t < 0.5 ? 2.0 : 0.0;
-  case CH_PROFILE_CUSTOM:
-    /* The piece holding t (the one to the right at a point). */
-    for (int i = 0; i + 1 < pr->num_points; i++)
-      if (t >= pr->t[i] && t < pr->t[i + 1]) return (pr->h[i + 1] - pr->h[i]) / (pr->t[i + 1] - pr->t[i]);
-    return 0.0;
-  }
-  return 0.0;
-}
+/* ---- profiles (their value and slope: ch_profile_eval, ch_profile_slope) ---- */
 
 /* The range of P over [a, b]: its ends, 0 (the extremum of u), and every
  * break point inside with both one-sided values (walls jump there). */
@@ -383,30 +366,6 @@ static double step_value(const ch_truth *T, double u, double v, int *curve) {
   return rs.value;
 }
 
-/* The closest point of groove `curve` to q among the segments the groove
- * field lists at q (q is within its half width, so the closest is there). */
-static int groove_closest(const ch_truth *T, int curve, const double q[2], int *seg, double *t, double cp[2]) {
-  const ch_groove_field *f = &T->height->grooves;
-  const int *items;
-  int n = ch_grid_query(&f->grid, q[0], q[1], &items);
-  double best = INFINITY;
-  *seg = -1;
-  for (int k = 0; k < n; k++) {
-    const ch_segment *s = &T->set->segments[items[k]];
-    if (s->curve != curve) continue;
-    double tt, d2 = ch_bezier_closest(s->p, s->is_line, q, &tt);
-    if (d2 < best) best = d2, *seg = items[k], *t = tt;
-  }
-  if (*seg < 0) {
-    ch_curve_point p;
-    ch_curve_closest(T->set, curve, q, &p);
-    *seg = p.segment;
-    *t = p.t;
-  }
-  ch_segment_point(&T->set->segments[*seg], *t, cp);
-  return *seg;
-}
-
 /* The unit UV direction across curve `curve` at q (away from it): radial
  * from the closest point, or the left normal where q is on the curve; for
  * a wall (wall = 1) beyond a one-sided groove's open end, across the end's
@@ -415,7 +374,11 @@ static void across_curve(const ch_truth *T, int curve, const double q[2], int wa
   int seg;
   double t, cp[2];
   if (T->set->curves[curve].kind == CH_CURVE_GROOVE) {
-    groove_closest(T, curve, q, &seg, &t, cp);
+    /* q is within its half width, so the closest is among the segments
+     * the groove field lists at q */
+    ch_curve_point p;
+    ch_groove_field_closest(&T->height->grooves, curve, q, &p);
+    seg = p.segment, t = p.t, cp[0] = p.point[0], cp[1] = p.point[1];
   } else {
     ch_curve_point p;
     ch_curve_closest(T->set, curve, q, &p);
@@ -464,7 +427,7 @@ void ch_truth_classify(const ch_truth *T, const double uv[2], ch_vis_class *cls,
     return;
   }
   const ch_curve *c = &T->set->curves[gs.active];
-  double slope = profile_slope(&c->profile, gs.active_signed_distance / c->width);
+  double slope = ch_profile_slope(&c->profile, gs.active_signed_distance / c->width);
   *cls = slope != 0.0 ? CH_VIS_GROOVE_WALL : CH_VIS_GROOVE_FLOOR;
   *curve = gs.active;
 }
@@ -571,16 +534,15 @@ void ch_truth_normal(const ch_truth *T, const double uv[2], double n[3]) {
   ch_groove_field_eval(&T->height->grooves, uv[0], uv[1], &gs);
   if (gs.active >= 0) {
     const ch_curve *c = &T->set->curves[gs.active];
-    double slope = profile_slope(&c->profile, gs.active_signed_distance / c->width);
+    double slope = ch_profile_slope(&c->profile, gs.active_signed_distance / c->width);
     if (slope != 0.0) {
       /* s = side |q - cp|: its gradient is the unit vector from cp, signed. */
       double ds[2];
       across_curve(T, gs.active, uv, 0, ds);
       double sign = gs.active_signed_distance >= 0.0 ? 1.0 : -1.0;
-      int seg;
-      double t, cp[2];
-      groove_closest(T, gs.active, uv, &seg, &t, cp);
-      if (hypot(uv[0] - cp[0], uv[1] - cp[1]) <= 1e-7) sign = 1.0; /* on the curve: the left normal */
+      ch_curve_point cp;
+      ch_groove_field_closest(&T->height->grooves, gs.active, uv, &cp);
+      if (hypot(uv[0] - cp.point[0], uv[1] - cp.point[1]) <= 1e-7) sign = 1.0; /* on the curve: the left normal */
       double k = c->depth / c->width * slope * sign;
       g[0] += k * ds[0];
       g[1] += k * ds[1];

@@ -1,0 +1,735 @@
+/* Cutting the refined mesh along the piece boundaries, and the output
+ * (see ch_cut_internal.h). */
+#include "ch_cut_internal.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_alloc.h"
+#include "ch_bezier.h"
+#include "ch_geomimage.h"
+#include "ch_grid.h"
+#include "ch_math.h"
+#include "ch_samples.h"
+#include "ch_segtree.h"
+#include "ch_thin.h"
+#include "ch_warp.h"
+
+int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h) {
+  int i = o->npos - o->first_pos;
+  if (i + 1 > o->cap_pos) {
+    int cap = o->cap_pos ? 2 * o->cap_pos : 4096;
+    int *f = realloc(o->face, (size_t)cap * sizeof *f);
+    if (f) o->face = f;
+    double *s = realloc(o->st, (size_t)cap * 2 * sizeof *s);
+    if (s) o->st = s;
+    double *hh = realloc(o->h, (size_t)cap * sizeof *hh);
+    if (hh) o->h = hh;
+    if (!f || !s || !hh) return -1;
+    o->cap_pos = cap;
+  }
+  o->face[i] = face;
+  o->st[2 * (size_t)i] = st[0];
+  o->st[2 * (size_t)i + 1] = st[1];
+  o->h[i] = h;
+  return o->npos++;
+}
+
+int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
+                   uint64_t group) {
+  if (a == b || b == c || c == a) return 0; /* collapsed: a wall of zero height */
+  if (o->ntri + 1 > o->cap_tri) {
+    int cap = o->cap_tri ? 2 * o->cap_tri : 4096;
+    int *t = realloc(o->tri, (size_t)cap * 3 * sizeof *t);
+    if (t) o->tri = t;
+    uint64_t *g = realloc(o->group, (size_t)cap * sizeof *g);
+    if (g) o->group = g;
+    double *u = realloc(o->uv, (size_t)cap * 6 * sizeof *u);
+    if (u) o->uv = u;
+    if (!t || !g || !u) return -1;
+    o->cap_tri = cap;
+  }
+  int *t = &o->tri[3 * (size_t)o->ntri];
+  t[0] = a;
+  t[1] = b;
+  t[2] = c;
+  double *u = &o->uv[6 * (size_t)o->ntri];
+  memcpy(u, ua, 2 * sizeof *u);
+  memcpy(u + 2, ub, 2 * sizeof *u);
+  memcpy(u + 4, uc, 2 * sizeof *u);
+  o->group[o->ntri++] = group;
+  return 0;
+}
+
+static int out_quad(ch_cut_out *o, const int v[4], const double *uv[4], uint64_t group) {
+  return ch_cut_out_tri(o, v[0], v[1], v[2], uv[0], uv[1], uv[2], group) |
+         ch_cut_out_tri(o, v[0], v[2], v[3], uv[0], uv[2], uv[3], group);
+}
+
+void ch_cut_out_free(ch_cut_out *o) {
+  free(o->pos);
+  free(o->face);
+  free(o->st);
+  free(o->h);
+  free(o->tri);
+  free(o->group);
+  free(o->uv);
+  memset(o, 0, sizeof *o);
+}
+
+/* ---- cutting a triangle ------------------------------------------------------ */
+static int node_copy(const ch_refine_node *n, uint64_t piece) {
+  if (n->corner >= 0) return n->corner;
+  return piece == n->lnext ? n->copy_next : n->copy_prev;
+}
+
+/* Emits the region bounded by nodes idx[0..len) (counter-clockwise, convex)
+ * as a fan; its piece is the one after a node along the triangle's boundary. */
+static int emit_region(const ch_refine_node *nodes, int m, const int *idx, int len, ch_cut_out *o) {
+  uint64_t piece = nodes[idx[0]].lnext;
+  for (int i = 0; i < len; i++)
+    if ((idx[i] + 1) % m == idx[(i + 1) % len]) {
+      piece = nodes[idx[i]].lnext;
+      break;
+    }
+  int v0 = node_copy(&nodes[idx[0]], piece), bad = 0;
+  for (int i = 1; i + 1 < len; i++)
+    bad |= ch_cut_out_tri(o, v0, node_copy(&nodes[idx[i]], piece), node_copy(&nodes[idx[i + 1]], piece),
+                          nodes[idx[0]].uv, nodes[idx[i]].uv, nodes[idx[i + 1]].uv, piece);
+  return bad;
+}
+
+typedef struct cut_context {
+  const ch_surface *surface;
+  const ch_label_ctx *lb;
+  const ch_refine_tri *T;
+  double tol;
+  ch_cut_out *o;
+  ch_embed_stats *stats;
+} cut_context;
+
+/* Where the pieces meet: each spoke's boundary is the line through its
+ * crossing and a second boundary point, found by bisection between points
+ * inside the two pieces it separates; the junction is the least-squares
+ * meeting point of those lines (exact where they are straight), or the
+ * centroid of the crossings when that fails or falls outside the triangle.
+ * (s,t) follow from the triangle's corners. */
+static void junction_point(const cut_context *cx, const ch_refine_node *nodes, const int *idx, int len, const int *pos,
+                           int n, double juv[2], double jst[2]) {
+  const ch_refine_tri *T = cx->T;
+  double c[2] = {0, 0};
+  for (int k = 0; k < n; k++)
+    for (int i = 0; i < 2; i++) c[i] += nodes[idx[pos[k]]].uv[i] / n;
+  double inner[MAX_NODES][2];
+  uint64_t piece[MAX_NODES];
+  for (int k = 0; k < n; k++) {
+    const ch_refine_node *a = &nodes[idx[pos[k]]], *b = &nodes[idx[(pos[k] + 1) % len]];
+    piece[k] = a->lnext;
+    for (int i = 0; i < 2; i++) inner[k][i] = (c[i] + a->uv[i] + b->uv[i]) / 3.0;
+  }
+  double A[3] = {0, 0, 0}, r[2] = {0, 0}; /* normal equations: sum n n^T J = sum n n^T X */
+  int lines = 0;
+  for (int k = 0; k < n; k++) {
+    int km = (k + n - 1) % n;
+    if (ch_label_at(cx->lb, inner[km]) != piece[km] || ch_label_at(cx->lb, inner[k]) != piece[k]) continue;
+    double lo = 0.0, hi = 1.0, q[2];
+    for (int it = 0; it < BISECTIONS; it++) {
+      double mid = 0.5 * (lo + hi);
+      ch_refine_lerp2(inner[km], inner[k], mid, q);
+      if (ch_label_at(cx->lb, q) == piece[km])
+        lo = mid;
+      else
+        hi = mid;
+    }
+    ch_refine_lerp2(inner[km], inner[k], 0.5 * (lo + hi), q);
+    const double *x = nodes[idx[pos[k]]].uv;
+    double d[2] = {q[0] - x[0], q[1] - x[1]}, len_d = hypot(d[0], d[1]);
+    if (!(len_d > 1e-15)) continue;
+    double nx = -d[1] / len_d, ny = d[0] / len_d, dot = nx * x[0] + ny * x[1];
+    A[0] += nx * nx;
+    A[1] += nx * ny;
+    A[2] += ny * ny;
+    r[0] += nx * dot;
+    r[1] += ny * dot;
+    lines++;
+  }
+  double det = A[0] * A[2] - A[1] * A[1];
+  juv[0] = c[0];
+  juv[1] = c[1];
+  if (lines >= 2 && fabs(det) > 1e-6 * (A[0] + A[2]) * (A[0] + A[2])) {
+    double j[2] = {(A[2] * r[0] - A[1] * r[1]) / det, (A[0] * r[1] - A[1] * r[0]) / det};
+    /* Inside the triangle (barycentric coordinates in UV)? */
+    double e1[2] = {T->uv[1][0] - T->uv[0][0], T->uv[1][1] - T->uv[0][1]};
+    double e2[2] = {T->uv[2][0] - T->uv[0][0], T->uv[2][1] - T->uv[0][1]};
+    double area = e1[0] * e2[1] - e1[1] * e2[0];
+    double p[2] = {j[0] - T->uv[0][0], j[1] - T->uv[0][1]};
+    double b1 = (p[0] * e2[1] - p[1] * e2[0]) / area, b2 = (e1[0] * p[1] - e1[1] * p[0]) / area;
+    if (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0) {
+      juv[0] = j[0];
+      juv[1] = j[1];
+    }
+  }
+  /* (s,t) by the barycentric coordinates of juv. */
+  double e1[2] = {T->uv[1][0] - T->uv[0][0], T->uv[1][1] - T->uv[0][1]};
+  double e2[2] = {T->uv[2][0] - T->uv[0][0], T->uv[2][1] - T->uv[0][1]};
+  double area = e1[0] * e2[1] - e1[1] * e2[0];
+  double p[2] = {juv[0] - T->uv[0][0], juv[1] - T->uv[0][1]};
+  double b1 = area != 0.0 ? (p[0] * e2[1] - p[1] * e2[0]) / area : 1.0 / 3.0;
+  double b2 = area != 0.0 ? (e1[0] * p[1] - e1[1] * p[0]) / area : 1.0 / 3.0;
+  for (int i = 0; i < 2; i++)
+    jst[i] = T->st[0][i] + b1 * (T->st[1][i] - T->st[0][i]) + b2 * (T->st[2][i] - T->st[0][i]);
+}
+
+/* A region where n >= 3 pieces meet at one point: a junction vertex per
+ * piece at the centroid of the n unpaired crossings (h read just inside the
+ * piece, found by bisection from the centroid), a fan per piece from it,
+ * walls along the spokes where h jumps and a cap where the walls meet. */
+static int emit_junction(const cut_context *cx, const ch_refine_node *nodes, const int *idx, int len) {
+  int pos[MAX_NODES], n = 0;
+  for (int i = 0; i < len; i++)
+    if (nodes[idx[i]].corner < 0 && nodes[idx[i]].pair < 0) pos[n++] = i;
+  double jst[2], juv[2];
+  junction_point(cx, nodes, idx, len, pos, n, juv, jst);
+  ch_refine_locate_st(cx->surface, cx->T->face, juv, jst);
+  /* The junction's copy for piece k: pieces on the two sides of a spoke
+   * share it where the spoke's crossing has one copy (no wall there). */
+  int j[MAX_NODES], group[MAX_NODES];
+  double hj[MAX_NODES];
+  for (int k = 0; k < n; k++) {
+    const ch_refine_node *a = &nodes[idx[pos[k]]], *b = &nodes[idx[(pos[k] + 1) % len]];
+    uint64_t piece = a->lnext;
+    double target[2] = {(juv[0] + a->uv[0] + b->uv[0]) / 3.0, (juv[1] + a->uv[1] + b->uv[1]) / 3.0};
+    double lo = 0.0, hi = 1.0, q[2];
+    for (int it = 0; it < JUNCTION_BISECTIONS; it++) {
+      double mid = 0.5 * (lo + hi);
+      ch_refine_lerp2(juv, target, mid, q);
+      if (ch_label_at(cx->lb, q) == piece)
+        hi = mid;
+      else
+        lo = mid;
+    }
+    ch_refine_lerp2(juv, target, hi, q);
+    hj[k] = ch_label_piece_height(cx->lb, piece, q, juv);
+  }
+  /* Groups: runs of pieces joined across wall-free spokes (spoke k lies
+   * between pieces k-1 and k). */
+  int start = -1;
+  for (int k = 0; k < n; k++)
+    if (nodes[idx[pos[k]]].copy_prev != nodes[idx[pos[k]]].copy_next) start = k;
+  for (int s = 0, g = -1; s < n; s++) {
+    int k = start < 0 ? s : (start + s) % n;
+    const ch_refine_node *x = &nodes[idx[pos[k]]];
+    if (g < 0 || x->copy_prev != x->copy_next) g = k;
+    group[k] = g;
+  }
+  for (int k = 0; k < n; k++) {
+    if (group[k] != k) continue;
+    double sum = 0.0;
+    int count = 0;
+    for (int i = 0; i < n; i++)
+      if (group[i] == k) {
+        sum += hj[i];
+        count++;
+      }
+    if ((j[k] = ch_cut_out_vertex(cx->o, cx->T->face, jst, sum / count)) < 0) return -1;
+  }
+  for (int k = 0; k < n; k++) j[k] = j[group[k]];
+  cx->stats->junctions++;
+  int bad = 0;
+  for (int k = 0; k < n; k++) {
+    uint64_t piece = nodes[idx[pos[k]]].lnext;
+    int end = pos[(k + 1) % n];
+    for (int i = pos[k]; i != end; i = (i + 1) % len) {
+      const ch_refine_node *a = &nodes[idx[i]], *b = &nodes[idx[(i + 1) % len]];
+      bad |= ch_cut_out_tri(cx->o, j[k], node_copy(a, piece), node_copy(b, piece), juv, a->uv, b->uv, piece);
+    }
+  }
+  int before = cx->o->ntri;
+  for (int k = 0; k < n; k++) {
+    const ch_refine_node *x = &nodes[idx[pos[k]]];
+    int v[4] = {x->copy_next, j[k], j[(k + n - 1) % n], x->copy_prev};
+    const double *uv[4] = {x->uv, juv, juv, x->uv};
+    bad |= out_quad(cx->o, v, uv, WALL_GROUP);
+  }
+  for (int k = 1; k + 1 < n; k++) bad |= ch_cut_out_tri(cx->o, j[0], j[k], j[k + 1], juv, juv, juv, WALL_GROUP);
+  cx->stats->wall_triangles += cx->o->ntri - before;
+  return bad;
+}
+
+/* Splits the cycle idx by its first unused chord, recursively; a region
+ * left without chords is a plain piece or holds the junction. */
+static int split_regions(const cut_context *cx, const ch_refine_node *nodes, int m, unsigned char *used, const int *idx,
+                         int len) {
+  for (int a = 0; a < len; a++) {
+    int p = idx[a], q = nodes[p].pair;
+    if (q < 0 || used[p]) continue;
+    int b = -1;
+    for (int i = 0; i < len; i++)
+      if (idx[i] == q) b = i;
+    if (b < 0) continue;
+    used[p] = used[q] = 1;
+    if (b < a) {
+      int tmp = a;
+      a = b;
+      b = tmp;
+    }
+    int one[MAX_NODES], two[MAX_NODES], n1 = 0, n2 = 0;
+    for (int i = a; i <= b; i++) one[n1++] = idx[i];
+    for (int i = b; i < len; i++) two[n2++] = idx[i];
+    for (int i = 0; i <= a; i++) two[n2++] = idx[i];
+    return split_regions(cx, nodes, m, used, one, n1) | split_regions(cx, nodes, m, used, two, n2);
+  }
+  for (int i = 0; i < len; i++)
+    if (nodes[idx[i]].corner < 0 && nodes[idx[i]].pair < 0) return emit_junction(cx, nodes, idx, len);
+  return emit_region(nodes, m, idx, len, cx->o);
+}
+
+/* Walls along the chords, between the copies on their two sides. */
+static int emit_walls(const ch_refine_node *nodes, int m, ch_cut_out *o, ch_embed_stats *stats) {
+  int bad = 0, before = o->ntri;
+  for (int p = 0; p < m; p++) {
+    int q = nodes[p].pair;
+    if (q < p) continue;
+    uint64_t r1 = nodes[p].lnext, r2 = nodes[p].lprev;
+    int v[4] = {node_copy(&nodes[p], r1), node_copy(&nodes[q], r1), node_copy(&nodes[q], r2), node_copy(&nodes[p], r2)};
+    const double *uv[4] = {nodes[p].uv, nodes[q].uv, nodes[q].uv, nodes[p].uv};
+    bad |= out_quad(o, v, uv, WALL_GROUP);
+  }
+  stats->wall_triangles += o->ntri - before;
+  return bad;
+}
+
+/* Counts an unresolved triangle of centre uv: the first one's place and
+ * the box of all. */
+static void note_unresolved(ch_embed_stats *stats, const double uv[2]) {
+  if (stats->unresolved++ == 0) {
+    stats->unresolved_uv[0] = uv[0], stats->unresolved_uv[1] = uv[1];
+    stats->unresolved_box[0] = stats->unresolved_box[2] = uv[0];
+    stats->unresolved_box[1] = stats->unresolved_box[3] = uv[1];
+    return;
+  }
+  stats->unresolved_box[0] = fmin(stats->unresolved_box[0], uv[0]);
+  stats->unresolved_box[1] = fmin(stats->unresolved_box[1], uv[1]);
+  stats->unresolved_box[2] = fmax(stats->unresolved_box[2], uv[0]);
+  stats->unresolved_box[3] = fmax(stats->unresolved_box[3], uv[1]);
+}
+
+static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T,
+                        const ch_refine_node *nodes, int m, ch_cut_out *o);
+
+/* Cuts triangle t into its pieces, with walls where h jumps. */
+int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, double tol, ch_cut_out *o,
+                    ch_embed_stats *stats) {
+  const ch_refine_tri *T = &w->tris[t];
+  ch_refine_node nodes[MAX_NODES];
+  int m = ch_refine_gather_nodes(w, t, nodes);
+  ch_refine_cut kind = m < 0 ? CUT_COMPLEX : ch_refine_classify(nodes, m);
+  if (kind == CUT_NONE)
+    return ch_cut_out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
+  if (kind == CUT_REGIONS) {
+    int idx[MAX_NODES] = {0};
+    unsigned char used[MAX_NODES] = {0};
+    for (int i = 0; i < m; i++) idx[i] = i;
+    cut_context cx = {w->surface, lb, T, tol, o, stats};
+    return split_regions(&cx, nodes, m, used, idx, m) | emit_walls(nodes, m, o, stats);
+  }
+  /* Left after refinement: a fan from a vertex at the centre over the
+   * whole boundary, in the centre's piece: closed, but not following the
+   * features inside (counted, and where, for the warning). */
+  {
+    double cuv[2] = {0, 0};
+    for (int k = 0; k < 3; k++)
+      for (int i = 0; i < 2; i++) cuv[i] += T->uv[k][i] / 3.0;
+    note_unresolved(stats, cuv);
+  }
+  ch_refine_node *all = nodes;
+  if (m < 0) { /* more nodes than a cut takes: all of them for the fan, so its neighbours' crossings meet it */
+    int total = 3;
+    for (int k = 0; k < 3; k++) total += w->edges[w->tri_edge[3 * (size_t)t + k]].ncross;
+    if (!(all = malloc((size_t)total * sizeof *all))) return -1;
+    m = ch_refine_gather_nodes_into(w, t, all, total);
+  }
+  int bad = fan_triangle(lb, w, T, all, m, o);
+  if (all != nodes) free(all);
+  return bad;
+}
+
+/* The fan of ch_cut_triangle's last resort over nodes[m]. */
+static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T,
+                        const ch_refine_node *nodes, int m, ch_cut_out *o) {
+  double cst[2] = {0, 0}, cuv[2] = {0, 0};
+  for (int k = 0; k < 3; k++)
+    for (int i = 0; i < 2; i++) {
+      cst[i] += T->st[k][i] / 3.0;
+      cuv[i] += T->uv[k][i] / 3.0;
+    }
+  uint64_t piece = ch_label_at(lb, cuv);
+  ch_refine_locate_st(w->surface, T->face, cuv, cst);
+  int c = ch_cut_out_vertex(o, T->face, cst, ch_height_eval(lb->height, cuv[0], cuv[1]));
+  if (c < 0) return -1;
+  /* Around the boundary, a crossing on a wall contributes both copies,
+   * so the fan stays closed (a sliver from the centre spans the wall). */
+  int bad = 0;
+  for (int i = 0; i < m; i++) {
+    const ch_refine_node *a = &nodes[i], *b = &nodes[(i + 1) % m];
+    if (a->corner < 0 && a->copy_prev != a->copy_next)
+      bad |= ch_cut_out_tri(o, c, a->copy_prev, a->copy_next, cuv, a->uv, a->uv, piece);
+    bad |= ch_cut_out_tri(o, c, a->corner >= 0 ? a->corner : a->copy_next, b->corner >= 0 ? b->corner : b->copy_prev,
+                          cuv, a->uv, b->uv, piece);
+  }
+  return bad;
+}
+
+ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch_error *err) {
+  o->pos = malloc(3 * (size_t)(o->npos > 0 ? o->npos : 1) * sizeof *o->pos);
+  if (!o->pos) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %d vertices", o->npos);
+  int failed = 0;
+#pragma omp parallel for schedule(dynamic, 1024) reduction(| : failed)
+  for (int i = 0; i < o->npos; i++) {
+    ch_surface_point sp;
+    if (ch_surface_eval(surface, o->face[i], o->st[2 * (size_t)i], o->st[2 * (size_t)i + 1], &sp)) {
+      failed = 1;
+      continue;
+    }
+    for (int k = 0; k < 3; k++) o->pos[3 * (size_t)i + k] = sp.position[k] + o->h[i] * sp.normal[k];
+  }
+  if (failed) return ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a vertex left its base face");
+  return CH_OK;
+}
+
+/* Per-corner normals: the area-weighted mean of the face normals around a
+ * vertex among the triangles of the same group (piece, or wall), so they
+ * are smooth inside a piece and split at its boundary. */
+ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
+  memset(m, 0, sizeof *m);
+  size_t nc = 3 * (size_t)o->ntri;
+  m->num_positions = o->npos;
+  m->positions = o->pos;
+  m->num_faces = o->ntri;
+  m->num_corners = (int)nc;
+  m->face_start = malloc(((size_t)o->ntri + 1) * sizeof *m->face_start);
+  m->corner_position = malloc(nc * sizeof *m->corner_position);
+  m->corner_uv = malloc(nc * sizeof *m->corner_uv);
+  m->corner_normal = malloc(nc * sizeof *m->corner_normal);
+  m->uvs = malloc(2 * nc * sizeof *m->uvs);
+  m->normals = malloc(3 * nc * sizeof *m->normals);
+  int *first_uv = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *first_uv);
+  int *head = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *head);
+  int *next = malloc(nc * sizeof *next);
+  uint64_t *slot_group = malloc(nc * sizeof *slot_group);
+  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !m->uvs || !m->normals ||
+      !first_uv || !head || !next || !slot_group) {
+    free(first_uv);
+    free(head);
+    free(next);
+    free(slot_group);
+    m->positions = NULL;
+    ch_mesh_free(m);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
+  }
+  for (int i = 0; i < o->npos; i++) first_uv[i] = head[i] = -1;
+  int nuv = 0, nslot = 0;
+  for (int t = 0; t < o->ntri; t++) {
+    m->face_start[t] = 3 * t;
+    const int *v = &o->tri[3 * (size_t)t];
+    const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
+    double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    double fn[3];
+    ch_cross3(e1, e2, fn);
+    /* Weighted by the corner's angle (Thurmer and Wuthrich), not by area:
+     * a vertex between slices of unequal width gets the mean of its two
+     * sides, not the wider one's normal. */
+    double fl = sqrt(ch_dot3(fn, fn)), corner_angle[3] = {0, 0, 0};
+    if (fl > 0.0) {
+      const double *q[3] = {p0, p1, p2};
+      for (int k = 0; k < 3; k++) {
+        const double *a = q[k], *b = q[(k + 1) % 3], *c = q[(k + 2) % 3];
+        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
+        ch_cross3(u, v, x);
+        corner_angle[k] = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, v)) / fl;
+      }
+    }
+    for (int k = 0; k < 3; k++) {
+      size_t c = 3 * (size_t)t + k;
+      int p = v[k];
+      m->corner_position[c] = p;
+      const double *uv = &o->uv[6 * (size_t)t + 2 * k];
+      int u = first_uv[p];
+      if (u < 0 || m->uvs[2 * (size_t)u] != uv[0] || m->uvs[2 * (size_t)u + 1] != uv[1]) {
+        u = nuv++;
+        m->uvs[2 * (size_t)u] = uv[0];
+        m->uvs[2 * (size_t)u + 1] = uv[1];
+        if (first_uv[p] < 0) first_uv[p] = u;
+      }
+      m->corner_uv[c] = u;
+      int s = head[p];
+      while (s >= 0 && slot_group[s] != o->group[t]) s = next[s];
+      if (s < 0) {
+        s = nslot++;
+        slot_group[s] = o->group[t];
+        next[s] = head[p];
+        head[p] = s;
+        memset(&m->normals[3 * (size_t)s], 0, 3 * sizeof(double));
+      }
+      for (int i = 0; i < 3; i++) m->normals[3 * (size_t)s + i] += fn[i] * corner_angle[k];
+      m->corner_normal[c] = s;
+    }
+  }
+  m->face_start[o->ntri] = (int)nc;
+  m->num_uvs = nuv;
+  m->num_normals = nslot;
+  for (int s = 0; s < nslot; s++) {
+    double *n = &m->normals[3 * (size_t)s];
+    double len = sqrt(ch_dot3(n, n));
+    if (len > 0.0) {
+      for (int i = 0; i < 3; i++) n[i] /= len;
+    } else {
+      n[0] = n[1] = 0.0;
+      n[2] = 1.0; /* only zero-area triangles here: any unit vector */
+    }
+  }
+  free(first_uv);
+  free(head);
+  free(next);
+  free(slot_group);
+  return CH_OK;
+}
+
+/* ---- thinning the grooves' layers ---------------------------------------- */
+/* The longest edge a thinning may make around uv, on a coarse grid: half
+ * the mean longest edge of the tessellation's triangles centred in the
+ * cell or its neighbours (before any refinement), about the spacing of
+ * the points where its edges cross a line. So thinning undoes what the
+ * refinement spent along the grooves beyond the tessellation's own
+ * density (isotropic halvings for the lines' chords, junctions and caps),
+ * the base surface is followed along them as finely as elsewhere, and a
+ * dense tessellation is left nearly as it is (at 2.1M triangles longer
+ * edges took a third more time for little). */
+enum { EDGE_GRID = 64 };
+
+typedef struct thin_context {
+  const ch_label_ctx *lb;
+  const ch_cut_out *o;
+  float edge_grid[EDGE_GRID * EDGE_GRID];
+  double (*gradient)[3]; /* per output vertex: its distance's gradient, and t */
+  unsigned char *known;  /* once computed: 1, or 2 where it has none (a rim) */
+  double *distance;      /* per output vertex: its signed distance to distance_curve's */
+  int *distance_curve;   /* -1 until computed */
+} thin_context;
+
+/* Groove c's signed distance at output vertex v (at uv), cached. */
+static double vertex_distance(thin_context *x, int c, int v, const double uv[2]) {
+  if (x->distance_curve[v] != c) {
+    x->distance[v] = ch_label_groove_distance(x->lb, c, uv);
+    x->distance_curve[v] = c;
+  }
+  return x->distance[v];
+}
+
+static int edge_grid_build(thin_context *x, const ch_tess_result *tess, double fallback) {
+  double *sum = calloc(2 * EDGE_GRID * EDGE_GRID, sizeof *sum); /* longest edges, triangles */
+  if (!sum) return -1;
+  const ch_mesh *m = &tess->mesh;
+  for (int t = 0; t < m->num_faces; t++) {
+    const double *q[3];
+    for (int k = 0; k < 3; k++) q[k] = &m->uvs[2 * (size_t)m->corner_uv[3 * (size_t)t + k]];
+    double cx = (q[0][0] + q[1][0] + q[2][0]) / 3.0, cy = (q[0][1] + q[1][1] + q[2][1]) / 3.0;
+    if (!(cx >= 0.0 && cx < 1.0 && cy >= 0.0 && cy < 1.0)) continue;
+    double longest = 0.0;
+    for (int k = 0; k < 3; k++)
+      longest = fmax(longest, hypot(q[(k + 1) % 3][0] - q[k][0], q[(k + 1) % 3][1] - q[k][1]));
+    int cell = (int)(cy * EDGE_GRID) * EDGE_GRID + (int)(cx * EDGE_GRID);
+    sum[2 * cell] += longest;
+    sum[2 * cell + 1] += 1.0;
+  }
+  for (int y = 0; y < EDGE_GRID; y++)
+    for (int x0 = 0; x0 < EDGE_GRID; x0++) {
+      double l = 0.0, n = 0.0;
+      for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++) {
+          int yy = y + dy, xx = x0 + dx;
+          if (yy < 0 || yy >= EDGE_GRID || xx < 0 || xx >= EDGE_GRID) continue;
+          l += sum[2 * (yy * EDGE_GRID + xx)];
+          n += sum[2 * (yy * EDGE_GRID + xx) + 1];
+        }
+      x->edge_grid[y * EDGE_GRID + x0] = (float)(0.5 * (n > 0.0 ? l / n : fallback));
+    }
+  free(sum);
+  return 0;
+}
+
+static int thin_band(void *ctx, uint64_t group, int *layer) {
+  (void)ctx;
+  uint64_t g = group >> 32;
+  if (group == WALL_GROUP || !g || (group & UINT64_C(0xffffffff))) return -1; /* not a groove's alone */
+  *layer = (int)(g & 0xff);
+  return GROOVE_CURVE(g) * LEVELS + GROOVE_LEVEL(g);
+}
+
+static double thin_max_edge(void *ctx, const double uv[2]) {
+  const thin_context *x = ctx;
+  int gx = (int)fmin(EDGE_GRID - 1, fmax(0.0, uv[0] * EDGE_GRID)),
+      gy = (int)fmin(EDGE_GRID - 1, fmax(0.0, uv[1] * EDGE_GRID));
+  return x->edge_grid[gy * EDGE_GRID + gx];
+}
+
+/* The refinement's chord rule (ch_refine_needed) for any new edge. */
+static int thin_edge_ok(void *ctx, int family, int va, int vb, const double a[2], const double b[2]) {
+  thin_context *x = ctx;
+  const ch_label_ctx *lb = x->lb;
+  double mid[2] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])};
+  int c = family / LEVELS;
+  const ch_curve *cv = &lb->set->curves[c];
+  double err;
+  if (cv->profile.kind == CH_PROFILE_U) { /* in t, as the rims' slivers have no area (ch_refine_needed) */
+    double da = vertex_distance(x, c, va, a), db = vertex_distance(x, c, vb, b),
+           dm = ch_label_groove_distance(lb, c, mid);
+    err = fabs(dm - 0.5 * (da + db)) / cv->width * fabs(cv->depth);
+  } else {
+    err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) -
+               0.5 * (ch_height_eval(lb->height, a[0], a[1]) + ch_height_eval(lb->height, b[0], b[1])));
+  }
+  return err <= lb->chord_tol[c] * ch_label_chord_factor(lb, mid);
+}
+
+/* The exact normal of groove c's h at output vertex v in layer k (its
+ * profile segment), in the frame (UV times the object scale, h): the signed
+ * distance's gradient (away from the closest point, cached per vertex)
+ * times the profile's slope there, or, on a profile made of straight
+ * pieces, the slope of layer k (a vertex on a crease has one per side).
+ * 0 at a rim or beyond (the slope is unbounded or h is another's). */
+static int exact_normal(thin_context *x, int c, int k, int v, const double uv[2], double n[3]) {
+  const ch_label_ctx *lb = x->lb;
+  const ch_curve *cv = &lb->set->curves[c];
+  if (!x->known[v]) {
+    int seg = -1;
+    double d = ch_label_groove_distance_in(lb, c, uv, &seg, 0), t = d / cv->width;
+    x->known[v] = 2;
+    if (!(fabs(t) < 0.5 - 1e-6) || seg < 0) return 0;
+    const ch_segment *sg = &lb->set->segments[seg];
+    double u, cp[2], *g = x->gradient[v];
+    ch_bezier_closest(sg->p, sg->is_line, uv, &u);
+    ch_bezier_eval(sg->p, u, cp);
+    double r = hypot(uv[0] - cp[0], uv[1] - cp[1]);
+    if (r > 1e-12) {
+      g[0] = (d < 0.0 ? -1.0 : 1.0) * (uv[0] - cp[0]) / r;
+      g[1] = (d < 0.0 ? -1.0 : 1.0) * (uv[1] - cp[1]) / r;
+    } else { /* on the curve: its left normal */
+      double tg[2];
+      ch_bezier_tangent(sg->p, u, tg);
+      double l = hypot(tg[0], tg[1]);
+      g[0] = l > 0.0 ? -tg[1] / l : 0.0;
+      g[1] = l > 0.0 ? tg[0] / l : 0.0;
+    }
+    g[2] = t;
+    x->known[v] = 1;
+  }
+  if (x->known[v] != 1) return 0;
+  const double *g = x->gradient[v];
+  double t = g[2], dp;
+  if (cv->profile.kind == CH_PROFILE_U) {
+    double dt = fmin(1e-6, 0.5 - fabs(t));
+    dp = (ch_profile_eval(&cv->profile, t + dt) - ch_profile_eval(&cv->profile, t - dt)) / (2.0 * dt);
+  } else {
+    int nb;
+    const double *br = ch_label_lines_of(lb, c, 0, &nb);
+    if (k < 1 || k >= nb) return 0;
+    dp = (ch_profile_eval(&cv->profile, br[k]) - ch_profile_eval(&cv->profile, br[k - 1])) / (br[k] - br[k - 1]);
+  }
+  double slope = cv->depth * dp / cv->width / lb->object_scale; /* dh/ds in object units */
+  double m[3] = {-slope * g[0], -slope * g[1], 1.0}, l = sqrt(ch_dot3(m, m));
+  for (int i = 0; i < 3; i++) n[i] = m[i] / l;
+  return 1;
+}
+
+/* A new facet's normal stays within 0.6 angle steps of the exact normal
+ * at each of its corners (but rims): a long straight edge leaves a curved
+ * groove's thin layers by its sagitta, which tilts the facet across them,
+ * and turns away from the groove's direction. 0.6: at 130k triangles over
+ * ornament, glyphs and spiral the normals' p95 went 0.1-0.3 degrees below
+ * thinning without it, L1 within 3%; 1.0 gave back half of that. */
+static int thin_triangle_ok(void *ctx, int family, int layer, const int v[3], const double *uv[3]) {
+  thin_context *x = ctx;
+  const ch_label_ctx *lb = x->lb;
+  int c = family / LEVELS;
+  double q[3][3];
+  for (int k = 0; k < 3; k++) {
+    q[k][0] = uv[k][0] * lb->object_scale;
+    q[k][1] = uv[k][1] * lb->object_scale;
+    q[k][2] = x->o->h[v[k]];
+  }
+  double a[3] = {q[1][0] - q[0][0], q[1][1] - q[0][1], q[1][2] - q[0][2]};
+  double b[3] = {q[2][0] - q[0][0], q[2][1] - q[0][1], q[2][2] - q[0][2]}, f[3];
+  ch_cross3(a, b, f);
+  double l = sqrt(ch_dot3(f, f));
+  if (!(l > 0.0)) return 0;
+  if (f[2] < 0.0) l = -l;
+  double cos_max = cos(0.6 * lb->curve_angle[c]);
+  for (int k = 0; k < 3; k++) {
+    double n[3];
+    if (!exact_normal(x, c, layer, v[k], uv[k], n)) continue;
+    if (ch_dot3(f, n) / l < cos_max) return 0;
+  }
+  return 1;
+}
+
+/* Thins o's groove layers (ch_thin.h) and drops the vertices it frees;
+ * returns how many, -1 when out of memory. */
+int ch_cut_thin(const ch_label_ctx *lb, const ch_tess_result *tess, double longest_edge, ch_cut_out *o) {
+  thin_context *x = malloc(sizeof *x);
+  unsigned char *removed = calloc((size_t)(o->npos > 0 ? o->npos : 1), 1);
+  int *map = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *map);
+  if (!x || !removed || !map) {
+    free(x);
+    free(removed);
+    free(map);
+    return -1;
+  }
+  x->lb = lb;
+  x->o = o;
+  x->gradient = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->gradient);
+  x->known = calloc((size_t)(o->npos > 0 ? o->npos : 1), 1);
+  x->distance = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->distance);
+  x->distance_curve = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->distance_curve);
+  if (x->distance_curve)
+    for (int v = 0; v < o->npos; v++) x->distance_curve[v] = -1;
+  if (!x->gradient || !x->known || !x->distance || !x->distance_curve || edge_grid_build(x, tess, longest_edge)) {
+    free(x->distance);
+    free(x->distance_curve);
+    free(x->gradient);
+    free(x->known);
+    free(x);
+    free(removed);
+    free(map);
+    return -1;
+  }
+  ch_thin_rules rules = {thin_band, thin_max_edge, thin_edge_ok, thin_triangle_ok, x};
+  int n = ch_thin_bands(o->npos, &o->ntri, o->tri, o->uv, o->group, &rules, removed);
+  free(x->gradient);
+  free(x->known);
+  free(x->distance);
+  free(x->distance_curve);
+  if (n > 0) {
+    int k = 0;
+    for (int v = 0; v < o->npos; v++) {
+      map[v] = removed[v] ? -1 : k;
+      if (!removed[v]) {
+        o->face[k] = o->face[v];
+        o->st[2 * (size_t)k] = o->st[2 * (size_t)v];
+        o->st[2 * (size_t)k + 1] = o->st[2 * (size_t)v + 1];
+        o->h[k] = o->h[v];
+        k++;
+      }
+    }
+    o->npos = k;
+    for (size_t i = 0; i < 3 * (size_t)o->ntri; i++) o->tri[i] = map[o->tri[i]];
+  }
+  free(x);
+  free(removed);
+  free(map);
+  return n;
+}

@@ -1,0 +1,74 @@
+/* ch_cut: the cut and the output of the feature embedding (see ch_embed.h):
+ * each triangle of the refined working mesh (ch_refine) cut along the
+ * chords between its edges' crossings (regions, junctions, walls; fans
+ * where it cannot be), the thinning of the grooves' layers (ch_thin.h),
+ * positions and the output mesh with its normals by group. */
+#ifndef CH_CUT_INTERNAL_H
+#define CH_CUT_INTERNAL_H
+
+#include <stdint.h>
+
+#include "ch_embed.h"
+#include "ch_error.h"
+#include "ch_label_internal.h"
+#include "ch_mesh.h"
+#include "ch_refine_internal.h"
+#include "ch_surface.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The cut's output before evaluation: vertices as (face, st, h), triangles
+ * with their corner UVs and group (owns its arrays: ch_cut_out_free). A
+ * part of the cut (one thread's chunk) is one of these too. */
+typedef struct ch_cut_out {
+  double *pos; /* filled after evaluation */
+  int npos, cap_pos;
+  int first_pos; /* index of the first vertex held here (a part of the
+                      cut numbers its own vertices after the shared ones) */
+  /* what each output vertex is: face, st, h */
+  int *face;
+  double *st, *h;
+  int *tri;        /* 3 per triangle */
+  uint64_t *group; /* per triangle: piece label or WALL_GROUP */
+  double *uv;      /* 6 per triangle: corner UVs */
+  int ntri, cap_tri;
+} ch_cut_out;
+
+/* Frees o's arrays and zeroes it. */
+void ch_cut_out_free(ch_cut_out *o);
+
+/* Fills o->pos: each vertex's base point plus h along the normal, in
+ * parallel. Errors: CH_ERR_NOMEM, CH_ERR_INTERNAL (a point the surface
+ * does not evaluate). */
+ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch_error *err);
+
+/* Per-corner normals: the area-weighted mean of the face normals around a
+ * vertex among the triangles of the same group (piece, or wall), so they
+ * are smooth inside a piece and split at its boundary. */
+ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err);
+
+/* Cuts triangle t into its pieces, with walls where h jumps, into o (fans
+ * it where it cannot be cut, counted in stats->unresolved); tol: how close
+ * a junction point must be found. 0, or -1 when out of memory. Reads lb
+ * and w only: triangles may be cut in parallel into separate outputs. */
+int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, double tol, ch_cut_out *o,
+                    ch_embed_stats *stats);
+
+/* Appends a vertex; its index, or -1 when out of memory. */
+int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h);
+
+/* Appends a triangle (none if two corners are equal: a wall of zero
+ * height); 0, or -1 when out of memory. */
+int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
+                   uint64_t group);
+
+/* Thins o's groove layers (ch_thin.h) and drops the vertices it frees;
+ * returns how many, -1 when out of memory. */
+int ch_cut_thin(const ch_label_ctx *lb, const ch_tess_result *tess, double longest_edge, ch_cut_out *o);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,579 @@
+/* Piece labels of the feature embedding (see ch_label_internal.h). */
+#include "ch_label_internal.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_alloc.h"
+#include "ch_bezier.h"
+#include "ch_geomimage.h"
+#include "ch_grid.h"
+#include "ch_math.h"
+#include "ch_samples.h"
+#include "ch_segtree.h"
+#include "ch_thin.h"
+#include "ch_warp.h"
+
+void ch_label_free(ch_label_ctx *lb) {
+  free(lb->busy);
+  free(lb->level_start);
+  free(lb->level_t);
+  free(lb->curve_density);
+  free(lb->curve_angle);
+  free(lb->crease_start);
+  free(lb->crease_t);
+  free(lb->chord_tol);
+  free(lb->step_boxes);
+  ch_grid_free(&lb->step_grid);
+  ch_grid_free(&lb->groove_grid);
+  ch_segtree_free(&lb->tree);
+  free(lb->corner_seg);
+  free(lb->corner_start);
+  free(lb->end_item);
+  free(lb->end_start);
+  memset(lb, 0, sizeof *lb);
+}
+
+/* Largest deviation of the chord of P over [a, b] from P (sampled). */
+static double chord_error(const ch_profile *p, double a, double b) {
+  double pa = ch_profile_eval(p, a), pb = ch_profile_eval(p, b), worst = 0.0;
+  for (int i = 1; i < 32; i++) {
+    double t = a + (b - a) * i / 32.0;
+    worst = fmax(worst, fabs(pa + (pb - pa) * (t - a) / (b - a) - ch_profile_eval(p, t)));
+  }
+  return worst;
+}
+
+/* Break lines of a groove. A curved profile (u) gets extra lines, placed
+ * so that the slope angle of the displaced cross-section, atan(dh/ds) in
+ * object units, changes by at most `angle` (radians) from one line to the
+ * next, and the chord between two stays within `tolerance` of P (in units
+ * of depth): uniform in angle, so dense near the rims, where the slope is
+ * infinite and no isotropic mesh could follow P. They cut the mesh like
+ * creases: long edges along the groove, thin slices across it, and the
+ * facet normals stay within about angle / 2 of the exact ones. `slope` is
+ * depth / (width * object units per UV). */
+static int groove_lines(const ch_curve *c, double tolerance, double angle, double slope, double min_spacing, double *t,
+                        int max) {
+  int n = ch_profile_creases(&c->profile, t, max);
+  if (c->profile.kind != CH_PROFILE_U || n != 2 || max < 2 * MAX_U_LINES + 2) return n;
+  double inner[MAX_U_LINES];
+  int m = 0;
+  double a = 0.5;
+  int use_angle = angle > 0.0 && slope > 0.0;
+  while (m < MAX_U_LINES) {
+    /* Next line inwards from a: the nearer of what the chord rule (by
+     * bisection) and the angle rule allow. The angle lines sit at
+     * theta = (k - 1/2) angle; on P = -sqrt(1 - 4t^2), tan theta = dh/ds =
+     * 2 slope x / sqrt(1 - x^2) with x = 2t. */
+    double xa = 2.0 * a;
+    double theta_a = a >= 0.5 ? 0.5 * CH_PI : atan(2.0 * slope * xa / sqrt(1.0 - xa * xa));
+    int chord_done = chord_error(&c->profile, 0.0, a) <= tolerance;
+    int angle_done = !use_angle || theta_a <= 0.5 * angle * (1.0 + 1e-9);
+    if (chord_done && angle_done) break;
+    double lo = 0.0, hi = a;
+    if (!chord_done)
+      for (int it = 0; it < 40; it++) {
+        double mid = 0.5 * (lo + hi);
+        if (chord_error(&c->profile, mid, a) <= tolerance)
+          hi = mid;
+        else
+          lo = mid;
+      }
+    else
+      hi = 0.0;
+    if (!angle_done) {
+      double k = ceil(theta_a / angle * (1.0 - 1e-9) + 0.5) - 1.0; /* the largest (k - 1/2) angle < theta_a */
+      double q = tan((k - 0.5) * angle) / (2.0 * slope), x = q / sqrt(1.0 + q * q);
+      hi = fmax(hi, 0.5 * x);
+    }
+    /* Lines closer than this to the previous one would ask for edges
+     * below the refinement limit where they curve (around an end), or
+     * spend more on the rim's last sliver than the density warrants. */
+    if ((a - hi) * c->width >= min_spacing) inner[m++] = hi;
+    a = hi;
+  }
+  n = 0;
+  t[n++] = -0.5;
+  for (int i = 0; i < m; i++) t[n++] = -inner[i];
+  for (int i = m - 1; i >= 0; i--) t[n++] = inner[i];
+  t[n++] = 0.5;
+  return n;
+}
+
+/* The density the warped mesh has at uv: sqrt(slope_u slope_v) of the
+ * mesh's metric (ch_warp_mesh_slopes; the mesh's edge is e / that). */
+double ch_label_mesh_density(const ch_warp *w, const double uv[2]) {
+  double s[2];
+  ch_warp_mesh_slopes(w, uv, s);
+  return sqrt(s[0] * s[1]);
+}
+
+/* The warped mesh density along curve c: the mean over its length of
+ * mesh_density; its length in *len. 1 without a warp. */
+static double warp_density(const ch_warp *w, const ch_curve_set *set, int c, double *len) {
+  const ch_curve *cv = &set->curves[c];
+  double sum = 0.0, total = 0.0;
+  for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++) {
+    const ch_segment *sg = &set->segments[i];
+    enum { SAMPLES = 16 };
+    double prev[2];
+    ch_segment_point(sg, 0.0, prev);
+    for (int k = 1; k <= SAMPLES; k++) {
+      double p[2], mid[2];
+      ch_segment_point(sg, (double)k / SAMPLES, p);
+      double l = hypot(p[0] - prev[0], p[1] - prev[1]);
+      ch_segment_point(sg, (k - 0.5) / SAMPLES, mid);
+      sum += l * (w ? ch_label_mesh_density(w, mid) : 1.0);
+      total += l;
+      prev[0] = p[0], prev[1] = p[1];
+    }
+  }
+  *len = total;
+  return total > 0.0 ? sum / total : 1.0;
+}
+
+/* Whether the joint at the start of step segment s turns by more than 30
+ * degrees (a polygon's vertex: coarse_at_step_corner). */
+static int sharp_step_corner(const ch_curve_set *set, int s) {
+  const ch_segment *sg = &set->segments[s];
+  if (sg->prev < 0 || set->curves[sg->curve].kind != CH_CURVE_STEP) return 0;
+  double ta[2], tb[2], pa[3][2], pb[3][2];
+  memcpy(pa, set->segments[sg->prev].p, sizeof pa);
+  memcpy(pb, sg->p, sizeof pb);
+  ch_bezier_tangent(pa, 1.0, ta);
+  ch_bezier_tangent(pb, 0.0, tb);
+  return ta[0] * tb[0] + ta[1] * tb[1] < 0.8660254037844387; /* cos 30 degrees */
+}
+
+/* The cell of coordinate x on res cells over [0, 1], clamped (far
+ * outside, or not a number: the border's). */
+int ch_label_corner_cell(int res, double x) {
+  double f = floor(x * res);
+  return !(f >= 0.0) ? 0 : f >= res ? res - 1 : (int)f;
+}
+
+/* The sharp corners of the step curves, bucketed (a counting sort keeps
+ * each cell's in segment order). */
+static ch_status find_step_corners(ch_label_ctx *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int n = 0;
+  for (int s = 0; s < set->num_segments; s++) n += sharp_step_corner(set, s);
+  int res = (int)fmin(256.0, fmax(1.0, floor(sqrt((double)n))));
+  lb->corner_res = res;
+  lb->corner_seg = malloc((size_t)(n > 0 ? n : 1) * sizeof *lb->corner_seg);
+  lb->corner_start = calloc((size_t)res * res + 1, sizeof *lb->corner_start);
+  if (!lb->corner_seg || !lb->corner_start) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for step corners");
+  for (int s = 0; s < set->num_segments; s++)
+    if (sharp_step_corner(set, s)) {
+      const double *q = set->segments[s].p[0];
+      lb->corner_start[ch_label_corner_cell(res, q[1]) * res + ch_label_corner_cell(res, q[0]) + 1]++;
+    }
+  for (int c = 0; c < res * res; c++) lb->corner_start[c + 1] += lb->corner_start[c];
+  int *fill = malloc((size_t)res * res * sizeof *fill);
+  if (!fill) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for step corners");
+  memcpy(fill, lb->corner_start, (size_t)res * res * sizeof *fill);
+  for (int s = 0; s < set->num_segments; s++)
+    if (sharp_step_corner(set, s)) {
+      const double *q = set->segments[s].p[0];
+      lb->corner_seg[fill[ch_label_corner_cell(res, q[1]) * res + ch_label_corner_cell(res, q[0])]++] = s;
+    }
+  free(fill);
+  return CH_OK;
+}
+
+/* Whether end (0: start, 1: end) of segment s is an open end of a groove
+ * whose cap coarse_at_cap sizes (all profiles but u). */
+int ch_label_capped_end(const ch_curve_set *set, int s, int end) {
+  const ch_segment *sg = &set->segments[s];
+  const ch_curve *cv = &set->curves[sg->curve];
+  return cv->kind == CH_CURVE_GROOVE && cv->profile.kind != CH_PROFILE_U && (end == 0 ? sg->prev : sg->next) < 0;
+}
+
+/* The open ends coarse_at_cap looks at, bucketed like the step corners. */
+static ch_status find_open_ends(ch_label_ctx *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int n = 0;
+  for (int s = 0; s < set->num_segments; s++)
+    for (int end = 0; end < 2; end++)
+      if (ch_label_capped_end(set, s, end)) {
+        n++;
+        lb->end_reach = fmax(lb->end_reach, 0.5 * set->curves[set->segments[s].curve].width);
+      }
+  int res = (int)fmin(256.0, fmax(1.0, floor(sqrt((double)n))));
+  lb->end_res = res;
+  lb->end_item = malloc((size_t)(n > 0 ? n : 1) * sizeof *lb->end_item);
+  lb->end_start = calloc((size_t)res * res + 1, sizeof *lb->end_start);
+  int *fill = malloc((size_t)res * res * sizeof *fill);
+  if (!lb->end_item || !lb->end_start || !fill) {
+    free(fill);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the grooves' ends");
+  }
+  for (int pass = 0; pass < 2; pass++) {
+    if (pass == 1) {
+      for (int c = 0; c < res * res; c++) lb->end_start[c + 1] += lb->end_start[c];
+      memcpy(fill, lb->end_start, (size_t)res * res * sizeof *fill);
+    }
+    for (int s = 0; s < set->num_segments; s++)
+      for (int end = 0; end < 2; end++) {
+        if (!ch_label_capped_end(set, s, end)) continue;
+        const double *q = set->segments[s].p[end == 0 ? 0 : 2];
+        int cell = ch_label_corner_cell(res, q[1]) * res + ch_label_corner_cell(res, q[0]);
+        if (pass == 0)
+          lb->end_start[cell + 1]++;
+        else
+          lb->end_item[fill[cell]++] = 2 * s + end;
+      }
+  }
+  free(fill);
+  return CH_OK;
+}
+
+ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp *warp, double radius,
+                        double curve_tolerance, double angle, double object_scale, double mean_edge, double reach,
+                        ch_error *err) {
+  const ch_curve_set *set = height->set;
+  memset(lb, 0, sizeof *lb);
+  lb->height = height;
+  lb->set = set;
+  lb->radius = radius;
+  if (set->num_curves >= MAX_CURVES_LABELLED)
+    return ch_error_set(err, CH_ERR_INPUT, "%d curves: feature embedding handles at most %d", set->num_curves,
+                        MAX_CURVES_LABELLED - 1);
+  int nc = set->num_curves;
+  lb->crease_start = malloc((size_t)(nc + 1) * sizeof *lb->crease_start);
+  lb->crease_t = malloc(((size_t)nc * MAX_LINES + 1) * sizeof *lb->crease_t);
+  lb->chord_tol = calloc((size_t)(nc > 0 ? nc : 1), sizeof *lb->chord_tol);
+  lb->curve_angle = calloc((size_t)(nc > 0 ? nc : 1), sizeof *lb->curve_angle);
+  lb->object_scale = object_scale;
+  lb->step_boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *lb->step_boxes);
+  if (!lb->crease_start || !lb->crease_t || !lb->chord_tol || !lb->curve_angle || !lb->step_boxes) {
+    ch_label_free(lb);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
+  }
+  int n = 0;
+  /* With a warp, a groove's lines and chords are as fine as the mesh
+   * along it, relative to the grooves' mean (so the triangles the lines
+   * take stay about the same in all: finer where the camera looks, coarser
+   * where it does not). Lines run a whole groove, so the density is its
+   * mean along the groove. */
+  const double global_edge = mean_edge, global_angle = angle;
+  double *density = calloc((size_t)(nc > 0 ? nc : 1), sizeof *density), mean_density = 1.0;
+  if (!density) {
+    ch_label_free(lb);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
+  }
+  if (warp) {
+    double sum = 0.0, total = 0.0;
+    for (int c = 0; c < nc; c++) {
+      if (set->curves[c].kind != CH_CURVE_GROOVE) continue;
+      double len;
+      density[c] = warp_density(warp, set, c, &len);
+      sum += density[c] * len;
+      total += len;
+    }
+    if (sum > 0.0) mean_density = sum / total;
+  }
+  lb->warp = warp;
+  lb->mean_density = mean_density;
+  if (warp) {
+    lb->level_start = calloc((size_t)nc * LEVELS + 1, sizeof *lb->level_start);
+    lb->level_t = malloc(((size_t)nc * (LEVELS - 1) * MAX_LINES + 1) * sizeof *lb->level_t);
+    lb->curve_density = malloc((size_t)(nc > 0 ? nc : 1) * sizeof *lb->curve_density);
+    if (!lb->level_start || !lb->level_t || !lb->curve_density) {
+      free(density);
+      ch_label_free(lb);
+      return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature labels");
+    }
+  }
+  int nl = 0; /* lines of the finer sets */
+  for (int c = 0; c < nc; c++) {
+    lb->crease_start[c] = n;
+    if (set->curves[c].kind == CH_CURVE_GROOVE) {
+      double f = warp && density[c] > 0.0 ? fmin(4.0, fmax(0.125, mean_density / density[c])) : 1.0;
+      mean_edge = global_edge * f;
+      angle = warp ? fmin(CH_PI / 12.0, fmax(CH_PI / 180.0, global_angle * f)) : global_angle; /* 1 to 15 deg */
+      lb->curve_angle[c] = angle;
+      /* By default as fine as the mesh itself would follow P across the
+       * groove's middle (chord error (e/w)^2 P''/8, P'' = 4 there), so the
+       * error keeps shrinking with density; never coarser than 1%. */
+      double tol = curve_tolerance;
+      if (!(tol > 0.0)) {
+        double r = mean_edge / set->curves[c].width;
+        tol = fmin(0.01, fmax(1e-4, 0.5 * r * r));
+      }
+      const ch_curve *cv = &set->curves[c];
+      {
+        /* Along the lines: chords within 1% of the depth where edges are
+         * under a quarter of the groove's width (130k triangles over the
+         * bundled sets), fast coarser beyond (like (e/w)^4): at low
+         * densities refining every curved line to 1% would take more
+         * triangles than a small target holds. */
+        double r = global_edge / cv->width / 0.25;
+        /* (with a warp, scaled where it is checked, chord_factor:
+         * sagittas go like e^2, but a tolerance that falls as fast where
+         * the mesh is finer has the chords of a close view take most of
+         * the triangles, and the count from the base stops being
+         * monotone; where it is coarser it grows as fast) */
+        lb->chord_tol[c] = 0.01 * fmax(1.0, r * r * r * r) * fabs(cv->depth);
+      }
+      double slope = fabs(cv->depth) / (cv->width * object_scale);
+      /* Near the rim the lines crowd where P is vertical: down to 1/50 of
+       * the mean edge (about 8e-5 UV at 130k triangles, 2e-5 at 2.1M). */
+      double spacing = fmax(2.0 * MIN_SPLIT_LENGTH, mean_edge / 50.0);
+      n += groove_lines(cv, tol, angle, slope, spacing, lb->crease_t + n, MAX_LINES);
+      /* the finer sets of a u groove (level L: the angle step and the
+       * rim's spacing / 2^L, as the mesh there is 2^L times finer) */
+      for (int L = 1; lb->level_t && cv->profile.kind == CH_PROFILE_U && L < LEVELS; L++) {
+        lb->level_start[c * LEVELS + L] = nl;
+        double a = fmax(CH_PI / 180.0, angle / (double)(1 << L));
+        double sp = fmax(2.0 * MIN_SPLIT_LENGTH, spacing / (double)(1 << L));
+        nl += groove_lines(cv, tol, a, slope, sp, lb->level_t + nl, MAX_LINES);
+      }
+    }
+    if (lb->level_t) {
+      if (!(set->curves[c].kind == CH_CURVE_GROOVE && set->curves[c].profile.kind == CH_PROFILE_U))
+        for (int L = 1; L < LEVELS; L++) lb->level_start[c * LEVELS + L] = nl;
+      lb->level_start[c * LEVELS + LEVELS] = nl; /* the end of its last set */
+    }
+  }
+  if (lb->curve_density) memcpy(lb->curve_density, density, (size_t)nc * sizeof *density);
+  free(density);
+  lb->crease_start[nc] = n;
+  for (int i = 0; i < set->num_segments; i++) {
+    const ch_segment *s = &set->segments[i];
+    if (set->curves[s->curve].kind == CH_CURVE_STEP) {
+      ch_segment_box(s, radius, lb->step_boxes[i]);
+      lb->has_steps = 1;
+    } else {
+      lb->step_boxes[i][0] = 1.0;
+      lb->step_boxes[i][2] = 0.0; /* empty: not in the grid */
+    }
+  }
+  /* Box grids for one curve's distance (ch_curve_closest_in_cell), whose answer
+   * beyond reach is the cell's (so the level functions the crossing search
+   * follows, and the bytes out, stay as they were); the groove field's
+   * own grid lists long segments only along their way. */
+  ch_status st = ch_grid_build(&lb->step_grid, set->num_segments, (const double(*)[4])lb->step_boxes, err);
+  if (!st) st = ch_grid_build(&lb->groove_grid, set->num_segments, (const double(*)[4])ch_groove_field_boxes(&height->grooves), err);
+  if (!st) st = ch_segtree_build(&lb->tree, set, err);
+  if (!st) st = find_step_corners(lb, err);
+  if (!st) st = find_open_ends(lb, err);
+  if (st) {
+    ch_label_free(lb);
+    return st;
+  }
+  /* The quiet-cell mask, cells about one longest edge wide. */
+  int res = (int)fmin(2048.0, fmax(16.0, ceil(1.0 / fmax(reach, 1e-9))));
+  lb->mask_res = res;
+  lb->busy = calloc((size_t)res * res, 1);
+  if (!lb->busy) {
+    ch_label_free(lb);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the feature mask");
+  }
+  double cell = 1.0 / res;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < set->num_segments; i++) {
+    const ch_segment *sg = &set->segments[i];
+    const ch_curve *c = &set->curves[sg->curve];
+    double margin = (c->kind == CH_CURVE_STEP ? radius : 0.5 * c->width) + 0.7072 * cell + reach;
+    double box[4];
+    ch_segment_box(sg, margin, box);
+    int x0 = (int)floor(box[0] * res), x1 = (int)floor(box[2] * res);
+    int y0 = (int)floor(box[1] * res), y1 = (int)floor(box[3] * res);
+    x0 = x0 < 0 ? 0 : x0;
+    y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 >= res ? res - 1 : x1;
+    y1 = y1 >= res ? res - 1 : y1;
+    for (int y = y0; y <= y1; y++)
+      for (int x = x0; x <= x1; x++) {
+        double q[2] = {(x + 0.5) * cell, (y + 0.5) * cell}, t;
+        if (ch_bezier_closest(sg->p, sg->is_line, q, &t) <= margin * margin) {
+#pragma omp atomic write
+          lb->busy[(size_t)y * res + x] = 1;
+        }
+      }
+  }
+  return CH_OK;
+}
+
+int ch_label_quiet(const ch_label_ctx *lb, const double uv[2]) {
+  double fx = uv[0] * lb->mask_res, fy = uv[1] * lb->mask_res;
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < lb->mask_res && fy < lb->mask_res)) return 0;
+  return !lb->busy[(size_t)fy * lb->mask_res + (size_t)fx];
+}
+
+/* The break lines of groove c at level L (the finer sets of u grooves). */
+const double *ch_label_lines_of(const ch_label_ctx *lb, int c, int L, int *nb) {
+  if (L == 0 || !lb->level_t) {
+    *nb = lb->crease_start[c + 1] - lb->crease_start[c];
+    return lb->crease_t + lb->crease_start[c];
+  }
+  int a = lb->level_start[c * LEVELS + L], b = lb->level_start[c * LEVELS + L + 1];
+  *nb = b - a;
+  return lb->level_t + a;
+}
+
+/* The line set a point of u groove c takes: level L where the warped mesh
+ * there is 2^L times denser than along the groove on average (the lines
+ * were set for that average), at most LEVELS - 1; 0 without a warp. */
+static int level_at(const ch_label_ctx *lb, int c, const double uv[2]) {
+  if (!lb->level_t || lb->set->curves[c].profile.kind != CH_PROFILE_U) return 0;
+  double d = ch_label_mesh_density(lb->warp, uv);
+  double r = d / lb->curve_density[c];
+  int L = 0;
+  while (L + 1 < LEVELS && r >= (double)(2 << L)) L++;
+  int nb;
+  ch_label_lines_of(lb, c, L, &nb);
+  return nb > 0 ? L : 0;
+}
+
+uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]) {
+  const ch_curve_set *set = lb->set;
+  ch_groove_sample gs;
+  ch_groove_field_eval(&lb->height->grooves, uv[0], uv[1], &gs);
+  uint64_t g = 0;
+  if (gs.active >= 0) {
+    double t = gs.active_signed_distance / set->curves[gs.active].width;
+    int k = 0, L = level_at(lb, gs.active, uv), nb;
+    const double *br = ch_label_lines_of(lb, gs.active, L, &nb);
+    /* Points within rounding of a line belong to the piece below it, so
+     * a path's own points do not flip sides with the noise of s. */
+    for (int i = 0; i < nb; i++) k += br[i] < t - 1e-13;
+    /* An active groove is inside its support: the shift above must not
+     * make a piece of the hair between the support's edge and the shifted
+     * one. */
+    if (k < 1) k = 1;
+    if (nb > 1 && k > nb - 1) k = nb - 1;
+    g = ((uint64_t)L << 28) | ((uint64_t)(gs.active + 1) << 8) | (uint64_t)k;
+  }
+  uint64_t s = 0;
+  if (lb->has_steps) {
+    /* The nearest step segment within the radius (the lowest index of
+     * equals): through the tree, whose cost follows the curves near uv,
+     * not all those within the radius (a grid cell of a coarse mesh's
+     * radius over 10,000 small loops holds thousands). */
+    double best, best_t = 0.0;
+    int best_seg =
+        ch_segtree_closest(&lb->tree, set, 0, lb->tree.num_step_leaves, uv, lb->radius * lb->radius, &best, &best_t);
+    if (best_seg >= 0) {
+      int curve = set->segments[best_seg].curve;
+      int left = ch_curve_side(set, best_seg, best_t, uv) > 0;
+      if (lb->height->step_method != CH_RECON_EXACT) {
+        /* Walls follow the reconstructed curve: its side where it is this curve. */
+        ch_recon_sample rs;
+        ch_height_step(lb->height, uv[0], uv[1], &rs);
+        if (rs.curve == curve) left = rs.side == CH_SIDE_LEFT;
+      }
+      s = ((uint64_t)(curve + 1) << 1) | (uint64_t)left;
+    }
+  }
+  return g << 32 | s;
+}
+
+/* Curve c's signed distance at uv from ch_curve_closest_in_cell over grid and
+ * boxes (grown by reach); over all of c's segments where the cell has none
+ * of them, or (without `beyond`) none within reach. */
+double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double *boxes, int c,
+                                   const double uv[2], double reach, int beyond, int *segment) {
+  double d2, t;
+  int seg = ch_curve_closest_in_cell(lb->set, grid, boxes, c, uv, reach, beyond, &d2, &t);
+  if (seg < 0 || (!(d2 <= reach * reach) && !beyond)) {
+    /* the whole curve (ch_curve_closest's answer), through the tree: a
+     * scan of a path of 500k segments per point took minutes */
+    int first, last;
+    ch_segtree_curve(&lb->tree, lb->set, c, &first, &last);
+    seg = ch_segtree_closest(&lb->tree, lb->set, first, last, uv, INFINITY, &d2, &t);
+    if (seg < 0) { /* (a curve has segments; for safety, as ch_curve_closest would) */
+      seg = lb->set->curves[c].first_segment;
+      d2 = ch_bezier_closest(lb->set->segments[seg].p, lb->set->segments[seg].is_line, uv, &t);
+    }
+    if (segment) *segment = seg;
+    return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
+  }
+  if (segment) *segment = seg;
+  return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
+}
+
+/* Signed distance s from uv to groove curve c: over c's segments in the
+ * grooves' grid cell (boxes grown by w/2); beyond w/2, over all of c's
+ * segments, or with `cell_beyond` the closest of those in the cell if
+ * there are any (enough to bracket a level inside the groove, and a scan
+ * of a long curve less). */
+double ch_label_groove_distance_in(const ch_label_ctx *lb, int c, const double uv[2], int *segment, int cell_beyond) {
+  const ch_groove_field *gf = &lb->height->grooves;
+  return ch_label_signed_distance_in(lb, &lb->groove_grid, ch_groove_field_boxes(gf), c, uv,
+                                     0.5 * lb->set->curves[c].width, cell_beyond, segment);
+}
+
+double ch_label_groove_distance(const ch_label_ctx *lb, int c, const double uv[2]) {
+  return ch_label_groove_distance_in(lb, c, uv, NULL, 0);
+}
+
+/* h in a given piece at a point on its boundary: h_step read at `inside`
+ * (a point of the piece within rounding of `at`), plus the groove of the
+ * label evaluated by its own profile segment, continued to `at`. Reading
+ * the groove at a point could land on the wrong side of a wall: a label
+ * sits a hair (1e-13 in t) off where h changes, and along an edge that
+ * meets the line at a grazing angle no offset is safe. */
+double ch_label_piece_height(const ch_label_ctx *lb, uint64_t label, const double inside[2], const double at[2]) {
+  const ch_height *h = lb->height;
+  double value = 0.0;
+  if (h->has_steps) {
+    ch_recon_sample rs;
+    uint32_t step = (uint32_t)label; /* (curve + 1) << 1 | left, 0 away from steps */
+    if (step && h->warp)             /* the label knows the side; in warped UV a point a hair off the curve may not */
+      ch_height_step_side(h, inside[0], inside[1], (int)(step >> 1) - 1, (step & 1) ? CH_SIDE_LEFT : CH_SIDE_RIGHT,
+                          &rs);
+    else
+      ch_height_step(h, inside[0], inside[1], &rs);
+    value = rs.value;
+  }
+  uint64_t g = label >> 32;
+  if (!g) return value;
+  int curve = GROOVE_CURVE(g), k = (int)(g & 0xff);
+  const ch_curve *c = &lb->set->curves[curve];
+  double t = ch_label_groove_distance(lb, curve, at) / c->width;
+  if (c->profile.kind == CH_PROFILE_U) {
+    t = fmax(-0.5, fmin(0.5, t));
+    return value + c->depth * ch_profile_eval(&c->profile, t);
+  }
+  /* Piece k lies between break points k-1 and k: a line through two
+   * points well inside it. */
+  int nb;
+  const double *br = ch_label_lines_of(lb, curve, GROOVE_LEVEL(g), &nb);
+  double a = k > 0 ? br[k - 1] : br[0] - 1.0, b = k < nb ? br[k] : br[nb - 1] + 1.0;
+  double t1 = a + 0.25 * (b - a), t2 = a + 0.75 * (b - a);
+  /* Beyond an open end the side, so the sign of s, flips across the line
+   * that continues the path: on that line `at` may get either sign. The
+   * limit from inside the piece has the piece's sign. */
+  if (a >= 0.0 || b <= 0.0) {
+    t = a >= 0.0 ? fabs(t) : -fabs(t);
+  } else {
+    t = ch_label_groove_distance(lb, curve, inside) >= 0.0 ? fabs(t) : -fabs(t);
+  }
+  t = fmax(a, fmin(b, t)); /* a junction estimate may lie a little outside */
+  double p1 = ch_profile_eval(&c->profile, t1), p2 = ch_profile_eval(&c->profile, t2);
+  return value + c->depth * (p1 + (p2 - p1) * (t - t1) / (t2 - t1));
+}
+
+/* How much finer than the mean the warped mesh is at uv (relative to the
+ * grooves' mean density, within [1/8, 4]); 1 without a warp. */
+double ch_label_local_factor(const ch_label_ctx *lb, const double uv[2]) {
+  if (!lb->warp) return 1.0;
+  double d = ch_label_mesh_density(lb->warp, uv);
+  return fmin(4.0, fmax(0.125, lb->mean_density / d));
+}
+
+/* The factor of a groove's chord tolerance at uv. Where the warped mesh is
+ * coarser than the grooves' mean (away from the view) a chord's sagitta
+ * grows as the square of its length, so the tolerance does too, or the
+ * chords would refine the coarse parts back towards the mean; where it is
+ * finer, linear (see ch_label_init). */
+double ch_label_chord_factor(const ch_label_ctx *lb, const double uv[2]) {
+  double lf = ch_label_local_factor(lb, uv);
+  return lf > 1.0 ? lf * lf : lf;
+}

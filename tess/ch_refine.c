@@ -1,0 +1,854 @@
+/* The working mesh and its refinement (see ch_refine_internal.h). */
+#include "ch_refine_internal.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_alloc.h"
+#include "ch_bezier.h"
+#include "ch_geomimage.h"
+#include "ch_grid.h"
+#include "ch_math.h"
+#include "ch_samples.h"
+#include "ch_segtree.h"
+#include "ch_thin.h"
+#include "ch_warp.h"
+
+static int grow(void **p, int *cap, int need, size_t size) {
+  if (need <= *cap) return 0;
+  int n = *cap ? *cap : 1024;
+  while (n < need) n = n > (1 << 29) ? need : 2 * n;
+  void *q = realloc(*p, (size_t)n * size);
+  if (!q) return -1;
+  *p = q;
+  *cap = n;
+  return 0;
+}
+
+void ch_refine_lerp2(const double a[2], const double b[2], double x, double out[2]) {
+  out[0] = a[0] + x * (b[0] - a[0]);
+  out[1] = a[1] + x * (b[1] - a[1]);
+}
+
+/* The (s,t) in face of a new point from its UV (UV is linear in each face,
+ * its (s,t) is not: an N-gon's sub-faces tile the parameter plane, so
+ * interpolating (s,t) across a triangle can leave the domain). st holds
+ * the interpolated guess, kept if the point is not found. */
+void ch_refine_locate_st(const ch_surface *surface, int face, const double uv[2], double st[2]) {
+  double found[2];
+  if (ch_surface_locate(surface, face, uv, found) == CH_OK) memcpy(st, found, sizeof found);
+}
+
+/* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
+void ch_refine_edge_point(const ch_refine_mesh *w, const ch_refine_edge *e, double x, double uv[2], double st[2]) {
+  const ch_refine_tri *t = &w->tris[e->tri];
+  int i = e->k, j = (e->k + 1) % 3;
+  if (t->v[i] != e->a) {
+    int tmp = i;
+    i = j;
+    j = tmp;
+  }
+  if (uv) ch_refine_lerp2(t->uv[i], t->uv[j], x, uv);
+  if (st) ch_refine_lerp2(t->st[i], t->st[j], x, st);
+}
+
+static uint64_t edge_label(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, double x) {
+  if (x <= 0.0) return w->verts[e->a].label;
+  if (x >= 1.0) return w->verts[e->b].label;
+  double uv[2];
+  ch_refine_edge_point(w, e, x, uv, NULL);
+  return ch_label_at(lb, uv);
+}
+
+void ch_refine_free_edges(ch_refine_edge *edges, int n) {
+  for (int i = 0; i < n; i++) free(edges[i].cross);
+  free(edges);
+}
+
+/* The unique edges of the triangles, sorted by vertex pair (a counting
+ * sort by the lower vertex, then each short run by the other); the
+ * canonical triangle of an edge is the lowest one holding it. Refinement
+ * then updates them in place (ch_refine_split). */
+ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
+  size_t n = 3 * (size_t)w->ntris;
+  int *start = calloc((size_t)w->nverts + 1, sizeof *start);
+  int(*entry)[2] = malloc(n * sizeof *entry); /* other vertex, corner */
+  w->edges = malloc(n * sizeof *w->edges);
+  w->tri_edge = malloc(n * sizeof *w->tri_edge);
+  if (!start || !entry || !w->edges || !w->tri_edge) {
+    free(start);
+    free(entry);
+    free(w->edges);
+    free(w->tri_edge);
+    w->edges = NULL;
+    w->tri_edge = NULL;
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %zu mesh edges", n);
+  }
+  for (size_t c = 0; c < n; c++) {
+    int a = w->tris[c / 3].v[c % 3], b = w->tris[c / 3].v[(c % 3 + 1) % 3];
+    start[(a < b ? a : b) + 1]++;
+  }
+  for (int v = 0; v < w->nverts; v++) start[v + 1] += start[v];
+  for (size_t c = 0; c < n; c++) { /* corners in order: runs stay in corner order */
+    int a = w->tris[c / 3].v[c % 3], b = w->tris[c / 3].v[(c % 3 + 1) % 3];
+    int lo = a < b ? a : b, hi = a < b ? b : a;
+    int *slot = entry[start[lo]++];
+    slot[0] = hi;
+    slot[1] = (int)c;
+  }
+  for (int v = w->nverts; v > 0; v--) start[v] = start[v - 1];
+  start[0] = 0;
+  int ne = 0;
+  for (int a = 0; a < w->nverts; a++) {
+    int s0 = start[a], s1 = start[a + 1];
+    for (int p = s0 + 1; p < s1; p++) /* by other vertex, stable */
+      for (int q = p; q > s0 && entry[q - 1][0] > entry[q][0]; q--) {
+        int t0 = entry[q][0], t1 = entry[q][1];
+        entry[q][0] = entry[q - 1][0];
+        entry[q][1] = entry[q - 1][1];
+        entry[q - 1][0] = t0;
+        entry[q - 1][1] = t1;
+      }
+    for (int i = s0; i < s1;) {
+      int j = i + 1;
+      while (j < s1 && entry[j][0] == entry[i][0]) j++;
+      ch_refine_edge *e = &w->edges[ne];
+      memset(e, 0, sizeof *e);
+      e->a = a;
+      e->b = entry[i][0];
+      e->tri = entry[i][1] / 3;
+      e->k = entry[i][1] % 3;
+      e->mid = -1;
+      e->ncross = -1; /* not computed */
+      for (int p = i; p < j; p++) w->tri_edge[entry[p][1]] = ne;
+      ne++;
+      i = j;
+    }
+  }
+  w->nedges = ne;
+  w->cap_edges = (int)n;
+  w->cap_tri_edge = (int)n;
+  free(start);
+  free(entry);
+  return CH_OK;
+}
+
+double ch_refine_edge_length(const ch_refine_mesh *w, const ch_refine_edge *e) {
+  double a[2], b[2];
+  ch_refine_edge_point(w, e, 0.0, a, NULL);
+  ch_refine_edge_point(w, e, 1.0, b, NULL);
+  return hypot(b[0] - a[0], b[1] - a[1]);
+}
+
+/* Signed distance from uv to step curve c over c's segments in the step
+ * grid's cell (boxes grown by the radius); beyond the radius, the closest
+ * of c's segments in the cell (the level functions only need a distance
+ * beyond the radius there), or over all of c's segments if the cell has
+ * none. */
+static double step_distance_at(const ch_label_ctx *lb, int c, const double uv[2], int *segment) {
+  return ch_label_signed_distance_in(lb, &lb->step_grid, (const double *)lb->step_boxes, c, uv, lb->radius, 1,
+                                     segment);
+}
+
+/* The level functions the crossing search follows along an edge: t = s / w
+ * of a groove (its break lines), |t| (its rim), the signed distance to a
+ * step curve (its wall or crease), the difference of two grooves' carves
+ * (where one takes over from the other, SPEC §3's CSG: the deeper wins);
+ * and for the labels' own boundaries, the distance to a step curve (the
+ * edge of its radius) and the difference of the distances to two (where
+ * the nearest changes). */
+typedef enum { LEVEL_LINE, LEVEL_RIM, LEVEL_STEP, LEVEL_PAIR, LEVEL_REACH, LEVEL_NEAREST } level_kind;
+
+/* Groove c's carve (or raise) g = depth P(t) at uv, 0 outside it. */
+static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2]) {
+  const ch_curve *cv = &lb->set->curves[c];
+  double t = ch_label_groove_distance_in(lb, c, uv, NULL, 1) / cv->width;
+  return fabs(t) < 0.5 ? cv->depth * ch_profile_eval(&cv->profile, t) : 0.0;
+}
+
+/* The level function at point x of edge e, against curve c (LEVEL_PAIR
+ * and LEVEL_NEAREST: c = a * MAX_CURVES_LABELLED + b for curves a and b),
+ * or only its segment seg when seg >= 0 (both bracket ends nearest it);
+ * *segment gets the nearest segment when asked. */
+static double level_value(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind,
+                          int c, int seg, double x, int *segment) {
+  double uv[2];
+  ch_refine_edge_point(w, e, x, uv, NULL);
+  if (kind == LEVEL_PAIR)
+    return groove_carve(lb, c / MAX_CURVES_LABELLED, uv) - groove_carve(lb, c % MAX_CURVES_LABELLED, uv);
+  if (kind == LEVEL_NEAREST)
+    return fabs(step_distance_at(lb, c / MAX_CURVES_LABELLED, uv, NULL)) -
+           fabs(step_distance_at(lb, c % MAX_CURVES_LABELLED, uv, NULL));
+  double v;
+  if (seg >= 0) {
+    const ch_segment *sg = &lb->set->segments[seg];
+    double t, d2 = ch_bezier_closest(sg->p, sg->is_line, uv, &t);
+    v = sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
+    if (segment) *segment = seg;
+  } else {
+    v = kind == LEVEL_STEP || kind == LEVEL_REACH ? step_distance_at(lb, c, uv, segment)
+                                                  : ch_label_groove_distance_in(lb, c, uv, segment, 1);
+  }
+  if (kind == LEVEL_STEP) return v;
+  if (kind == LEVEL_REACH) return fabs(v);
+  v /= lb->set->curves[c].width;
+  return kind == LEVEL_RIM ? fabs(v) : v;
+}
+
+/* A level set of a level function f - target along edge e, bracketed by
+ * [*a, *b] with f(a) = *fa and f(b) = *fb of opposite signs, by false
+ * position (Illinois) until the bracket is below tol, or until the last
+ * estimate m is within tol / 4 of the root by the secant's slope: then
+ * [*a, *b] = m -+ tol / 2 (unchecked: callers check the answer by the
+ * labels). One segment of c (seg >= 0: both ends are nearest it) is
+ * enough for the search. On return [*a, *b] brackets the root (in either
+ * order) and *fa is f(*a)'s sign. */
+static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind, int c,
+                       int seg, double target, double tol, double *a, double *b, double *fa, double *fb) {
+  int side = 0;
+  for (int it = 0; it < 80 && fabs(*b - *a) > tol; it++) {
+    double m = (*a * *fb - *b * *fa) / (*fb - *fa);
+    if (!(m > fmin(*a, *b) && m < fmax(*a, *b))) m = 0.5 * (*a + *b);
+    double fm = level_value(lb, w, e, kind, c, seg, m, NULL) - target;
+    /* On the level itself a line's label is still the lower piece's:
+     * keep bracketing. */
+    if (fm == 0.0) fm = -1e-300;
+    double slope = (fm - *fb) / (m - *b);
+    if (fabs(fm) <= 0.25 * tol * fabs(slope)) {
+      /* the side of m - tol / 2 is the one opposite to fm's along the slope */
+      double lo = m - 0.5 * tol, hi = m + 0.5 * tol, flo = (slope > 0.0) == (fm > 0.0) ? -fm : fm;
+      *a = lo;
+      *fa = flo;
+      *b = hi;
+      *fb = -flo;
+      return;
+    }
+    if (fm * *fb < 0.0) {
+      *a = *b;
+      *fa = *fb;
+      side = 0;
+    } else if (++side >= 2) {
+      *fa *= 0.5;
+    }
+    *b = m;
+    *fb = fm;
+  }
+}
+
+/* Finds the level of f = target between x0 < x1 (label l0 at x0, f -
+ * target = f0 there and f1 of the other sign at x1) and narrows the
+ * bisection's bracket [*lo, *hi] to it if the labels agree: l0 on x0's
+ * side of it, another label on the other; returns whether they did. The
+ * labels decide by their own evaluation, which can put the change a few
+ * roundings away (on a step curve itself the side is rounding): the
+ * bracket widens until they confirm it. */
+static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
+                           level_kind kind, int c, int seg, double target, double x0, double f0, double x1, double f1,
+                           double *lo, double *hi, uint64_t *lhi) {
+  double a = x0, b = x1, fa = f0, fb = f1;
+  level_root(lb, w, e, kind, c, seg, target, 1e-14, &a, &b, &fa, &fb);
+  double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
+  if (!(near < far)) return 0;
+  static const double widen[] = {0.0, 1e-13, 1e-11, 1e-9};
+  for (int k = 0; k < 4; k++) {
+    double l = fmax(x0, near - widen[k]), h = fmin(x1, far + widen[k]);
+    uint64_t next = edge_label(lb, w, e, h);
+    if (next == l0 || edge_label(lb, w, e, l) != l0) continue;
+    *lo = l;
+    *hi = h;
+    *lhi = next;
+    return 1;
+  }
+  return 0;
+}
+
+/* The fast paths of the crossing search: where two labels differ by one
+ * level function, its level set is found by false position in a dozen
+ * closest-point queries and confirmed by the labels at both ends of the
+ * bracket, which bisection then closes (a bracket of ~1e-14 already: no
+ * step; one the labels cannot confirm: bisection from the samples, 46
+ * label evaluations, as every crossing took before but lines and rims).
+ * - between two pieces of one groove (its break lines, the many lines of a
+ *   u profile), or out of a groove through its lines towards the rim, one
+ *   line at a time: t = the line;
+ * - at a groove's rim (one side outside it, the same step piece): |t| =
+ *   1/2 (a u profile is vertical there: the heights on its two sides only
+ *   agree where the label itself flips, hence the confirmation);
+ * - between two grooves: g_a = g_b;
+ * - across a step curve (the same curve, the sides differ, walls on the
+ *   exact curve): its signed distance = 0;
+ * - at the edge of a step curve's radius: distance = radius; where the
+ *   nearest step curve changes: the two distances equal. */
+static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
+                            uint64_t l1, double x0, double x1, double *lo, double *hi, uint64_t *lhi) {
+  uint64_t g0 = l0 >> 32, g1 = l1 >> 32, s0 = l0 & 0xffffffffu, s1 = l1 & 0xffffffffu;
+  int sa = -1, sb = -1;
+  if (s0 == s1 && g0 && (!g1 || (g0 >> 8) == (g1 >> 8))) { /* lines of one groove */
+    int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
+    const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
+    double ta = level_value(lb, w, e, LEVEL_LINE, c, -1, x0, &sa);
+    double tb = level_value(lb, w, e, LEVEL_LINE, c, -1, x1, &sb);
+    if (!g1) k1 = k0 + (tb > ta ? 1 : -1);
+    if (k1 != k0 && k1 >= 1 && k1 <= nb - 1) {
+      double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
+      if (ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)
+        narrow_to_level(lb, w, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo,
+                        hi, lhi);
+      return;
+    }
+  }
+  if (s0 == s1 && (!g0 != !g1)) { /* a rim (the outermost piece of the groove on one side) */
+    int c = GROOVE_CURVE(g0 ? g0 : g1);
+    double fa = level_value(lb, w, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
+    double fb = level_value(lb, w, e, LEVEL_RIM, c, -1, x1, &sb) - 0.5;
+    if (fa != 0.0 && fa * fb < 0.0)
+      narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi);
+  } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1) && lb->set->num_curves < 2048) {
+    /* two grooves: where the deeper carve (or the higher raise) changes */
+    int c = GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
+    double fa = level_value(lb, w, e, LEVEL_PAIR, c, -1, x0, NULL);
+    double fb = level_value(lb, w, e, LEVEL_PAIR, c, -1, x1, NULL);
+    if (fa != 0.0 && fa * fb < 0.0) narrow_to_level(lb, w, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+  } else if (g0 == g1 && s0 && s1 && (s0 >> 1) == (s1 >> 1) && lb->height->step_method == CH_RECON_EXACT) {
+    int c = (int)(s0 >> 1) - 1; /* one step curve's two sides */
+    double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
+    double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
+    if (fa != 0.0 && fa * fb < 0.0)
+      narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+  } else if (g0 == g1 && !s0 != !s1) { /* the edge of a step curve's radius */
+    int c = (int)((s0 ? s0 : s1) >> 1) - 1;
+    double fa = level_value(lb, w, e, LEVEL_REACH, c, -1, x0, &sa) - lb->radius;
+    double fb = level_value(lb, w, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
+    if (fa != 0.0 && fa * fb < 0.0)
+      narrow_to_level(lb, w, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi);
+  } else if (g0 == g1 && s0 && s1 && (s0 >> 1) != (s1 >> 1) && lb->set->num_curves < 2048) {
+    /* where the nearest step curve changes */
+    int c = (int)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int)((s1 >> 1) - 1);
+    double fa = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x0, NULL);
+    double fb = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x1, NULL);
+    if (fa != 0.0 && fa * fb < 0.0)
+      narrow_to_level(lb, w, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+  }
+}
+
+/* Every boundary between pieces along e. Labels are sampled about delta
+ * apart; from each sample whose label differs from the next, bisection
+ * (in the bracket a fast path narrowed) finds a change to about 1e-14 of
+ * the edge, and the search goes on from there, so lines closer together
+ * than the samples (the break lines near a u groove's rim) are all found.
+ * h is read on both sides. */
+int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refine_edge *e, double delta) {
+  double pa[2], pb[2];
+  ch_refine_edge_point(w, e, 0.0, pa, NULL);
+  ch_refine_edge_point(w, e, 1.0, pb, NULL);
+  if (ch_label_quiet(lb, pa) && ch_label_quiet(lb, pb)) {
+    e->ncross = 0;
+    e->cross = NULL;
+    return 0;
+  }
+  double len = hypot(pb[0] - pa[0], pb[1] - pa[1]);
+  int n = (int)ceil(len / delta);
+  /* At least the midpoint: short edges cross lines one after the other,
+   * which the ends' labels show; a midpoint catches most slivers a
+   * triangle's corners miss, and the refinement's hidden-piece check the
+   * rest (a third sample more made no difference on the bundled sets). */
+  n = n < 2 ? 2 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
+  ch_refine_crossing *list = NULL;
+  int count = 0, cap = 0;
+  double x0 = 0.0;
+  uint64_t l0 = w->verts[e->a].label;
+  int crowded = ch_groove_field_count(&lb->height->grooves, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])) > CROWDED_CELL;
+  /* An edge with MAX_NODES crossings makes every triangle holding it one
+   * that cannot be cut: the search stops there (what is found is kept). */
+  for (int i = 1; i <= n && count < MAX_NODES; i++) {
+    double x1 = (double)i / n;
+    uint64_t l1 = edge_label(lb, w, e, x1);
+    while (l0 != l1 && count < MAX_NODES) {
+      double lo = x0, hi = x1;
+      uint64_t lhi = l1;
+      narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi);
+      for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
+        double mid = 0.5 * (lo + hi);
+        uint64_t lm = edge_label(lb, w, e, mid);
+        if (lm == l0) {
+          lo = mid;
+        } else {
+          hi = mid;
+          lhi = lm;
+        }
+        /* Where grooves crowd (many crossing each other), many changes
+         * between two samples defeat the fast path and every label is a
+         * sum over all of them: once bisection has cut the bracket 64
+         * times, it tries again between l0 and the label the bracket now
+         * ends on, most often the only change left in it (a dozen
+         * one-curve evaluations instead of 40 more labels). */
+        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi);
+      }
+      if (grow((void **)&list, &cap, count + 1, sizeof *list)) {
+        free(list);
+        e->cross = NULL;
+        e->ncross = 0;
+        return -1;
+      }
+      ch_refine_crossing *c = &list[count++];
+      double uv[2];
+      c->x = 0.5 * (lo + hi);
+      c->la = l0;
+      c->lb = lhi;
+      double at[2];
+      ch_refine_edge_point(w, e, c->x, at, NULL);
+      ch_refine_edge_point(w, e, lo, uv, NULL);
+      c->ha = ch_label_piece_height(lb, l0, uv, at);
+      ch_refine_edge_point(w, e, hi, uv, NULL);
+      c->hb = ch_label_piece_height(lb, lhi, uv, at);
+      c->copy_a = c->copy_b = -1;
+      x0 = hi;
+      l0 = lhi;
+    }
+    x0 = x1;
+    l0 = l1;
+  }
+  /* Where two pieces tie (two mirrored grooves along their line of
+   * symmetry) rounding flips the label back and forth within a hair:
+   * a crossing that returns to the piece before it within 1e-9 of the edge
+   * cancels with it. */
+  for (int changed = 1; changed;) {
+    changed = 0;
+    for (int i = 0; i + 1 < count; i++)
+      if (list[i + 1].x - list[i].x < 1e-9 && list[i + 1].lb == list[i].la) {
+        memmove(&list[i], &list[i + 2], (size_t)(count - i - 2) * sizeof *list);
+        count -= 2;
+        changed = 1;
+        break;
+      }
+  }
+  e->cross = list;
+  e->ncross = count;
+  return 0;
+}
+
+void ch_refine_label_vertices(const ch_label_ctx *lb, ch_refine_mesh *w, int from) {
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int v = from; v < w->nverts; v++) {
+    w->verts[v].label = ch_label_quiet(lb, w->verts[v].uv) ? 0 : ch_label_at(lb, w->verts[v].uv);
+    w->verts[v].h = ch_height_eval(lb->height, w->verts[v].uv[0], w->verts[v].uv[1]);
+  }
+}
+
+/* New vertex at the midpoint of edge i (in its canonical triangle's
+ * chart), and the edge's two halves: half[0] from a to it, half[1] from b
+ * (their canonical triangles are set when the triangles split). */
+int ch_refine_add_midpoint(ch_refine_mesh *w, int i) {
+  if (grow((void **)&w->verts, &w->cap_verts, w->nverts + 1, sizeof *w->verts) ||
+      grow((void **)&w->edges, &w->cap_edges, w->nedges + 2, sizeof *w->edges))
+    return -1;
+  ch_refine_edge *e = &w->edges[i];
+  ch_refine_vert *v = &w->verts[w->nverts];
+  ch_refine_edge_point(w, e, 0.5, v->uv, v->st);
+  ch_refine_locate_st(w->surface, w->tris[e->tri].face, v->uv, v->st);
+  v->face = w->tris[e->tri].face;
+  v->label = 0;
+  e->mid = w->nverts++;
+  for (int j = 0; j < 2; j++) {
+    ch_refine_edge *h = &w->edges[w->nedges];
+    memset(h, 0, sizeof *h);
+    h->a = j ? e->b : e->a; /* below the new vertex: a < b holds */
+    h->b = e->mid;
+    h->tri = -1;
+    h->ncross = -1;
+    h->mid = -1;
+    e->half[j] = w->nedges++;
+  }
+  return 0;
+}
+
+/* A corner of a child triangle: a corner of its parent (tag 0-2) or the
+ * midpoint of the parent's edge k (tag 3 + k). */
+typedef struct corner_ref {
+  int v, tag;
+  double uv[2], st[2];
+} corner_ref;
+
+static void set_tri(ch_refine_tri *t, int face, const corner_ref *a, const corner_ref *b, const corner_ref *c) {
+  const corner_ref *r[3] = {a, b, c};
+  t->face = face;
+  for (int i = 0; i < 3; i++) {
+    t->v[i] = r[i]->v;
+    memcpy(t->uv[i], r[i]->uv, sizeof t->uv[i]);
+    memcpy(t->st[i], r[i]->st, sizeof t->st[i]);
+  }
+}
+
+/* Which edges of t have a midpoint (bit k: edge k). */
+static int split_mask(const ch_refine_mesh *w, int t) {
+  int mask = 0;
+  for (int k = 0; k < 3; k++)
+    if (w->edges[w->tri_edge[3 * (size_t)t + k]].mid >= 0) mask |= 1 << k;
+  return mask;
+}
+
+/* Splits every triangle with midpoints on its edges (red: 4 children,
+ * green: 2 or 3), in parallel: the first child takes the parent's slot,
+ * the others are appended, and the edges are updated in place (a split
+ * edge gives way to its halves, each parent gets as many new inner edges
+ * as it has split edges), so a round costs what it changes, not the size
+ * of the mesh. The result does not depend on the thread count. fresh[t]
+ * (resized with the triangles) tells the children from the untouched. */
+ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *err) {
+  int n0 = w->ntris, e0 = w->nedges;
+  int *first = malloc(((size_t)n0 + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
+  if (!first) return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  long added = 0;
+  for (int t = 0; t < n0; t++) {
+    first[t] = (int)added;
+    int mask = split_mask(w, t);
+    added += (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1); /* children beyond the first; inner edges alike */
+    if (n0 + added >= INT32_MAX / 3 || e0 + added >= INT32_MAX / 3) {
+      free(first);
+      return ch_error_set(err, CH_ERR_NOMEM, "refinement would make too many triangles");
+    }
+  }
+  int n = n0 + (int)added, cap_edge_index = w->cap_tri_edge;
+  unsigned char *fr = realloc(*fresh, (size_t)(n > 0 ? n : 1));
+  if (fr) *fresh = fr;
+  if (!fr || grow((void **)&w->tris, &w->cap_tris, n, sizeof *w->tris) ||
+      grow((void **)&w->edges, &w->cap_edges, e0 + (int)added, sizeof *w->edges) ||
+      grow((void **)&w->tri_edge, &cap_edge_index, 3 * n, sizeof *w->tri_edge)) {
+    free(first);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  }
+  w->cap_tri_edge = cap_edge_index;
+  memset(fr, 0, (size_t)n);
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (int t = 0; t < n0; t++) {
+    int mask = split_mask(w, t);
+    if (!mask) continue;
+    const ch_refine_tri T = w->tris[t];
+    int pe[3]; /* the parent's edges */
+    memcpy(pe, &w->tri_edge[3 * (size_t)t], sizeof pe);
+    corner_ref c[3], m[3];
+    for (int k = 0; k < 3; k++) {
+      c[k].v = T.v[k];
+      c[k].tag = k;
+      memcpy(c[k].uv, T.uv[k], sizeof c[k].uv);
+      memcpy(c[k].st, T.st[k], sizeof c[k].st);
+      const ch_refine_edge *e = &w->edges[pe[k]];
+      if (e->mid < 0) continue;
+      m[k].v = e->mid;
+      m[k].tag = 3 + k;
+      ch_refine_lerp2(T.uv[k], T.uv[(k + 1) % 3], 0.5, m[k].uv);
+      ch_refine_lerp2(T.st[k], T.st[(k + 1) % 3], 0.5, m[k].st);
+    }
+    int slot[4], f = T.face, cnt = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+    slot[0] = t;
+    for (int i = 1; i <= cnt; i++) slot[i] = n0 + first[t] + i - 1;
+    const corner_ref *kids[4][3];
+    if (cnt == 3) {
+      const corner_ref *r[4][3] = {
+          {&c[0], &m[0], &m[2]}, {&m[0], &c[1], &m[1]}, {&m[2], &m[1], &c[2]}, {&m[0], &m[1], &m[2]}};
+      memcpy(kids, r, sizeof r);
+    } else if (cnt == 1) {
+      int k = mask == 1 ? 0 : mask == 2 ? 1 : 2;
+      const corner_ref *a = &c[k], *b = &c[(k + 1) % 3], *o = &c[(k + 2) % 3];
+      const corner_ref *r[2][3] = {{a, &m[k], o}, {&m[k], b, o}};
+      memcpy(kids, r, sizeof r);
+    } else {
+      int k = (mask & 1) == 0 ? 1 : (mask & 2) == 0 ? 2 : 0; /* edges k, k+1 split; k+2 not */
+      const corner_ref *a = &c[k], *b = &c[(k + 1) % 3], *o = &c[(k + 2) % 3];
+      const corner_ref *m1 = &m[k], *m2 = &m[(k + 1) % 3];
+      const corner_ref *r[3][3] = {{m1, b, m2}, {a, m1, m2}, {a, m2, o}};
+      memcpy(kids, r, sizeof r);
+    }
+    /* Inner edges by their two tags, numbered as first met. */
+    int inner_tags[3][2], ninner = 0;
+    for (int i = 0; i <= cnt; i++) {
+      set_tri(&w->tris[slot[i]], f, kids[i][0], kids[i][1], kids[i][2]);
+      fr[slot[i]] = 1;
+      for (int j = 0; j < 3; j++) {
+        int p = kids[i][j]->tag, q = kids[i][(j + 1) % 3]->tag, edge;
+        int corner = p < q ? p : q, k = (p < q ? q : p) - 3; /* when one is a corner, one a midpoint */
+        if (p < 3 && q < 3) {                                /* an unsplit edge of the parent: corners p, q */
+          edge = pe[(q == (p + 1) % 3) ? p : q];
+        } else if (corner < 3 && k >= 0 && (corner == k || corner == (k + 1) % 3)) {
+          /* a corner and the midpoint of an edge it ends: a half */
+          const ch_refine_edge *e = &w->edges[pe[k]];
+          edge = e->half[T.v[corner] == e->a ? 0 : 1];
+        } else { /* between the midpoints or a midpoint and the opposite corner */
+          int lo = p < q ? p : q, hi = p < q ? q : p, x = 0;
+          while (x < ninner && !(inner_tags[x][0] == lo && inner_tags[x][1] == hi)) x++;
+          edge = e0 + first[t] + x;
+          if (x == ninner) {
+            inner_tags[ninner][0] = lo;
+            inner_tags[ninner][1] = hi;
+            ninner++;
+            ch_refine_edge *e = &w->edges[edge];
+            memset(e, 0, sizeof *e);
+            e->a = kids[i][j]->v < kids[i][(j + 1) % 3]->v ? kids[i][j]->v : kids[i][(j + 1) % 3]->v;
+            e->b = kids[i][j]->v ^ kids[i][(j + 1) % 3]->v ^ e->a;
+            e->tri = slot[i];
+            e->k = j;
+            e->ncross = -1;
+            e->mid = -1;
+          }
+        }
+        w->tri_edge[3 * (size_t)slot[i] + j] = edge;
+      }
+    }
+    /* Edges whose canonical triangle was the parent now name the first
+     * child holding them, halves of a split one likewise: one writer each
+     * (the parent), atomic as the other triangle of an unsplit edge reads
+     * it. */
+    for (int k = 0; k < 3; k++) {
+      ch_refine_edge *e = &w->edges[pe[k]];
+      int owner;
+#pragma omp atomic read
+      owner = e->tri;
+      if (owner != t) continue;
+      for (int h = 0; h < (e->mid < 0 ? 1 : 2); h++) {
+        int target = e->mid < 0 ? pe[k] : e->half[h], done = 0;
+        for (int i = 0; i <= cnt && !done; i++)
+          for (int j = 0; j < 3 && !done; j++)
+            if (w->tri_edge[3 * (size_t)slot[i] + j] == target) {
+              ch_refine_edge *x = &w->edges[target];
+#pragma omp atomic write
+              x->tri = slot[i];
+              x->k = j;
+              done = 1;
+            }
+      }
+    }
+  }
+  /* The split edges are gone from the mesh. */
+  for (int i = 0; i < e0; i++) {
+    ch_refine_edge *e = &w->edges[i];
+    if (e->mid < 0 || !e->cross) continue;
+    free(e->cross);
+    e->cross = NULL;
+    e->ncross = 0;
+  }
+  free(first);
+  w->ntris = n;
+  w->nedges = e0 + (int)added;
+  return CH_OK;
+}
+
+/* ---- a triangle's boundary -------------------------------------------------
+ * The boundary of a triangle as a cycle of nodes: its corners and, between
+ * them, the crossings of its edges. Each crossing joins the piece before it
+ * to the piece after it; inside the triangle it is one end of a chord to the
+ * crossing with the same two pieces. */
+
+/* The boundary's nodes into nodes[cap]; -1 if there are more (the
+ * triangle is then refined, or fanned once refinement is over). */
+int ch_refine_gather_nodes_into(const ch_refine_mesh *w, int t, ch_refine_node *nodes, int cap) {
+  const ch_refine_tri *T = &w->tris[t];
+  int m = 0;
+  for (int k = 0; k < 3; k++) {
+    const ch_refine_vert *v = &w->verts[T->v[k]];
+    const ch_refine_edge *e = &w->edges[w->tri_edge[3 * (size_t)t + k]];
+    /* room for the corner and its edge's crossings (2000 grooves through
+     * one point overran the array by the corner written before a check
+     * that counted only the crossings) */
+    if (e->ncross < 0 || m + 1 + e->ncross > cap) return -1;
+    ch_refine_node *c = &nodes[m++];
+    c->corner = T->v[k];
+    c->edge = -1;
+    c->lprev = c->lnext = v->label;
+    c->copy_prev = c->copy_next = T->v[k];
+    c->hprev = c->hnext = v->h;
+    memcpy(c->uv, T->uv[k], sizeof c->uv);
+    memcpy(c->st, T->st[k], sizeof c->st);
+    c->pair = -1;
+    int forward = T->v[k] == e->a;
+    for (int i = 0; i < e->ncross; i++) {
+      const ch_refine_crossing *x = &e->cross[forward ? i : e->ncross - 1 - i];
+      ch_refine_node *b = &nodes[m++];
+      double f = forward ? x->x : 1.0 - x->x;
+      b->corner = -1;
+      b->edge = k;
+      b->lprev = forward ? x->la : x->lb;
+      b->lnext = forward ? x->lb : x->la;
+      b->copy_prev = forward ? x->copy_a : x->copy_b;
+      b->copy_next = forward ? x->copy_b : x->copy_a;
+      b->hprev = forward ? x->ha : x->hb;
+      b->hnext = forward ? x->hb : x->ha;
+      ch_refine_lerp2(T->uv[k], T->uv[(k + 1) % 3], f, b->uv);
+      ch_refine_lerp2(T->st[k], T->st[(k + 1) % 3], f, b->st);
+      b->pair = -1;
+    }
+  }
+  return m;
+}
+
+int ch_refine_gather_nodes(const ch_refine_mesh *w, int t, ch_refine_node *nodes) {
+  return ch_refine_gather_nodes_into(w, t, nodes, MAX_NODES);
+}
+
+/* Pairs the crossings into chords: two crossings between the same two
+ * pieces, in opposite directions. Crossings left unpaired must be where
+ * pieces meet at one point inside (a junction: three or more of them, each
+ * piece between two consecutive ones). CUT_REGIONS when that works out, no
+ * two chords cross and no chord separates the junction's crossings;
+ * CUT_COMPLEX otherwise (refined, or fanned if refinement is over). */
+ch_refine_cut ch_refine_classify(ch_refine_node *nodes, int m) {
+  int nc = 0;
+  for (int i = 0; i < m; i++) nc += nodes[i].corner < 0;
+  if (nc == 0) return CUT_NONE;
+  int unpaired[MAX_NODES], nu = 0;
+  for (int i = 0; i < m; i++) {
+    if (nodes[i].corner >= 0 || nodes[i].pair >= 0) continue;
+    int found = -1;
+    for (int j = i + 1; j < m; j++) {
+      if (nodes[j].corner >= 0 || nodes[j].lprev != nodes[i].lnext || nodes[j].lnext != nodes[i].lprev) continue;
+      if (found >= 0 || nodes[j].pair >= 0) return CUT_COMPLEX; /* ambiguous */
+      found = j;
+    }
+    if (found < 0) {
+      unpaired[nu++] = i;
+      continue;
+    }
+    nodes[i].pair = found;
+    nodes[found].pair = i;
+  }
+  if (nu == 1 || nu == 2) return CUT_COMPLEX;
+  for (int i = 0; i < nu; i++)
+    if (nodes[unpaired[i]].lnext != nodes[unpaired[(i + 1) % nu]].lprev) return CUT_COMPLEX;
+  for (int i = 0; i < m; i++) {
+    int j = nodes[i].pair;
+    if (j < i) continue;
+    for (int k = i + 1; k < j; k++) {
+      int l = nodes[k].pair;
+      if (l >= 0 && (l < i || l > j)) return CUT_COMPLEX; /* chords cross */
+    }
+    int inside = 0;
+    for (int u = 0; u < nu; u++) inside += unpaired[u] > i && unpaired[u] < j;
+    if (inside != 0 && inside != nu) return CUT_COMPLEX;
+  }
+  return CUT_REGIONS;
+}
+
+/* Whether a triangle of centre c and longest edge `longest` overlaps the
+ * rounded cap of a groove's open end and is too coarse for it: there the
+ * profile is swept around the end point, a cone (or dome) whose facets must
+ * span at most cap_angle around it, so edges up to cap_angle * w / 2. */
+static int coarse_at_cap(const ch_label_ctx *lb, const double c[2], double longest) {
+  /* The open ends near c (bucketed once: 2000 lines through a point put
+   * all of theirs in every cell there), counted only if the grooves' grid
+   * lists their segment at c, as the scan of its cell did. A u cap is
+   * already cut into rings by its lines; refining under all of them costs
+   * more than it gains (capped_end leaves them out). */
+  int res = lb->end_res, r[4];
+  double reach = lb->end_reach + longest;
+  r[0] = ch_label_corner_cell(res, c[0] - reach), r[1] = ch_label_corner_cell(res, c[1] - reach);
+  r[2] = ch_label_corner_cell(res, c[0] + reach), r[3] = ch_label_corner_cell(res, c[1] + reach);
+  for (int y = r[1]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[2]; x++)
+      for (int k = lb->end_start[y * res + x]; k < lb->end_start[y * res + x + 1]; k++) {
+        int s = lb->end_item[k] / 2, end = lb->end_item[k] % 2;
+        const ch_segment *sg = &lb->set->segments[s];
+        double half = 0.5 * lb->set->curves[sg->curve].width;
+        const double *q = sg->p[end == 0 ? 0 : 2];
+        if (longest > lb->cap_angle * ch_label_local_factor(lb, q) * half &&
+            hypot(c[0] - q[0], c[1] - q[1]) <= half + longest &&
+            ch_grid_cell_holds(&lb->groove_grid, ch_groove_field_boxes(&lb->height->grooves) + 4 * (size_t)s, c[0], c[1]))
+          return 1;
+      }
+  return 0;
+}
+
+/* Whether a sharp corner of a step curve (a joint turning by more than 30
+ * degrees, as at a polygon's vertices) lies in the triangle of corners uv
+ * and longest edge `longest` above the junction size there: such a corner
+ * can poke into a triangle through one edge, crossing it twice between two
+ * of its samples, and be missed whole (relief's roof: a region of the
+ * wrong height one triangle wide). */
+static int coarse_at_step_corner(const ch_label_ctx *lb, const double uv[3][2], const double c[2], double longest) {
+  if (!lb->has_steps) return 0;
+  /* The corners in the triangle's box (bucketed once: a scan of the step
+   * curves near it took a fifth of 1000 small loops' run), counted only if
+   * the step grid's cell at c lists their segment, as the scan of that
+   * cell did. */
+  int res = lb->corner_res, r[4];
+  double lo[2] = {fmin(uv[0][0], fmin(uv[1][0], uv[2][0])), fmin(uv[0][1], fmin(uv[1][1], uv[2][1]))};
+  double hi[2] = {fmax(uv[0][0], fmax(uv[1][0], uv[2][0])), fmax(uv[0][1], fmax(uv[1][1], uv[2][1]))};
+  r[0] = ch_label_corner_cell(res, lo[0]), r[1] = ch_label_corner_cell(res, lo[1]),
+  r[2] = ch_label_corner_cell(res, hi[0]);
+  r[3] = ch_label_corner_cell(res, hi[1]);
+  for (int y = r[1]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[2]; x++)
+      for (int k = lb->corner_start[y * res + x]; k < lb->corner_start[y * res + x + 1]; k++) {
+        int s = lb->corner_seg[k];
+        const double *q = lb->set->segments[s].p[0];
+        double d0 = (uv[1][0] - uv[0][0]) * (q[1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (q[0] - uv[0][0]);
+        double d1 = (uv[2][0] - uv[1][0]) * (q[1] - uv[1][1]) - (uv[2][1] - uv[1][1]) * (q[0] - uv[1][0]);
+        double d2 = (uv[0][0] - uv[2][0]) * (q[1] - uv[2][1]) - (uv[0][1] - uv[2][1]) * (q[0] - uv[2][0]);
+        if (!((d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0))) continue;
+        if (!ch_grid_cell_holds(&lb->step_grid, lb->step_boxes[s], c[0], c[1])) continue;
+        if (longest <= lb->junction_size * ch_label_local_factor(lb, q)) continue;
+        return 1;
+      }
+  return 0;
+}
+
+/* Whether triangle t needs splitting: its crossings do not make chords and
+ * one junction, or a piece that none of its boundary touches hides inside,
+ * or it is coarse over a rounded cap. */
+int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int only_uncut, int round) {
+  const ch_refine_tri *T = &w->tris[t];
+  if (ch_label_quiet(lb, T->uv[0]) && ch_label_quiet(lb, T->uv[1]) && ch_label_quiet(lb, T->uv[2])) return 0;
+  double longest = 0.0;
+  for (int k = 0; k < 3; k++)
+    longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+  const double centre[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0,
+                            (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
+  /* (the extra rounds of a warped mesh, only_uncut: what cannot be cut yet, nothing else) */
+  if (!only_uncut && lb->cap_angle > 0.0 && coarse_at_cap(lb, centre, longest)) return 1;
+  if (!only_uncut && coarse_at_step_corner(lb, T->uv, centre, longest)) return 1;
+  ch_refine_node nodes[MAX_NODES];
+  int m = ch_refine_gather_nodes(w, t, nodes);
+  if (m < 0) return round < DENSE_ROUNDS;
+  if (ch_refine_classify(nodes, m) == CUT_COMPLEX) return 1;
+  if (only_uncut) return 0;
+  /* Junctions are placed by estimate: keep their triangles small. */
+  for (int i = 0; i < m; i++)
+    if (nodes[i].corner < 0 && nodes[i].pair < 0)
+      return longest > lb->junction_size * ch_label_local_factor(lb, nodes[i].uv);
+  /* A groove's lines curve away from the chords that follow them (by
+   * len^2 / 8r): where h at a chord's middle leaves the mesh's h there
+   * (the mean of its ends) by more than the groove's tolerance, the chords
+   * are too long for the curve (tight circles, the curls of a scroll).
+   * Walls are not measured so: h jumps across them. */
+  for (int i = 0; i < m; i++) {
+    const ch_refine_node *p = &nodes[i];
+    if (p->corner >= 0 || p->pair <= i) continue;
+    const ch_refine_node *q = &nodes[p->pair];
+    if (!(fabs(p->hprev - p->hnext) <= lb->wall_tol && fabs(q->hprev - q->hnext) <= lb->wall_tol)) continue;
+    uint64_t g = (p->lprev >> 32) ? p->lprev >> 32 : p->lnext >> 32;
+    if (!g) continue; /* between step pieces: h is smooth across */
+    int c = GROOVE_CURVE(g);
+    const ch_curve *cv = &lb->set->curves[c];
+    double mid[2] = {0.5 * (p->uv[0] + q->uv[0]), 0.5 * (p->uv[1] + q->uv[1])}, err;
+    if (cv->profile.kind == CH_PROFILE_U) {
+      /* A u profile is vertical at its rims, where the least sagitta
+       * would count as a large error of h over a sliver of no area: there
+       * the chords keep within the tolerance (in units of the width) of
+       * the curved line they follow, measured by t at the chord's middle
+       * against t at its ends. */
+      double tp = ch_label_groove_distance(lb, c, p->uv) / cv->width,
+             tq = ch_label_groove_distance(lb, c, q->uv) / cv->width;
+      double tm = ch_label_groove_distance(lb, c, mid) / cv->width;
+      err = fabs(tm - 0.5 * (tp + tq)) * fabs(cv->depth);
+    } else {
+      double mesh_h = 0.25 * (p->hprev + p->hnext + q->hprev + q->hnext);
+      err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) - mesh_h);
+    }
+    if (err > lb->chord_tol[c] * ch_label_chord_factor(lb, mid)) return 1;
+  }
+  uint64_t l = ch_label_at(lb, centre);
+  for (int i = 0; i < m; i++)
+    if (nodes[i].lprev == l || nodes[i].lnext == l) return 0;
+  return 1;
+}

@@ -1,0 +1,182 @@
+/* The count model (tess/ch_count) driven by analytic count functions in
+ * place of the embedding, so that what it should find can be worked out by
+ * hand:
+ *
+ * - out = b + c0 + c1 sqrt(b), its own model: the two pilots measure c0
+ *   and c1 exactly, so the first full run lands (3 runs), at the base the
+ *   equation gives; a small target (no pilots: secant steps) lands too.
+ * - a bumpy, non-monotonic count (features growing like b^0.8 with a
+ *   ripple, as the thinning gives): within 5% in at most 8 runs.
+ * - features alone over the target (out = b + 200000 for 60000): out of
+ *   reach, the answer kept is the one at the fewest base triangles.
+ * - u lines that would take more than 7/8 of the target at the default
+ *   angle step (out = b + A/1.5^k sqrt(b)): coarsened exactly as often as
+ *   the 1/8 rule says (twice for A = 1500 at 100000), then within 5%.
+ *
+ * The fake tessellation gives a base a little off what is asked (as a real
+ * one does), a pilot counts 0.3% more than its finished cut (the cleanup),
+ * and the callback checks the protocol: FINISH only right after a PILOT,
+ * KEEP only after a FULL or FINISH, never a base below the fewest. */
+#include <math.h>
+#include <stdio.h>
+
+#include "ch_count.h"
+#include "ch_test.h"
+
+typedef enum { SQRT_MODEL, BUMPY, OVER, U_LINES } count_kind;
+
+typedef struct fake {
+  count_kind kind;
+  double c0, c1;
+  long fewest;
+  ch_count_kind last; /* the last call's kind */
+  double last_full;   /* the count of the last PILOT (finished), FULL or FINISH */
+  double kept;        /* the count of the run kept */
+  int kept_coarsenings;
+  int calls, bad;
+  double min_full; /* the fewest output triangles of any full run */
+} fake;
+
+static double fake_base(long b) { return (double)b * (1.0 + 0.004 * sin((double)b)); }
+
+static double fake_count(const fake *f, double b, int coarsenings) {
+  switch (f->kind) {
+    case SQRT_MODEL:
+      return b + f->c0 + f->c1 * sqrt(b);
+    case BUMPY:
+      return b + f->c1 * pow(b, 0.8) * (1.0 + 0.06 * sin(b / 700.0));
+    case OVER:
+      return b + 200000.0;
+    case U_LINES:
+      return b + f->c1 / pow(1.5, coarsenings) * sqrt(b);
+  }
+  return 0.0;
+}
+
+static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply *rp) {
+  fake *f = ctx;
+  f->calls++;
+  switch (rq->kind) {
+    case CH_COUNT_PILOT:
+    case CH_COUNT_FULL:
+      if (rq->base < f->fewest || rq->coarsenings < 0 || rq->coarsenings > 4) f->bad++;
+      rp->base = fake_base(rq->base);
+      f->last_full = fake_count(f, rp->base, rq->coarsenings);
+      rp->count = rq->kind == CH_COUNT_PILOT ? floor(f->last_full * 1.003) : f->last_full;
+      if (rq->kind == CH_COUNT_FULL) f->min_full = fmin(f->min_full, rp->count);
+      break;
+    case CH_COUNT_FINISH:
+      if (f->last != CH_COUNT_PILOT) f->bad++;
+      rp->count = f->last_full;
+      f->min_full = fmin(f->min_full, rp->count);
+      break;
+    case CH_COUNT_KEEP:
+      if (f->last != CH_COUNT_FULL && f->last != CH_COUNT_FINISH) f->bad++;
+      f->kept = f->last_full;
+      f->kept_coarsenings = rq->coarsenings;
+      break;
+  }
+  f->last = rq->kind;
+  return CH_OK;
+}
+
+static ch_count_result search(fake *f, long target, int can_coarsen, int has_u) {
+  f->fewest = 200;
+  f->kept = -1.0;
+  f->min_full = INFINITY;
+  f->last = CH_COUNT_KEEP;
+  ch_count_desc d = {.target = target, .fewest = f->fewest, .can_coarsen = can_coarsen, .has_u = has_u};
+  ch_count_result r;
+  CHECK(ch_count_search(&d, fake_run, f, &r) == CH_OK);
+  CHECK(f->bad == 0);
+  CHECK(r.runs >= 1 && r.runs <= 41);
+  CHECK(f->kept >= 0.0 && r.count == f->kept); /* the result is the run kept */
+  CHECK(r.coarsenings == f->kept_coarsenings);
+  static const char *names[] = {"sqrt model", "bumpy", "over", "u lines"};
+  fprintf(stderr, "  %-10s target %7ld: %2d runs, kept %9.0f (%+.2f%%), base %7ld, %d coarsenings\n", names[f->kind],
+          target, r.runs, r.count, 100.0 * (r.count - (double)target) / (double)target, r.base, r.coarsenings);
+  return r;
+}
+
+static void test_sqrt_model(void) {
+  long targets[] = {60000, 130000, 520000, 5000};
+  for (int i = 0; i < 4; i++) {
+    fake f = {.kind = SQRT_MODEL, .c0 = 3000.0, .c1 = 40.0};
+    long t = targets[i];
+    ch_count_result r = search(&f, t, 1, 1);
+    CHECK_MSG(fabs(r.count - (double)t) <= 0.05 * (double)t, "target %ld: %.0f", t, r.count);
+    /* with pilots the first full run lands; without (a small target) the
+     * secant from a run at the target itself */
+    CHECK_MSG(r.runs <= (t >= 60000 ? 3 : 6), "target %ld: %d runs", t, r.runs);
+    CHECK(r.coarsenings == 0);
+    if (t >= 60000) { /* the base solves b + 3000 + 40 sqrt(b) = t, to the pilots' 0.3% and the base's 0.4% */
+      double b = ch_count_model_base((double)t, 3000.0, 40.0);
+      CHECK_NEAR(b + 3000.0 + 40.0 * sqrt(b), (double)t, 1e-6 * (double)t);
+      CHECK_MSG(fabs((double)r.base - b) <= 0.02 * b, "target %ld: base %ld, model %.0f", t, r.base, b);
+    }
+  }
+}
+
+static void test_bumpy(void) {
+  long targets[] = {60000, 130000, 520000};
+  for (int i = 0; i < 3; i++)
+    for (int k = 0; k < 2; k++) {
+      fake f = {.kind = BUMPY, .c1 = k ? 8.0 : 3.0};
+      long t = targets[i];
+      ch_count_result r = search(&f, t, 0, 0);
+      CHECK_MSG(fabs(r.count - (double)t) <= 0.05 * (double)t, "target %ld c1 %g: %.0f", t, f.c1, r.count);
+      CHECK_MSG(r.runs <= 8, "target %ld c1 %g: %d runs", t, f.c1, r.runs);
+    }
+}
+
+static void test_out_of_reach(void) {
+  for (int coarsen = 0; coarsen < 2; coarsen++) {
+    fake f = {.kind = OVER};
+    ch_count_result r = search(&f, 60000, coarsen, 0);
+    /* the fewest base triangles, so the fewest output ones of any run */
+    CHECK_MSG(r.base == f.fewest, "base %ld", r.base);
+    CHECK(r.count == f.min_full);
+    CHECK_NEAR(r.count, fake_base(f.fewest) + 200000.0, 1e-9);
+    CHECK_MSG(r.runs <= 4, "%d runs", r.runs);
+  }
+}
+
+static void test_u_lines(void) {
+  /* b + 1500/1.5^k sqrt(b) = 100000 at b = 3.6k, 8.7k, 15.9k for k = 0, 1,
+   * 2: below 1/8 of the target (12.5k) twice. */
+  fake f = {.kind = U_LINES, .c1 = 1500.0};
+  ch_count_result r = search(&f, 100000, 1, 1);
+  CHECK_MSG(r.coarsenings == 2, "%d coarsenings", r.coarsenings);
+  CHECK_MSG(fabs(r.count - 100000.0) <= 5000.0, "%.0f", r.count);
+  CHECK_MSG(r.runs <= 10, "%d runs", r.runs);
+  /* the same without leave to coarsen: the finest step, still within 5% */
+  fake g = {.kind = U_LINES, .c1 = 1500.0};
+  r = search(&g, 100000, 0, 1);
+  CHECK(r.coarsenings == 0);
+  CHECK_MSG(fabs(r.count - 100000.0) <= 5000.0, "%.0f", r.count);
+}
+
+static ch_status failing_run(void *ctx, const ch_count_request *rq, ch_count_reply *rp) {
+  int *n = ctx;
+  rp->base = (double)rq->base;
+  rp->count = 2.0 * (double)rq->base;
+  return ++*n == 2 ? CH_ERR_NOMEM : CH_OK;
+}
+
+static void test_error_stops(void) {
+  int n = 0;
+  ch_count_desc d = {.target = 60000, .fewest = 200};
+  ch_count_result r;
+  CHECK(ch_count_search(&d, failing_run, &n, &r) == CH_ERR_NOMEM);
+  CHECK(n == 2); /* nothing after the failing call */
+  CHECK(r.runs == 1);
+}
+
+int main(void) {
+  RUN(test_sqrt_model);
+  RUN(test_bumpy);
+  RUN(test_out_of_reach);
+  RUN(test_u_lines);
+  RUN(test_error_stops);
+  TEST_MAIN_END();
+}

@@ -1,0 +1,82 @@
+/* The piece labels of the embedding (tess/ch_label) on a scene whose sides
+ * a person can tell: one straight v groove and one step circle, apart.
+ * For random points, decided independently by a scan of each curve
+ * (ch_curve_closest, its signed distance positive on the left):
+ *
+ * - within the step radius of the circle (and off the groove): the step
+ *   part is (circle + 1) << 1 | (the point is on its left);
+ * - inside the groove (off the circle's radius): the groove part names
+ *   the groove, and two points share a label exactly when they lie on the
+ *   same half of the v (t < 0 or t > 0, its break at 0);
+ * - away from both: label 0, and a quiet cell never holds a label;
+ * - h of a point's own piece, read there, is h. */
+#include <math.h>
+#include <string.h>
+
+#include "ch_groove.h"
+#include "ch_height.h"
+#include "ch_label_internal.h"
+#include "ch_math.h"
+#include "ch_test.h"
+
+static const char svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<path d='M -10 30 L 110 34' data-profile='v' data-width='8' data-depth='0.02'/>"
+    "<circle cx='50' cy='70' r='15' data-kind='step' data-left='0.01' data-right='0.03'/>"
+    "</svg>";
+
+static void test_labels(void) {
+  ch_curve_set set;
+  ch_height height;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "labels.svg", &set, &err) == CH_OK);
+  REQUIRE(set.num_curves == 2);
+  int groove = set.curves[0].kind == CH_CURVE_GROOVE ? 0 : 1, circle = 1 - groove;
+  REQUIRE(set.curves[circle].kind == CH_CURVE_STEP);
+  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
+  REQUIRE(ch_height_init(&height, &set, &hd, &err) == CH_OK);
+  const double radius = 0.02, edge = 0.005, width = set.curves[groove].width;
+  ch_label_ctx lb;
+  REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, edge, 2.0 * edge, &err) == CH_OK);
+  int in_step = 0, in_groove = 0, outside = 0, bad_step = 0, bad_groove = 0, bad_zero = 0, bad_quiet = 0, bad_h = 0;
+  uint64_t half_label[2] = {0, 0};
+  for (int i = 0; i < 20000; i++) {
+    double q[2] = {0.02 + 0.96 * ch_test_rnd(), 0.02 + 0.96 * ch_test_rnd()};
+    ch_curve_point g, c;
+    ch_curve_closest(&set, groove, q, &g);
+    ch_curve_closest(&set, circle, q, &c);
+    uint64_t l = ch_label_at(&lb, q), gp = l >> 32, sp = l & 0xffffffffu;
+    double margin = 1e-4;
+    if (fabs(c.distance) < radius - margin && c.distance > margin && g.distance > 0.5 * width + margin) {
+      in_step++;
+      bad_step += gp != 0 || sp != ((uint64_t)(circle + 1) << 1 | (c.signed_distance >= 0.0));
+    } else if (g.distance < 0.5 * width - margin && fabs(g.signed_distance) > margin && c.distance > radius + margin) {
+      in_groove++;
+      int half = g.signed_distance > 0.0;
+      bad_groove += sp != 0 || GROOVE_CURVE(gp) != groove;
+      if (!half_label[half]) half_label[half] = l;
+      bad_groove += l != half_label[half];
+    } else if (g.distance > 0.5 * width + margin && c.distance > radius + margin) {
+      outside++;
+      bad_zero += l != 0;
+    }
+    bad_quiet += ch_label_quiet(&lb, q) && l != 0;
+    double h = ch_height_eval(&height, q[0], q[1]);
+    bad_h += fabs(ch_label_piece_height(&lb, l, q, q) - h) > 1e-9;
+  }
+  CHECK_MSG(in_step > 100 && in_groove > 100 && outside > 1000, "%d %d %d", in_step, in_groove, outside);
+  CHECK_MSG(bad_step == 0, "%d of %d step labels wrong", bad_step, in_step);
+  CHECK_MSG(bad_groove == 0, "%d of %d groove labels wrong", bad_groove, in_groove);
+  CHECK(half_label[0] != 0 && half_label[1] != 0 && half_label[0] != half_label[1]);
+  CHECK_MSG(bad_zero == 0, "%d of %d labels away from the curves not 0", bad_zero, outside);
+  CHECK_MSG(bad_quiet == 0, "%d quiet points with a label", bad_quiet);
+  CHECK_MSG(bad_h == 0, "%d points where the piece's h is not h", bad_h);
+  ch_label_free(&lb);
+  ch_height_free(&height);
+  ch_curves_free(&set);
+}
+
+int main(void) {
+  RUN(test_labels);
+  TEST_MAIN_END();
+}
