@@ -17,6 +17,7 @@ extern const cli_command cli_dci_command;
 extern const cli_command cli_magnify_command;
 extern const cli_command cli_displace_command;
 extern const cli_command cli_study_command;
+extern const cli_command cli_featmap_command;
 
 /* Prints "chisel: message" and returns the exit status of err's status. */
 int cli_fail(const ch_error *err);

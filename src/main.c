@@ -13,7 +13,8 @@
 #endif
 
 static const cli_command *commands[] = {&cli_displace_command, &cli_info_command, &cli_sample_command,
-                                        &cli_dci_command, &cli_magnify_command, &cli_study_command};
+                                        &cli_dci_command, &cli_featmap_command, &cli_magnify_command,
+                                        &cli_study_command};
 enum { NUM_COMMANDS = sizeof commands / sizeof commands[0] };
 
 static void print_overview(FILE *out) {
