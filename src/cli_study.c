@@ -13,6 +13,7 @@
 
 #include "ch_curves.h"
 #include "ch_exr.h"
+#include "ch_featshade.h"
 #include "ch_file.h"
 #include "ch_height.h"
 #include "ch_math.h"
@@ -53,12 +54,19 @@ static const char usage[] =
     "    \"methods\": [                    optional\n"
     "      {\"name\": \"snapped\", \"mesh\": \"snapped.obj\"}   OBJ/PLY/OFF/STL with UVs\n"
     "      {\"name\": \"normalmap\", \"mesh\": \"plane.obj\", \"shader\": \"exact-normals\"}\n"
+    "      {\"name\": \"fn\", \"mesh\": \"plane.obj\", \"shader\": \"featnorm\", \"resolution\": 256}\n"
     "                                   optional \"family\": methods of one family\n"
     "                                   (e.g. one method at several triangle counts)\n"
     "                                   are one line in the report's plots\n"
     "                                   a texture-space method on the base mesh:\n"
     "                                   exact-normals = the truth's normal at the\n"
-    "                                   hit's UV (a perfect normal map)\n"
+    "                                   hit's UV (a perfect normal map); with\n"
+    "                                   \"resolution\": R (4..4096), maps built from\n"
+    "                                   the curves at R: featnorm, featnorm-linear\n"
+    "                                   (feature-curve textures), normal-bilinear\n"
+    "                                   (a conventional normal map of h), msdf (a\n"
+    "                                   multi-channel distance field with the\n"
+    "                                   grooves' profiles)\n"
     "    ]\n"
     "  }\n"
     "Names are letters, digits, '-' and '_' (they name files), unique per list.\n"
@@ -94,6 +102,9 @@ typedef struct method {
   char family[NAME_MAX_LEN]; /* methods plotted as one line against triangles */
   char *path;
   int exact_normals; /* "shader": "exact-normals" */
+  int featshade;     /* "shader": a ch_featshade_method, or -1 */
+  int resolution;    /* its maps' resolution */
+  ch_featshade fs;
   ch_mesh mesh;
   ch_trace *scene;
 } method;
@@ -214,6 +225,7 @@ static void study_free(study *s) {
   for (int i = 0; i < s->num_methods; i++) {
     free(s->methods[i].path);
     ch_trace_destroy(s->methods[i].scene);
+    ch_featshade_free(&s->methods[i].fs);
     ch_mesh_free(&s->methods[i].mesh);
   }
   free(s->methods);
@@ -235,7 +247,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
   static const char *const view_keys[] = {"name",   "eye",         "target",       "up",    "fov", "width",
                                           "height", "supersample", "ortho_height", "orbit", NULL};
-  static const char *const method_keys[] = {"name", "mesh", "shader", "family", NULL};
+  static const char *const method_keys[] = {"name", "mesh", "shader", "family", "resolution", NULL};
   char where[96];
   const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
   const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
@@ -390,13 +402,26 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
       strcpy(mt->family, family->valuestring);
     }
     const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
+    mt->featshade = -1;
     if (shader) {
-      if (!cJSON_IsString(shader) || strcmp(shader->valuestring, "exact-normals")) {
-        ch_error_set(err, CH_ERR_INPUT, "%s: %s.shader: unknown shader (known: \"exact-normals\")", file, where);
+      if (cJSON_IsString(shader)) mt->featshade = ch_featshade_method_parse(shader->valuestring);
+      if (!cJSON_IsString(shader) || (strcmp(shader->valuestring, "exact-normals") && mt->featshade < 0)) {
+        ch_error_set(err, CH_ERR_INPUT,
+                     "%s: %s.shader: unknown shader (known: \"exact-normals\", \"featnorm\", \"featnorm-linear\", "
+                     "\"normal-bilinear\", \"msdf\")",
+                     file, where);
         goto fail;
       }
-      mt->exact_normals = 1;
+      mt->exact_normals = mt->featshade < 0;
     }
+    double res = 0;
+    if (!get_number(m, "resolution", CH_FEATMAP_MIN_RES, CH_FEATMAP_MAX_RES, 1, &res, where, file, err)) goto fail;
+    if ((mt->featshade >= 0) != (res > 0)) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s: \"resolution\" goes with the shaders featnorm, featnorm-linear, "
+                   "normal-bilinear and msdf, and they need it", file, where);
+      goto fail;
+    }
+    mt->resolution = (int)res;
     if (!(mt->path = resolve(file, mesh->valuestring))) goto nomem;
   }
   cJSON_Delete(root);
@@ -744,6 +769,10 @@ static int run(int argc, char **argv) {
     st = ch_mesh_read(m->path, &m->mesh, &err);
     if (!st) st = ch_trace_create_mesh(&m->mesh, m->path, &m->scene, &err);
   }
+  for (int i = 0; !st && i < s.num_methods; i++)
+    if (s.methods[i].featshade >= 0)
+      st = ch_featshade_init(&s.methods[i].fs, (ch_featshade_method)s.methods[i].featshade, s.methods[i].resolution,
+                             &set, &height, &err);
   if (!st) st = ch_truth_create(&height, &td, &truth, &err);
   if (!st) st = ch_trace_create_truth(truth, &truth_scene, &err);
   if (!st) {
@@ -783,8 +812,9 @@ static int run(int argc, char **argv) {
       const method *mt = &s.methods[m];
       ch_image *img = &imgs[m + 1];
       row *r = &rows[nrows];
-      ch_render_shader sh = ch_shader_exact_normals(truth);
-      st = ch_render_shaded(mt->scene, mt->exact_normals ? &sh : NULL, truth, &vw->camera, &s.light, img, &rs, &err);
+      ch_render_shader sh = mt->featshade >= 0 ? ch_featshade_shader(&mt->fs) : ch_shader_exact_normals(truth);
+      st = ch_render_shaded(mt->scene, mt->exact_normals || mt->featshade >= 0 ? &sh : NULL, truth, &vw->camera,
+                            &s.light, img, &rs, &err);
       if (!st) st = ch_metrics_compare(img, &timg, scene_size, &r->m, &err);
       if (!st) {
         r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;
