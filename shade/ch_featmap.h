@@ -153,7 +153,9 @@ typedef struct ch_featmap {
   int has_normal;           /* normal holds the conventional normal map */
   const struct ch_warp *warp; /* the maps are in warped UV (not owned), or NULL */
   /* (R + 1)^2 lattice points */
-  float *dist;              /* signed distance (UV) to the nearest curve, + on its left */
+  float *dist;              /* signed distance (UV) to the nearest curve, + on its left: exact
+                               within the widest groove's half width plus two cells of the
+                               curves, beyond that to a neighbour's nearest point (8SSEDT) */
   float *grad;              /* 2 each: unit gradient of the unsigned distance (UV), smoothed */
   int32_t *curve;           /* the nearest curve */
   float *base;              /* 3 each: the base normal B (h_step without grooves), unit */

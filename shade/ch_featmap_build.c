@@ -713,7 +713,7 @@ static ch_status smooth_gradient(ch_featmap *m, const lattice *L, int iterations
   }
   float *g = m->grad;
   for (int it = 0; it < iterations; it++) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (count > (1 << 16))
     for (long a = 0; a < (long)count; a++) {
       size_t k = (size_t)list[a];
       int x = (int)(k % R1), y = (int)(k / R1);
@@ -736,7 +736,7 @@ static ch_status smooth_gradient(ch_featmap *m, const lattice *L, int iterations
       next[2 * a] = (float)gx;
       next[2 * a + 1] = (float)gy;
     }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (count > (1 << 16))
     for (long a = 0; a < (long)count; a++) {
       g[2 * (size_t)list[a]] = next[2 * a];
       g[2 * (size_t)list[a] + 1] = next[2 * a + 1];
@@ -904,7 +904,7 @@ static ch_status build_fallback(const ch_curve_set *set, const unsigned char *us
   }
   if ((st = ch_grid_build(&grid, set->num_segments, (const double(*)[4])boxes, err))) goto done;
   long overflow = 0;
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : overflow)
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : overflow) if (nfb > 512)
   for (long f = 0; f < nfb; f++) {
     int c = fb_cells[f], ci = c / R1, cj = c % R1;
     /* the cell's UV box: its corners' (and, under a warp, a margin) */
@@ -1262,7 +1262,7 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
        * parallel, always in the same order. */
       long fitted = 0, straightened = 0;
       for (int phase = 0; phase < 9; phase++) {
-#pragma omp parallel for schedule(dynamic, 4) reduction(+ : fitted, straightened)
+#pragma omp parallel for schedule(dynamic, 4) reduction(+ : fitted, straightened) if (invalid > 256)
         for (int ci = phase / 3; ci < R; ci += 3)
           for (int cj = phase % 3; cj < R; cj += 3) {
             if (!bad[(size_t)ci * R + cj]) continue;

@@ -168,8 +168,8 @@ static int run(int argc, char **argv) {
             "chisel: fallback: %ld cells (%.2f%%), %ld entries, %d pieces, %ld overflowing\n"
             "chisel: bytes per texel: featnorm %.0f, featnorm-linear %.0f, normal map %.0f, msdf %.0f, "
             "fallback lists %.2f\n"
-            "chisel: time: h_step %.3f s; maps %.3f s (samples %.3f, cells %.3f, fit %.3f, smoothing %.3f, "
-            "fallback %.3f, normal maps %.3f); msdf %.3f s\n",
+            "chisel: time: h_step %.3f s; maps %.3f s (samples %.3f, cells %.3f, fit %.3f, checks %.3f, "
+            "smoothing %.3f, fallback %.3f, normal maps %.3f); msdf %.3f s\n",
             res, res, maps.linear ? "linear" : "quadratic", no_fallback ? ", no fallback" : "", s->cells_one,
             s->cells_two, s->points, s->lost_dropped, s->lost_merged, s->lost_end, s->lost_loop, s->lost_corner,
             s->lost_medial, s->lost_csg, s->lost_tight, s->invalid, s->fitted, s->straightened, s->fallback_cells,
@@ -177,7 +177,7 @@ static int run(int argc, char **argv) {
             ch_featmap_bytes_per_texel(&maps, CH_FEATMAP_FEATNORM), ch_featmap_bytes_per_texel(&maps, CH_FEATMAP_LINEAR),
             ch_featmap_bytes_per_texel(&maps, CH_FEATMAP_BILINEAR), ch_msdf_bytes_per_texel(),
             ch_featmap_fallback_bytes(&maps), t_height, s->seconds_total, s->seconds_samples, s->seconds_cells,
-            s->seconds_fit, s->seconds_smooth, s->seconds_fallback, s->seconds_normal, msdf.stats.seconds);
+            s->seconds_fit, s->seconds_check, s->seconds_smooth, s->seconds_fallback, s->seconds_normal, msdf.stats.seconds);
   }
   if (!st) {
     const ch_exr_attribute extra[] = {{"chisel:curves", svg}};
