@@ -1385,14 +1385,16 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
         for (int q = 0; q < 4; q++)
           for (int r = q + 1; r < 4; r++) {
             if (dom[q] != dom[r]) continue;
-            /* Nearest points of a smooth curve move less than a cell
-             * (about r / (r - d) of it on the concave side) between
-             * neighbours; more is a jump across a medial axis. */
+            /* Two corners no segment separates are nearest to one curve,
+             * on one side of it; their nearest points move less than a
+             * cell (about r / (r - d) of it on the concave side of a
+             * curve of radius r) and their gradients turn by less than
+             * 1 / r radians (30 degrees: r under two cells, a tight bend
+             * anyway). Otherwise a medial axis runs between them. */
             double jump = hypot(P[q][0] - P[r][0], P[q][1] - P[r][1]);
-            /* ... and their gradients turn by less than 1 / r radians a
-             * cell (30 degrees: r under two cells, a tight bend anyway) */
             double turn = m->grad[2 * cs[q]] * m->grad[2 * cs[r]] + m->grad[2 * cs[q] + 1] * m->grad[2 * cs[r] + 1];
-            if ((m->dist[cs[q]] >= 0.0f) != (m->dist[cs[r]] >= 0.0f) || jump > 2.5 * cell_uv || turn < 0.866)
+            if ((m->dist[cs[q]] >= 0.0f) != (m->dist[cs[r]] >= 0.0f) || m->curve[cs[q]] != m->curve[cs[r]] ||
+                jump > 2.5 * cell_uv || turn < 0.866)
               m->config[c] |= CH_FM_LOST_MEDIAL;
           }
         /* The representation's own error at the centre (before fallback
