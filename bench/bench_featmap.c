@@ -414,20 +414,28 @@ int main(int argc, char **argv) {
     enum { N = 1 << 21 };
     double(*pts)[2] = malloc(2 * (size_t)N * sizeof *pts);
     unsigned long long rng = 1234567ull;
-    for (int k = 0; k < N; k++) { /* uniform over the square */
-      pts[k][0] = (rng_next(&rng) % 1000003ull) / 1000003.0;
-      pts[k][1] = (rng_next(&rng) % 1000033ull) / 1000033.0;
+    /* In the order a renderer asks: the whole square as a 1448^2 image,
+     * row by row; and 512 crops of 64 x 64 pixels (4 x 4 texels, 16x)
+     * along the curves, each row by row. */
+    const int side = 1448;
+    for (int k = 0; k < N; k++) {
+      int x = k % side, y = k / side;
+      pts[k][0] = (x + 0.5) / side;
+      pts[k][1] = 1.0 - (y + 0.5) / side;
     }
-    for (int k = N; k < 2 * N; k++) { /* within two texels of the curves */
+    for (int k = 0; k < N / 4096; k++) {
       double c[2];
       curve_point(&su, &rng, c);
-      pts[k][0] = c[0] + (((rng_next(&rng) % 2001) / 1000.0) - 1.0) * 2.0 / R;
-      pts[k][1] = c[1] + (((rng_next(&rng) % 2001) / 1000.0) - 1.0) * 2.0 / R;
+      for (int p = 0; p < 4096; p++) {
+        pts[N + k * 4096 + p][0] = c[0] - 2.0 / R + ((p % 64) + 0.5) * (4.0 / R) / 64;
+        pts[N + k * 4096 + p][1] = c[1] + 2.0 / R - ((p / 64) + 0.5) * (4.0 / R) / 64;
+      }
     }
-    printf("\nevaluation speed, glyphs at R %d, %d threads, Msamples/s (median of 3); the exact h_groove through\n"
-           "its grid (ch_groove_field_eval) as the reference in the same run\n",
+    printf("\nevaluation speed, glyphs at R %d, %d threads, Msamples/s (median of 3), points in raster order: the\n"
+           "square as a 1448^2 image, and 512 crops of 64^2 pixels (16x) along the curves; the exact h_groove\n"
+           "through its grid (ch_groove_field_eval) as the reference in the same run\n",
            R, threads);
-    printf("%-16s %12s %12s\n", "method", "uniform", "near curves");
+    printf("%-16s %12s %12s\n", "method", "image", "crops");
     static const int order[] = {M_FN, M_FN_OFF, M_LIN, M_MSDF, M_BIL};
     for (int o = 0; o < 6; o++) {
       double rate[2];
