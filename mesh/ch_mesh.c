@@ -346,8 +346,10 @@ static void sort_crossings(crossing *xs, int count) {
 }
 
 /* Adds 1 to every cell whose centre the face covers (nonzero winding),
- * once per face. xs has room for the face's corner count. */
-static void raster_face(const ch_mesh *m, int f, unsigned char *grid, crossing *xs) {
+ * once per face, counting the cells covered once and twice as they reach
+ * it (no scan of the whole grid afterwards: it cost the fuzzer 40 ms per
+ * input). xs has room for the face's corner count. */
+static void raster_face(const ch_mesh *m, int f, unsigned char *grid, crossing *xs, long *covered, long *twice) {
   int b = m->face_start[f], n = m->face_start[f + 1] - b;
   double vmin = INFINITY, vmax = -INFINITY;
   for (int i = 0; i < n; i++) {
@@ -383,8 +385,11 @@ static void raster_face(const ch_mesh *m, int f, unsigned char *grid, crossing *
       if (i0 < 0) i0 = 0;
       if (i1 > GRID) i1 = GRID;
       unsigned char *row = grid + (size_t)j * GRID;
-      for (int i = i0; i < i1; i++)
+      for (int i = i0; i < i1; i++) {
+        *covered += row[i] == 0;
+        *twice += row[i] == 1;
         if (row[i] < 255) row[i]++;
+      }
     }
   }
 }
@@ -400,12 +405,8 @@ static ch_status uv_coverage(const ch_mesh *m, double *coverage, double *overlap
     free(xs);
     return CH_ERR_NOMEM;
   }
-  for (int f = 0; f < m->num_faces; f++) raster_face(m, f, grid, xs);
   long covered = 0, twice = 0;
-  for (size_t i = 0; i < (size_t)GRID * GRID; i++) {
-    covered += grid[i] >= 1;
-    twice += grid[i] >= 2;
-  }
+  for (int f = 0; f < m->num_faces; f++) raster_face(m, f, grid, xs, &covered, &twice);
   *coverage = (double)covered / ((double)GRID * GRID);
   *overlap = (double)twice / ((double)GRID * GRID);
   free(grid);

@@ -8,6 +8,7 @@
 #define CH_MESH_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 #include "ch_error.h"
 
@@ -100,10 +101,28 @@ int ch_mesh_remove_pillows(ch_mesh *mesh);
  * deterministic bytes (%.9g coordinates). */
 ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err);
 
-/* Writes binary little-endian PLY atomically: float x y z, optional float
- * nx ny nz and u v per vertex. Face-varying attributes are made per vertex
- * by splitting vertices where corners disagree (deterministic order). */
+/* Writes binary little-endian PLY atomically: one vertex per position
+ * (float x y z), so the PLY is closed wherever the mesh is, and the UVs
+ * per face corner as the face's float `texcoord` list (u0 v0 u1 v1 ...,
+ * MeshLab's wedge convention); also per vertex as float s t (what
+ * Blender's importer reads) when every position has a single UV. No
+ * normals: creases need one per corner, which PLY has no convention for. */
 ch_status ch_mesh_write_ply(const char *path, const ch_mesh *mesh, ch_error *err);
+
+/* The OBJ and PLY writers to an open stream (standard output for -o -):
+ * the same bytes as the file writers, not atomic (a stream cannot be taken
+ * back). name is used in messages. */
+ch_status ch_mesh_write_obj_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err);
+ch_status ch_mesh_write_ply_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err);
+
+/* Writes glTF 2.0 binary (.glb) atomically: one mesh of triangles (faces
+ * fanned) with POSITION (float32, with min/max), NORMAL (unit) and
+ * TEXCOORD_0 (u, 1 - v: glTF's v points down) where the mesh has them, and
+ * uint32 indices. Vertices are split where a position's corners disagree
+ * in UV or normal (glTF has no face-varying data), numbered in order of
+ * their first corner: deterministic bytes. CH_ERR_INPUT for inconsistent
+ * meshes or a buffer past glTF's 4 GB. */
+ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err);
 
 #ifdef __cplusplus
 }

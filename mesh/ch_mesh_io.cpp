@@ -353,7 +353,7 @@ void scan_obj(const char *d, size_t n, ObjScan &s) {
 // data with the sizes OpenMesh's reader consumes.
 
 enum PlyType { P_BAD = -1, P_I8, P_U8, P_I16, P_U16, P_I32, P_U32, P_F32, P_F64 };
-enum PlyRole { R_CUSTOM, R_COORD, R_NORMAL, R_TEX, R_COLOR, R_INDICES };
+enum PlyRole { R_CUSTOM, R_COORD, R_NORMAL, R_TEX, R_COLOR, R_INDICES, R_FACE_TEX };
 
 PlyType ply_type(const std::string &s) {
   if (s == "char" || s == "int8") return P_I8;
@@ -392,6 +392,13 @@ struct PlyScan {
   bool binary = false, big_endian = false;
   long long nv = 0, nf = 0, ncorners = 0;
   bool texture_uv_names = false;  // texture_u/texture_v: not read by OpenMesh
+  // A face `texcoord` list (u0 v0 u1 v1 ... per face, MeshLab's wedge UVs),
+  // which OpenMesh misreads: the walk keeps the values and writes the file
+  // without the list (stripped) for OpenMesh; the UVs are set afterwards.
+  bool face_tex = false;
+  std::vector<float> tex;         // 2 per corner, in file order
+  std::vector<int> tex_first;     // per face: the first vertex index
+  std::string stripped;
 };
 
 PlyRole ply_vertex_role(const std::string &n) {
@@ -481,6 +488,10 @@ void ply_header(const char *d, size_t n, PlyScan &s, PlyHeader &h) {
           pr.role = R_INDICES;
           if (ply_float(pr.type))
             fail("PLY header: vertex_indices must be integers, not '%s'", t3.c_str());
+        } else if (el.name == "face" && pr.name == "texcoord") {
+          if (!ply_float(pr.type)) fail("PLY header: texcoord must be float or double, not '%s'", t3.c_str());
+          pr.role = R_FACE_TEX;
+          s.face_tex = true;
         }
       } else {
         if (!token(&t2)) fail("PLY header: incomplete property '%s'", t1.c_str());
@@ -549,11 +560,12 @@ void ply_check_elements(PlyScan &s, const PlyHeader &h, size_t *read_elems) {
     const PlyElem &el = h.elems[i];
     int xyz[3] = {0, 0, 0}, indices = 0;
     for (const PlyProp &pr : el.props) {
-      if (pr.list && pr.role != R_INDICES)
+      if (pr.list && pr.role != R_INDICES && pr.role != R_FACE_TEX)
         fail("PLY: list property '%s' of element %s is not supported (OpenMesh misreads it); "
              "store texture coordinates as per-vertex u, v",
              pr.name.c_str(), el.name.c_str());
       if (pr.role == R_INDICES) indices++;
+      if (pr.role == R_FACE_TEX && (int)i != face) fail("PLY: texcoord list outside the face element");
       if (pr.role == R_COORD) xyz[pr.name[0] - 'x']++;
       if (s.binary && (pr.role == R_COORD || pr.role == R_NORMAL || pr.role == R_TEX) &&
           !ply_float(pr.type))
@@ -597,22 +609,75 @@ void ply_face_count(long long count, long long face) {
   fail("%s %lld of %lld: data ends here (file truncated?)", el.name.c_str(), i, el.count);
 }
 
+double ply_binary_float(const unsigned char *q, PlyType t, bool big) {
+  unsigned char b[8];
+  int size = ply_size(t);
+  for (int i = 0; i < size; i++) b[i] = q[big ? size - 1 - i : i];
+  if (t == P_F32) {
+    float f;
+    memcpy(&f, b, 4);
+    return f;
+  }
+  double x;
+  memcpy(&x, b, 8);
+  return x;
+}
+
+// A face's texcoord list: 2 finite values per corner of the face.
+void ply_face_tex(PlyScan &s, long long count, long long corners, long long face) {
+  if (count != 2 * corners)
+    fail("face %lld: %lld texcoord values for %lld corners (want 2 per corner)", face, count, corners);
+  for (long long k = (long long)s.tex.size() - count; k < (long long)s.tex.size(); k++)
+    if (!std::isfinite(s.tex[k])) fail("face %lld: texcoord is not a finite number", face);
+}
+
+// The header without the texcoord property line (the stripped copy's).
+std::string ply_header_without_tex(const char *d, size_t data) {
+  std::string out;
+  size_t p = 0;
+  while (p < data) {
+    const char *nl = (const char *)memchr(d + p, '\n', data - p);
+    size_t end = nl ? (size_t)(nl - d) + 1 : data;
+    std::string line(d + p, end - p);
+    if (!(line.find("property") != std::string::npos && line.find(" texcoord") != std::string::npos &&
+          line.find("list") != std::string::npos))
+      out += line;
+    p = end;
+  }
+  if (out.empty() || out.back() != '\n') out += '\n';  // ASCII data starts after the token
+  return out;
+}
+
 void ply_walk_binary(const char *d, size_t n, PlyScan &s, const PlyHeader &h, size_t nread) {
   size_t p = h.data;
   const unsigned char *u = (const unsigned char *)d;
+  if (s.face_tex) s.stripped = ply_header_without_tex(d, h.data);
   for (size_t ei = 0; ei < nread; ei++) {
     const PlyElem &el = h.elems[ei];
     for (long long i = 0; i < el.count; i++) {
+      long long corners = 0;
       for (const PlyProp &pr : el.props) {
+        size_t at = p;
         if (!pr.list) {
           if (n - p < (size_t)ply_size(pr.type)) ply_truncated(el, i);
           p += ply_size(pr.type);
+          if (s.face_tex) s.stripped.append(d + at, p - at);
           continue;
         }
         if (n - p < (size_t)ply_size(pr.count_type)) ply_truncated(el, i);
         long long count = ply_binary_value(u + p, pr.count_type, s.big_endian);
         p += ply_size(pr.count_type);
+        if (pr.role == R_FACE_TEX) {
+          if (count < 0 || (unsigned long long)count > (n - p) / ply_size(pr.type)) ply_truncated(el, i);
+          for (long long k = 0; k < count; k++, p += ply_size(pr.type))
+            s.tex.push_back((float)ply_binary_float(u + p, pr.type, s.big_endian));
+          ply_face_tex(s, count, corners, i);
+          continue;
+        }
         ply_face_count(count, i);
+        corners = count;
+        if (s.face_tex && (unsigned long long)count <= (n - p) / ply_size(pr.type))
+          s.tex_first.push_back((int)(unsigned)(ply_binary_value(u + p, pr.type, s.big_endian) & 0xffffffffLL));
         if ((unsigned long long)count > (n - p) / ply_size(pr.type)) ply_truncated(el, i);
         for (long long k = 0; k < count; k++) {
           long long idx = ply_binary_value(u + p, pr.type, s.big_endian);
@@ -620,6 +685,7 @@ void ply_walk_binary(const char *d, size_t n, PlyScan &s, const PlyHeader &h, si
           ply_face_corner((int)(unsigned)(idx & 0xffffffffLL), s.nv, i);
           p += ply_size(pr.type);
         }
+        if (s.face_tex) s.stripped.append(d + at, p - at);
         s.ncorners += count;
         if (s.ncorners > kMax) fail("too many face corners (limit %lld)", kMax);
       }
@@ -630,25 +696,41 @@ void ply_walk_binary(const char *d, size_t n, PlyScan &s, const PlyHeader &h, si
 void ply_walk_ascii(const char *d, size_t n, PlyScan &s, const PlyHeader &h, size_t nread) {
   Tokens t(d + h.data, d + n);
   const char *tb, *te;
+  if (s.face_tex) s.stripped = ply_header_without_tex(d, h.data);
   for (size_t ei = 0; ei < nread; ei++) {
     const PlyElem &el = h.elems[ei];
     // OpenMesh gives up when the last token ended exactly at end of file.
     if (t.p == d + n) fail("element %s: data ends before it (file truncated?)", el.name.c_str());
     for (long long i = 0; i < el.count; i++) {
+      long long corners = 0;
       for (const PlyProp &pr : el.props) {
         if (!t.next(&tb, &te)) ply_truncated(el, i);
         float f;
         long long v;
+        const char *at = tb;
+        if (pr.role == R_FACE_TEX) {
+          if (!int_token(tb, te, &v) || *tb == '-' || *tb == '+')
+            fail("face %lld: bad texcoord count %s", i, quote(tb, te).c_str());
+          for (long long k = 0; k < v; k++) {
+            if (!t.next(&tb, &te)) ply_truncated(el, i);
+            if (!float_token(tb, te, &f)) fail("face %lld: texcoord %s is not a finite number", i, quote(tb, te).c_str());
+            s.tex.push_back(f);
+          }
+          ply_face_tex(s, v, corners, i);
+          continue;
+        }
         if (pr.role == R_INDICES) {
           if (!int_token(tb, te, &v) || *tb == '-' || *tb == '+')
             fail("face %lld: bad corner count %s", i, quote(tb, te).c_str());
           ply_face_count(v, i);
+          corners = v;
           for (long long k = 0; k < v; k++) {
             long long idx;
             if (!t.next(&tb, &te)) ply_truncated(el, i);
             if (!int_token(tb, te, &idx) || *tb == '+')
               fail("face %lld: bad vertex index %s", i, quote(tb, te).c_str());
             ply_face_corner(idx, s.nv, i);
+            if (s.face_tex && k == 0) s.tex_first.push_back((int)idx);
           }
           s.ncorners += v;
           if (s.ncorners > kMax) fail("too many face corners (limit %lld)", kMax);
@@ -662,7 +744,12 @@ void ply_walk_ascii(const char *d, size_t n, PlyScan &s, const PlyHeader &h, siz
             fail("%s %lld: property %s: %s is not an integer", el.name.c_str(), i,
                  pr.name.c_str(), quote(tb, te).c_str());
         }
+        if (s.face_tex) {
+          if (&pr != &el.props.front() && !s.stripped.empty() && s.stripped.back() != '\n') s.stripped += ' ';
+          s.stripped.append(at, (size_t)(t.p - at));
+        }
       }
+      if (s.face_tex) s.stripped += '\n';
     }
   }
 }
@@ -852,6 +939,7 @@ struct Importer final : OpenMesh::IO::BaseImporter {
   explicit Importer(Format f) : format(f), base(f == Format::OBJ ? 1 : 0) {}
 
   int vertex_count() const { return (int)(pos.size() / 3); }
+  int face_corners(int f) const { return face_start[f + 1] - face_start[f]; }
 
   void check_vertex(VertexHandle vh) const {
     if (vh.idx() < 0 || vh.idx() >= vertex_count())
@@ -1275,7 +1363,19 @@ void read_buffer(const char *data, size_t size, Format f, const char *name, ch_m
       ch_warn(err, "%s: PLY properties texture_u/texture_v are not read (OpenMesh knows u,v and s,t)", name);
     want_v = s.nv;
     want_f = s.nf;
-    run_stream(data, size, "ply", false, imp);
+    if (!s.face_tex) {
+      run_stream(data, size, "ply", false, imp);
+      break;
+    }
+    run_stream(s.stripped.data(), s.stripped.size(), "ply", false, imp);
+    // The face texcoords, now that the faces exist (the first value pair
+    // belongs to the corner at the face's first vertex).
+    for (size_t f = 0, k = 0; f < s.tex_first.size() && f < imp.n_faces(); f++) {
+      int corners = imp.face_corners((int)f);
+      std::vector<Vec2f> uv;
+      for (int c = 0; c < corners; c++, k += 2) uv.emplace_back(s.tex[k], s.tex[k + 1]);
+      imp.add_face_texcoords(FaceHandle((int)f), VertexHandle(s.tex_first[f]), uv);
+    }
     break;
   }
   case Format::OFF: {

@@ -250,105 +250,37 @@ ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err
   ch_atomic_file f;
   st = ch_atomic_open(&f, path, err);
   if (st != CH_OK) return st;
-  if (!write_obj_body(f.fp, mesh)) {
-    ch_atomic_abort(&f);
-    return ch_error_set(err, CH_ERR_IO, "%s: out of memory or write error", path);
-  }
+  if (!write_obj_body(f.fp, mesh)) /* a write error names itself (ch_atomic_fail) */
+    return ch_atomic_fail(&f, ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path), err);
   return ch_atomic_commit(&f, err);
 }
 
 /* ---- PLY ---------------------------------------------------------------- */
 
-/* Output vertex k of the PLY: a position with the UV and normal of one
- * corner. Vertices 0..num_positions-1 are the positions themselves, with the
- * attributes of their first corner; corners that disagree with it get extra
- * vertices, numbered in order of their first corner. */
-typedef struct split {
-  int *vertex_of_corner; /* num_corners */
-  int *source_corner;    /* per output vertex: corner giving UV/normal, or -1 */
-  int num_vertices;
-} split;
-
-typedef struct corner_key {
-  int pos, uv, normal, corner;
-} corner_key;
-
-static int cmp_key(const void *pa, const void *pb) {
-  const corner_key *a = pa, *b = pb;
-  if (a->pos != b->pos) return a->pos < b->pos ? -1 : 1;
-  if (a->uv != b->uv) return a->uv < b->uv ? -1 : 1;
-  if (a->normal != b->normal) return a->normal < b->normal ? -1 : 1;
-  return (a->corner > b->corner) - (a->corner < b->corner);
-}
-
-/* Orders by (position, uv, normal) only. */
-static int key_less(const corner_key *a, const corner_key *b) {
-  if (a->pos != b->pos) return a->pos < b->pos;
-  if (a->uv != b->uv) return a->uv < b->uv;
-  return a->normal < b->normal;
-}
-
-static int cmp_first_corner(const void *pa, const void *pb) {
-  const corner_key *a = pa, *b = pb;
-  return (a->corner > b->corner) - (a->corner < b->corner);
-}
-
-static corner_key key_of(const ch_mesh *m, int c) {
-  corner_key k = {m->corner_position[c], m->corner_uv ? m->corner_uv[c] : 0,
-                  m->corner_normal ? m->corner_normal[c] : 0, c};
-  return k;
-}
-
-static int split_vertices(const ch_mesh *m, split *s) {
-  size_t np = (size_t)m->num_positions, nc = (size_t)m->num_corners;
-  memset(s, 0, sizeof *s);
-  s->vertex_of_corner = malloc((nc ? nc : 1) * sizeof(int));
-  int *rep = malloc((np ? np : 1) * sizeof(int));
-  corner_key *odd = malloc((nc ? nc : 1) * sizeof *odd);
-  corner_key *groups = malloc((nc ? nc : 1) * sizeof *groups);
-  s->source_corner = malloc((np + nc + 1) * sizeof(int));
-  if (!s->vertex_of_corner || !rep || !odd || !groups || !s->source_corner) {
-    free(rep), free(odd), free(groups);
-    free(s->vertex_of_corner), free(s->source_corner);
-    return 0;
+/* One PLY vertex per position, so the PLY is as closed as the mesh (no
+ * vertex split at walls, creases or UV seams); UVs per face corner as the
+ * face's `texcoord` list (u0 v0 u1 v1 ..., the wedge convention MeshLab
+ * reads), and also per vertex as `s t` (what Blender's importer reads) when
+ * every corner of each position has the same UV (within 1e-9). Normals are left out:
+ * creases and walls need one per corner, which PLY has no convention for
+ * (the OBJ has them). */
+static int uvs_per_position(const ch_mesh *m) {
+  if (!m->corner_uv) return 0;
+  int *first = malloc((size_t)(m->num_positions ? m->num_positions : 1) * sizeof *first);
+  if (!first) return 0;
+  for (int p = 0; p < m->num_positions; p++) first[p] = -1;
+  int ok = 1;
+  for (int c = 0; c < m->num_corners && ok; c++) {
+    int p = m->corner_position[c], uv = m->corner_uv[c];
+    /* Corners of one vertex may differ by rounding (1e-12: points on a
+     * shared edge interpolated from either end); a seam differs by more. */
+    if (first[p] < 0) first[p] = uv;
+    else if (fabs(m->uvs[2 * (size_t)first[p]] - m->uvs[2 * (size_t)uv]) > 1e-9 ||
+             fabs(m->uvs[2 * (size_t)first[p] + 1] - m->uvs[2 * (size_t)uv + 1]) > 1e-9)
+      ok = 0;
   }
-  for (size_t v = 0; v < np; v++) rep[v] = -1;
-  size_t nodd = 0;
-  for (size_t c = 0; c < nc; c++) {
-    corner_key k = key_of(m, (int)c);
-    if (rep[k.pos] < 0) rep[k.pos] = (int)c;
-    corner_key r = key_of(m, rep[k.pos]);
-    if (k.uv == r.uv && k.normal == r.normal) s->vertex_of_corner[c] = k.pos;
-    else odd[nodd++] = k;
-  }
-  for (size_t v = 0; v < np; v++) s->source_corner[v] = rep[v];
-  /* Group the disagreeing corners by (position, uv, normal); each group's
-   * first corner decides its order. */
-  qsort(odd, nodd, sizeof *odd, cmp_key);
-  size_t ng = 0;
-  for (size_t i = 0; i < nodd; i++)
-    if (i == 0 || key_less(&odd[i - 1], &odd[i])) groups[ng++] = odd[i];
-  qsort(groups, ng, sizeof *groups, cmp_first_corner);
-  for (size_t g = 0; g < ng; g++) {
-    s->source_corner[np + g] = groups[g].corner;
-    groups[g].corner = (int)(np + g); /* reuse: output vertex of the group */
-  }
-  /* Each odd corner finds its group by binary search on the key. */
-  qsort(groups, ng, sizeof *groups, cmp_key);
-  for (size_t i = 0; i < nodd; i++) {
-    size_t lo = 0, hi = ng;
-    while (lo < hi) {
-      size_t mid = (lo + hi) / 2;
-      if (key_less(&groups[mid], &odd[i])) lo = mid + 1;
-      else hi = mid;
-    }
-    s->vertex_of_corner[odd[i].corner] = groups[lo].corner;
-  }
-  s->num_vertices = (int)(np + ng);
-  free(rep);
-  free(odd);
-  free(groups);
-  return 1;
+  free(first);
+  return ok;
 }
 
 static void put_u32(FILE *fp, uint32_t u) {
@@ -364,50 +296,74 @@ static void put_f32(FILE *fp, double x) {
   put_u32(fp, u);
 }
 
-static void write_ply_body(FILE *fp, const ch_mesh *m, const split *s) {
+static int write_ply_body(FILE *fp, const ch_mesh *m) {
   int most = 0;
   for (int f = 0; f < m->num_faces; f++)
     if (m->face_start[f + 1] - m->face_start[f] > most) most = m->face_start[f + 1] - m->face_start[f];
-  int wide = most > 255; /* uchar counts cannot hold it */
+  int wide = most > 127; /* uchar counts cannot hold it (texcoord lists have 2 per corner) */
+  int st_uv = uvs_per_position(m);
+  int *vertex_uv = NULL;
+  if (st_uv) {
+    vertex_uv = malloc((size_t)(m->num_positions ? m->num_positions : 1) * sizeof *vertex_uv);
+    if (!vertex_uv) return 0;
+    for (int p = 0; p < m->num_positions; p++) vertex_uv[p] = -1;
+    for (int c = 0; c < m->num_corners; c++)
+      if (vertex_uv[m->corner_position[c]] < 0) vertex_uv[m->corner_position[c]] = m->corner_uv[c];
+  }
   fprintf(fp,
           "ply\nformat binary_little_endian 1.0\ncomment chisel\nelement vertex %d\n"
           "property float x\nproperty float y\nproperty float z\n",
-          s->num_vertices);
-  if (m->corner_normal) fputs("property float nx\nproperty float ny\nproperty float nz\n", fp);
-  if (m->corner_uv) fputs("property float u\nproperty float v\n", fp);
-  fprintf(fp, "element face %d\nproperty list %s int vertex_indices\nend_header\n", m->num_faces,
-          wide ? "int" : "uchar");
-  for (int v = 0; v < s->num_vertices; v++) {
-    int c = s->source_corner[v];
-    int p = v < m->num_positions ? v : m->corner_position[c];
-    for (int k = 0; k < 3; k++) put_f32(fp, m->positions[3 * (size_t)p + k]);
-    if (m->corner_normal)
-      for (int k = 0; k < 3; k++)
-        put_f32(fp, c < 0 ? 0.0 : m->normals[3 * (size_t)m->corner_normal[c] + k]);
-    if (m->corner_uv)
-      for (int k = 0; k < 2; k++) put_f32(fp, c < 0 ? 0.0 : m->uvs[2 * (size_t)m->corner_uv[c] + k]);
+          m->num_positions);
+  if (st_uv) fputs("property float s\nproperty float t\n", fp);
+  fprintf(fp, "element face %d\nproperty list %s int vertex_indices\n", m->num_faces, wide ? "int" : "uchar");
+  if (m->corner_uv) fprintf(fp, "property list %s float texcoord\n", wide ? "int" : "uchar");
+  fputs("end_header\n", fp);
+  for (int v = 0; v < m->num_positions; v++) {
+    for (int k = 0; k < 3; k++) put_f32(fp, m->positions[3 * (size_t)v + k]);
+    if (st_uv)
+      for (int k = 0; k < 2; k++) put_f32(fp, vertex_uv[v] < 0 ? 0.0 : m->uvs[2 * (size_t)vertex_uv[v] + k]);
   }
   for (int f = 0; f < m->num_faces; f++) {
     int n = m->face_start[f + 1] - m->face_start[f];
     if (wide) put_u32(fp, (uint32_t)n);
     else fputc(n, fp);
-    for (int c = m->face_start[f]; c < m->face_start[f + 1]; c++)
-      put_u32(fp, (uint32_t)s->vertex_of_corner[c]);
+    for (int c = m->face_start[f]; c < m->face_start[f + 1]; c++) put_u32(fp, (uint32_t)m->corner_position[c]);
+    if (m->corner_uv) {
+      if (wide) put_u32(fp, (uint32_t)(2 * n));
+      else fputc(2 * n, fp);
+      for (int c = m->face_start[f]; c < m->face_start[f + 1]; c++)
+        for (int k = 0; k < 2; k++) put_f32(fp, m->uvs[2 * (size_t)m->corner_uv[c] + k]);
+    }
   }
+  free(vertex_uv);
+  return 1;
 }
 
 ch_status ch_mesh_write_ply(const char *path, const ch_mesh *mesh, ch_error *err) {
   ch_status st = check_writable(mesh, path, err);
   if (st != CH_OK) return st;
-  split s;
-  if (!split_vertices(mesh, &s)) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
   ch_atomic_file f;
   st = ch_atomic_open(&f, path, err);
-  if (st == CH_OK) {
-    write_ply_body(f.fp, mesh, &s);
-    st = ch_atomic_commit(&f, err);
+  if (st != CH_OK) return st;
+  if (!write_ply_body(f.fp, mesh)) {
+    ch_atomic_abort(&f);
+    return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
   }
-  free(s.vertex_of_corner);
-  free(s.source_corner);
-  return st;
+  return ch_atomic_commit(&f, err);
+}
+
+ch_status ch_mesh_write_obj_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err) {
+  ch_status st = check_writable(mesh, name, err);
+  if (st != CH_OK) return st;
+  if (!write_obj_body(fp, mesh) || fflush(fp) != 0 || ferror(fp))
+    return ch_error_set(err, CH_ERR_IO, "%s: out of memory or write error", name);
+  return CH_OK;
+}
+
+ch_status ch_mesh_write_ply_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err) {
+  ch_status st = check_writable(mesh, name, err);
+  if (st != CH_OK) return st;
+  if (!write_ply_body(fp, mesh)) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
+  if (fflush(fp) != 0 || ferror(fp)) return ch_error_set(err, CH_ERR_IO, "%s: write error", name);
+  return CH_OK;
 }

@@ -6,7 +6,9 @@ pkgs=(build-essential cmake pkg-config
       libosd-dev libopenmesh-dev libembree-dev libglfw3-dev libopenexr-dev
       libcjson-dev libxml2-dev libpng-dev zlib1g-dev openexr libsuitesparse-dev
       xvfb xauth libgl1-mesa-dri libgl-dev
-      python3)
+      python3
+      # the tools the interop test opens chisel's outputs with
+      openimageio-tools imagemagick libmagickcore-6.q16-6-extra blender)
 if [ "${1:-}" = "--fuzz" ]; then
   pkgs+=(clang libomp-dev libclang-rt-14-dev)
 fi

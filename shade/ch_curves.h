@@ -74,6 +74,14 @@ typedef struct ch_curve {
   int first_segment, num_segments;
   int first_subpath, num_subpaths;
   double bbox[4];            /* umin vmin umax vmax of the control polygon */
+  /* What decided the kind and the width (SPEC §2, docs/svg.md), for
+   * `chisel info`: "data-attributes" (own or inherited),
+   * "stroke" (a stroked path without them), "fill" (a filled closed shape
+   * without stroke: a step raised by the fill height), "default" (none of
+   * these); and "data-width", "stroke-width", "stroke" (SVG's default
+   * stroke width, 1) or "default" (8 viewBox units). */
+  char decided_by[16];
+  char width_from[16];
 } ch_curve;
 
 typedef struct ch_curve_set {
@@ -86,8 +94,27 @@ typedef struct ch_curve_set {
   double viewbox[4];  /* x0 y0 w h of the source SVG */
 } ch_curve_set;
 
-/* Upper limits that turn absurd files into a clear error. */
-enum { CH_CURVES_MAX_SEGMENTS = 1 << 24, CH_SVG_MAX_BYTES = 256 << 20 };
+/* Upper limits that turn absurd files into a clear error: the file's size,
+ * its segments, how deep elements nest, and the entity references the XML
+ * parser may expand, in number, text and nesting (libxml2 runs in its huge
+ * mode, which lifts its own limits of 10 MB per text node and 256 levels,
+ * and with them its guard against entity expansion: these caps take their
+ * place). */
+enum {
+  CH_CURVES_MAX_UV = 1000000, /* |u|, |v| of any point: a million texture widths */
+  CH_CURVES_MAX_SEGMENTS = 1 << 24,
+  CH_SVG_MAX_BYTES = 256 << 20,
+  CH_SVG_MAX_DEPTH = 256,
+  CH_SVG_MAX_ENTITY_REFS = 10000,
+  CH_SVG_MAX_ENTITY_BYTES = 1 << 20,
+  CH_SVG_MAX_ENTITY_DEPTH = 40
+};
+
+/* How drawings without data- attributes are read (docs/svg.md). Zero
+ * means default. */
+typedef struct ch_svg_desc {
+  double fill_height; /* a filled shape's inside, object units; 0 -> 0.01 */
+} ch_svg_desc;
 
 /* Reads an SVG file (SPEC §2) into out. Malformed files give CH_ERR_INPUT
  * with one line naming the file, the element (id or index, and line) and
@@ -98,6 +125,11 @@ ch_status ch_curves_read_svg(const char *path, ch_curve_set *out, ch_error *err)
 /* The same from memory; name is used in messages. */
 ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name,
                               ch_curve_set *out, ch_error *err);
+
+/* The two above with options (desc may be NULL: defaults). */
+ch_status ch_curves_read_svg_ex(const char *path, const ch_svg_desc *desc, ch_curve_set *out, ch_error *err);
+ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name, const ch_svg_desc *desc,
+                                 ch_curve_set *out, ch_error *err);
 
 void ch_curves_free(ch_curve_set *set);
 

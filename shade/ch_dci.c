@@ -200,9 +200,23 @@ enum {
   L_H, L_R, L_G, L_B, L_OPP_H, L_OPP_R, L_OPP_G, L_OPP_B, L_DIST, L_SPU, L_SPV, L_CHAIN, L_T,
   L_CURVE, L_SIDE, L_EXACT, L_FIXED, L_BLUR, NUM_LAYERS
 };
+/* One-value layers of more than one letter are written NAME.X (Blender's
+ * multilayer reader, like its own index passes, wants a layer and a
+ * one-letter channel); files of before are read by their bare names. */
 static const char *layer_names[NUM_LAYERS] = {
-    "h", "R", "G", "B", "opp.h", "opp.R", "opp.G", "opp.B", "distance", "sp.u", "sp.v", "chain", "t",
-    "curve", "side", "exact", "fixed", "blur"};
+    "h", "R", "G", "B", "opp.h", "opp.R", "opp.G", "opp.B", "distance.X", "sp.u", "sp.v", "chain.X", "t",
+    "curve.X", "side.X", "exact.X", "fixed.X", "blur.X"};
+
+static int find_layer(const ch_image *img, int layer) {
+  int i = ch_image_find(img, layer_names[layer]);
+  size_t n = strlen(layer_names[layer]);
+  if (i < 0 && n > 2 && !strcmp(layer_names[layer] + n - 2, ".X")) {
+    char bare[32];
+    snprintf(bare, sizeof bare, "%.*s", (int)(n - 2), layer_names[layer]);
+    i = ch_image_find(img, bare);
+  }
+  return i;
+}
 
 static int layer_present(const ch_dci *d, int layer) {
   if (layer == L_R || layer == L_G || layer == L_B || (layer >= L_OPP_R && layer <= L_OPP_B))
@@ -257,7 +271,7 @@ ch_status ch_dci_from_image(const ch_image *img, const double rect[4], const cha
                             ch_error *err) {
   memset(d, 0, sizeof *d);
   int idx[NUM_LAYERS];
-  for (int l = 0; l < NUM_LAYERS; l++) idx[l] = ch_image_find(img, layer_names[l]);
+  for (int l = 0; l < NUM_LAYERS; l++) idx[l] = find_layer(img, l);
   static const int required[] = {L_H, L_OPP_H, L_DIST, L_SPU, L_SPV, L_CHAIN, L_T, L_CURVE, L_SIDE, L_EXACT};
   for (size_t k = 0; k < sizeof required / sizeof required[0]; k++)
     if (idx[required[k]] < 0)

@@ -57,9 +57,10 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
 void ch_dci_free(ch_dci *dci);
 
 /* The DCI as image layers for EXR: h, R G B (with colours), opp.h and
- * opp.R opp.G opp.B (the values on the other side), distance (texels),
- * sp.u sp.v (closest curve point, UV), chain, t (parameter along the
- * chain), curve, side (CH_SIDE_* bits), exact, fixed, blur (with blur). */
+ * opp.R opp.G opp.B (the values on the other side), distance.X (texels),
+ * sp.u sp.v (closest curve point, UV), chain.X, t (parameter along the
+ * chain), curve.X, side.X (CH_SIDE_* bits), exact.X, fixed.X, blur.X
+ * (with blur). ch_dci_from_image also takes the names without ".X". */
 ch_status ch_dci_to_image(const ch_dci *dci, ch_image *out, ch_error *err);
 
 /* Rebuilds a DCI from those layers (what `chisel magnify` reads); rect is

@@ -86,7 +86,16 @@ ch_status ch_groove_field_init(ch_groove_field *f, const ch_curve_set *set, ch_e
     ch_segment_box(s, 0.5 * c->width, b);
   }
   for (int i = 0; i < set->num_curves; i++) f->num_grooves += set->curves[i].kind == CH_CURVE_GROOVE;
-  ch_status st = ch_grid_build(&f->grid, set->num_segments, (const double(*)[4])f->boxes, err);
+  /* The grid lists a groove's segment in the cells within its half width
+   * (along a long line, not all over its box) */
+  double *reach = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *reach);
+  ch_status st = reach ? CH_OK : ch_error_set(err, CH_ERR_NOMEM, "out of memory for the groove field");
+  for (int i = 0; reach && i < set->num_segments; i++) {
+    const ch_curve *c = &set->curves[set->segments[i].curve];
+    reach[i] = c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : -1.0;
+  }
+  if (!st) st = ch_grid_build_curves(&f->grid, set, reach, err);
+  free(reach);
   if (st) {
     free(f->boxes);
     f->boxes = NULL;

@@ -207,7 +207,12 @@ ch_status ch_samples_build_subset(const ch_curve_set *set, const unsigned char *
     }
     ch_segment_box(sg, reach, b);
   }
-  ch_status st = ch_grid_build(&grid, set->num_segments, (const double(*)[4])boxes, err);
+  /* (boxes[i] grown by the band; empty for the segments left out) */
+  double *grow = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *grow);
+  ch_status st = grow ? CH_OK : ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature samples", W, H);
+  for (int i = 0; grow && i < set->num_segments; i++) grow[i] = boxes[i][0] <= boxes[i][2] ? reach : -1.0;
+  if (!st) st = ch_grid_build_curves(&grid, set, grow, err);
+  free(grow);
   if (st) {
     free(boxes);
     chain_info_free(&ci);

@@ -4,8 +4,10 @@
  * in UV. Path data follows the SVG 1.1 grammar (implicit repeated commands,
  * numbers without separators, arc flags without separators); arcs use the
  * end-point to centre conversion of SVG 1.1 appendix F.6. */
+#include <libxml/globals.h>
 #include <libxml/parser.h>
 #include <libxml/tree.h>
+#include <libxml/xmlerror.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
@@ -18,10 +20,15 @@
 #include "ch_math.h"
 
 /* Inherited state: the data- attributes as strings (pointers into the
- * document, resolved on each curve) and the current transform. */
+ * document, resolved on each curve), the paint given explicitly (attribute
+ * or style declaration; copies, "" when not given) and the current
+ * transform. */
+enum { PAINT_MAX = 48 };
 typedef struct svg_style {
   const char *kind, *profile, *width, *depth, *left, *right;
   const char *left_color, *right_color, *blur, *priority;
+  int has_data; /* any data- attribute, own or inherited */
+  char fill[PAINT_MAX], stroke[PAINT_MAX], stroke_width[PAINT_MAX], fill_rule[PAINT_MAX];
   double ctm[6]; /* user space -> UV: x' = a x + c y + e, y' = b x + d y + f */
 } svg_style;
 
@@ -33,7 +40,10 @@ typedef struct svg_parser {
   ch_curve_set *set;
   int cap_curves, cap_segments, cap_subpaths;
   double width_scale; /* viewBox units -> UV for widths and blur radii */
+  double fill_height; /* a filled shape's inside (ch_svg_desc) */
   int num_elements;
+  int fill_curve;       /* the curve is a fill: close open subpaths, inside left */
+  int fill_evenodd;     /* its fill-rule */
   /* The curve under construction. */
   ch_curve *curve;
   int subpath_open;     /* a subpath record is open */
@@ -251,6 +261,8 @@ static void subpath_begin(svg_parser *ps) {
   ps->subpath_closed = 0;
 }
 
+static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line);
+
 /* Ends the open subpath: drops it if empty, links neighbours, detects
  * closure (Z, or the end on the start). */
 static ch_status subpath_end(svg_parser *ps) {
@@ -271,6 +283,16 @@ static ch_status subpath_end(svg_parser *ps) {
   if (st) return st;
   ch_segment *s0 = &set->segments[first], *s1 = &set->segments[first + n - 1];
   double du = s1->p[2][0] - s0->p[0][0], dv = s1->p[2][1] - s0->p[0][1];
+  if (ps->fill_curve && !ps->subpath_closed && du * du + dv * dv > 1e-24) {
+    /* A fill closes an open subpath with a straight line (SVG 1.1 §11.3),
+     * so the step curve is the outline that is drawn. */
+    double q[3][2] = {{s1->p[2][0], s1->p[2][1]}, {0, 0}, {s0->p[0][0], s0->p[0][1]}};
+    if ((st = add_quad_uv(ps, q, 1))) return st;
+    n = set->num_segments - first;
+    s0 = &set->segments[first];
+    s1 = &set->segments[first + n - 1];
+    du = dv = 0.0;
+  }
   int closed = ps->subpath_closed || du * du + dv * dv <= 1e-24;
   if (closed) {
     /* Make the joint exact so the two ends are one point. */
@@ -301,6 +323,16 @@ static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line) 
    * midpoint below): only the ends are checked then. */
   for (int i = 0; i < 3; i++)
     if ((i != 1 || !is_line) && !ch_finite2(q[i])) return fail_curve(ps, "coordinates out of range%s", "");
+  /* Far outside the texture a curve means nothing and its coordinates
+   * have lost their precision (a viewBox 1e80 off its origin folds every
+   * curve onto one line: the grids and trees then list each everywhere). */
+  for (int i = 0; i < 3; i++)
+    if ((i != 1 || !is_line) && !(fabs(q[i][0]) <= CH_CURVES_MAX_UV && fabs(q[i][1]) <= CH_CURVES_MAX_UV)) {
+      char what[96];
+      snprintf(what, sizeof what, " (|u| or |v| above %g: %g texture widths away)", (double)CH_CURVES_MAX_UV,
+               fmax(fabs(q[i][0]), fabs(q[i][1])));
+      return fail_curve(ps, "coordinates far outside the texture%s", what);
+    }
   if (near_equal(q[0], q[2]) && (is_line || near_equal(q[0], q[1]))) return CH_OK;
   ch_curve_set *set = ps->set;
   if (set->num_segments >= CH_CURVES_MAX_SEGMENTS)
@@ -612,8 +644,49 @@ static int is_hidden(const xmlNode *node) {
   return 0;
 }
 
-/* Updates style with the node's own data- attributes and transform. */
+/* Copies a paint value (trimmed) into a style slot. */
+static void set_paint(char dst[PAINT_MAX], const char *value, size_t len) {
+  while (len && is_wsp(*value)) value++, len--;
+  while (len && is_wsp(value[len - 1])) len--;
+  if (len >= PAINT_MAX) len = PAINT_MAX - 1;
+  memcpy(dst, value, len);
+  dst[len] = '\0';
+}
+
+/* The paint properties chisel reads from an element: presentation
+ * attributes first, then the style attribute's declarations, which
+ * override them (CSS cascade; stylesheets in <style> are not read). */
+static void inherit_paint(const xmlNode *node, svg_style *st) {
+  static const char *props[] = {"fill", "stroke", "stroke-width", "fill-rule"};
+  char *slots[] = {st->fill, st->stroke, st->stroke_width, st->fill_rule};
+  for (int i = 0; i < 4; i++) {
+    const char *v = attr(node, props[i]);
+    if (v) set_paint(slots[i], v, strlen(v));
+  }
+  const char *style = attr(node, "style");
+  for (const char *p = style; p && *p;) {
+    size_t decl = strcspn(p, ";");
+    const char *colon = memchr(p, ':', decl);
+    if (colon) {
+      const char *name = p;
+      size_t nlen = (size_t)(colon - p);
+      while (nlen && is_wsp(*name)) name++, nlen--;
+      while (nlen && is_wsp(name[nlen - 1])) nlen--;
+      for (int i = 0; i < 4; i++)
+        if (strlen(props[i]) == nlen && !strncmp(name, props[i], nlen))
+          set_paint(slots[i], colon + 1, decl - (size_t)(colon + 1 - p));
+    }
+    p += decl;
+    if (*p == ';') p++;
+  }
+}
+
+/* Whether a paint value paints: given, and not "none". */
+static int paints(const char *paint) { return paint[0] && !keyword_is(paint, "none"); }
+
+/* Updates style with the node's own data- attributes, paint and transform. */
 static ch_status inherit(svg_parser *ps, const xmlNode *node, svg_style *st) {
+  inherit_paint(node, st);
   static const char *known[] = {"data-kind", "data-profile", "data-width", "data-depth",
                                 "data-left", "data-right", "data-left-color", "data-right-color",
                                 "data-blur", "data-priority"};
@@ -625,6 +698,7 @@ static ch_status inherit(svg_parser *ps, const xmlNode *node, svg_style *st) {
     if (strncmp(name, "data-", 5) != 0) continue;
     const char *value = a->children && a->children->content ? (const char *)a->children->content : "";
     int found = 0;
+    st->has_data = 1;
     for (int i = 0; i < 10; i++) {
       if (strcmp(name, known[i]) == 0) {
         *slots[i] = value;
@@ -672,6 +746,31 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   ps->subpath_open = 0;
 
   c->kind = CH_CURVE_GROOVE;
+  ps->fill_curve = 0;
+  /* Drawings without data- attributes mean what they show (SPEC §2). */
+  int stroked = paints(st->stroke), filled = paints(st->fill) && strcmp(c->element, "line") != 0;
+  double stroke_w = 1.0; /* SVG's initial stroke-width */
+  int has_stroke_w = st->stroke_width[0] != '\0';
+  if (has_stroke_w && parse_length(st->stroke_width, &stroke_w))
+    return fail_curve(ps, "stroke-width '%.40s' is not a length", st->stroke_width);
+  if (has_stroke_w && !(stroke_w >= 0.0))
+    return fail_curve(ps, "negative stroke-width '%.40s'", st->stroke_width);
+  /* A stroke is as wide as drawn: its width in user space scaled by the
+   * transforms down to UV (the square root of the area scale). */
+  double stroke_uv = stroke_w * sqrt(fabs(st->ctm[0] * st->ctm[3] - st->ctm[1] * st->ctm[2]));
+  if (st->has_data) {
+    snprintf(c->decided_by, sizeof c->decided_by, "data-attributes");
+  } else if (stroked) {
+    snprintf(c->decided_by, sizeof c->decided_by, "stroke");
+  } else if (filled) {
+    snprintf(c->decided_by, sizeof c->decided_by, "fill");
+    c->kind = CH_CURVE_STEP;
+    c->left = ps->fill_height;
+    ps->fill_curve = 1;
+    ps->fill_evenodd = keyword_is(st->fill_rule, "evenodd");
+  } else {
+    snprintf(c->decided_by, sizeof c->decided_by, "default");
+  }
   if (st->kind) {
     if (keyword_is(st->kind, "step"))
       c->kind = CH_CURVE_STEP;
@@ -681,8 +780,18 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   char why[200];
   if (ch_profile_parse(st->profile ? st->profile : "v", &c->profile, why, sizeof why))
     return fail_curve(ps, "%s", why);
-  double w = 8.0, depth = 0.01, left = 0.0, right = 0.0, blur = 0.0, prio = 0.0;
-  if (st->width && (s = attr_number(ps, st->width, "data-width", &w))) return s;
+  double w = 8.0, depth = 0.01, left = c->left, right = 0.0, blur = 0.0, prio = 0.0;
+  int width_uv = 0; /* w already in UV (a stroke's) */
+  snprintf(c->width_from, sizeof c->width_from, "default");
+  if (st->width) {
+    if ((s = attr_number(ps, st->width, "data-width", &w))) return s;
+    snprintf(c->width_from, sizeof c->width_from, "data-width");
+  } else if (has_stroke_w || (!st->has_data && stroked)) {
+    w = stroke_uv;
+    width_uv = 1;
+    snprintf(c->width_from, sizeof c->width_from, has_stroke_w ? "stroke-width" : "stroke");
+    if (w == 0.0 && c->kind == CH_CURVE_GROOVE) return fail_curve(ps, "zero stroke-width%s", "");
+  }
   if (st->depth && (s = attr_number(ps, st->depth, "data-depth", &depth))) return s;
   if (st->left && (s = attr_number(ps, st->left, "data-left", &left))) return s;
   if (st->right && (s = attr_number(ps, st->right, "data-right", &right))) return s;
@@ -693,7 +802,7 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   if (blur < 0.0) return fail_curve(ps, "negative data-blur '%.40s'", st->blur);
   if (prio != floor(prio) || fabs(prio) > 1e9)
     return fail_curve(ps, "data-priority '%.40s' is not an integer", st->priority);
-  c->width = w * ps->width_scale;
+  c->width = width_uv ? w : w * ps->width_scale;
   c->depth = depth;
   c->left = left;
   c->right = right;
@@ -709,12 +818,100 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   return CH_OK;
 }
 
+/* Winding number of the curve's (closed) subpaths around q: each segment's
+ * crossings of the ray from q towards +u, by the roots of v(t) = q_v in
+ * [0, 1) (so a joint counts once), signed by the direction of travel. */
+static int winding(const ch_curve_set *set, const ch_curve *c, const double q[2]) {
+  int w = 0;
+  for (int i = 0; i < c->num_segments; i++) {
+    const ch_segment *s = &set->segments[c->first_segment + i];
+    double a = s->p[0][1] - 2.0 * s->p[1][1] + s->p[2][1], b = 2.0 * (s->p[1][1] - s->p[0][1]),
+           k = s->p[0][1] - q[1];
+    double roots[2];
+    int nr = 0;
+    if (fabs(a) < 1e-14 * (fabs(b) + 1e-300)) {
+      if (b != 0.0) roots[nr++] = -k / b;
+    } else {
+      double disc = b * b - 4.0 * a * k;
+      if (disc >= 0.0) {
+        double r = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? r : -r));
+        roots[nr++] = qq / a;
+        if (qq != 0.0) roots[nr++] = k / qq;
+      }
+    }
+    for (int j = 0; j < nr; j++) {
+      double t = roots[j], dv = 2.0 * a * t + b;
+      if (!(t >= 0.0 && t < 1.0) || dv == 0.0) continue;
+      double pt[2];
+      ch_segment_point(s, t, pt);
+      if (pt[0] > q[0]) w += dv > 0.0 ? 1 : -1;
+    }
+  }
+  return w;
+}
+
+/* Reverses a subpath in place (segments and their links). */
+static void reverse_subpath(ch_curve_set *set, const ch_subpath *sp) {
+  ch_segment *s = &set->segments[sp->first_segment];
+  int n = sp->num_segments;
+  for (int i = 0; i < n / 2; i++) {
+    ch_segment t = s[i];
+    s[i] = s[n - 1 - i];
+    s[n - 1 - i] = t;
+  }
+  for (int i = 0; i < n; i++) {
+    double p0[2] = {s[i].p[0][0], s[i].p[0][1]};
+    s[i].p[0][0] = s[i].p[2][0], s[i].p[0][1] = s[i].p[2][1];
+    s[i].p[2][0] = p0[0], s[i].p[2][1] = p0[1];
+    int first = sp->first_segment;
+    s[i].prev = i > 0 ? first + i - 1 : first + n - 1;
+    s[i].next = i + 1 < n ? first + i + 1 : first;
+  }
+}
+
+/* A fill's step curve: every subpath is turned so that the filled side
+ * (by the fill rule, tested just beside its longest segment) is on its
+ * left, which then holds the fill height (SPEC §2: a filled shape's inside
+ * is raised). */
+static void orient_fill(svg_parser *ps) {
+  ch_curve_set *set = ps->set;
+  ch_curve *c = ps->curve;
+  double size = fmax(c->bbox[2] - c->bbox[0], c->bbox[3] - c->bbox[1]);
+  for (int k = 0; k < c->num_subpaths; k++) {
+    const ch_subpath *sp = &set->subpaths[c->first_subpath + k];
+    int best = sp->first_segment;
+    double best_len = -1.0;
+    for (int i = sp->first_segment; i < sp->first_segment + sp->num_segments; i++) {
+      const ch_segment *s = &set->segments[i];
+      double du = s->p[2][0] - s->p[0][0], dv = s->p[2][1] - s->p[0][1];
+      if (du * du + dv * dv > best_len) best_len = du * du + dv * dv, best = i;
+    }
+    const ch_segment *s = &set->segments[best];
+    double m[2], d[2];
+    ch_segment_point(s, 0.5, m);
+    /* B'(1/2) = p2 - p0 for a quadratic. */
+    d[0] = s->p[2][0] - s->p[0][0];
+    d[1] = s->p[2][1] - s->p[0][1];
+    double len = sqrt(d[0] * d[0] + d[1] * d[1]);
+    if (!(len > 0.0)) continue;
+    double eps = 1e-7 * fmax(size, 1e-3);
+    double q[2] = {m[0] - d[1] / len * eps, m[1] + d[0] / len * eps};
+    int w = winding(set, c, q);
+    int left_filled = ps->fill_evenodd ? (w & 1) != 0 : w != 0;
+    if (!left_filled) reverse_subpath(set, sp);
+  }
+}
+
 static ch_status end_curve(svg_parser *ps) {
   ch_status st = subpath_end(ps);
   if (st) return st;
   ch_curve_set *set = ps->set;
   ch_curve *c = ps->curve;
   if (c->num_segments == 0) return fail_curve(ps, "curve has zero length%s", "");
+  if (ps->fill_curve) {
+    ch_curve_update_box(set, (int)(c - set->curves));
+    orient_fill(ps);
+  }
   ch_curve_update_box(set, (int)(c - set->curves));
   const double *b = c->bbox;
   double r = c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : 0.0;
@@ -844,9 +1041,14 @@ static int is_svg_element(const xmlNode *node) {
           strcmp((const char *)node->ns->href, "http://www.w3.org/2000/svg") == 0);
 }
 
-static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent) {
+static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent, int depth) {
   for (const xmlNode *n = node; n; n = n->next) {
     if (!is_svg_element(n)) continue; /* text, comments, foreign namespaces */
+    if (depth > CH_SVG_MAX_DEPTH) {
+      char msg[96];
+      snprintf(msg, sizeof msg, "elements nested deeper than %d levels", CH_SVG_MAX_DEPTH);
+      return fail_node(ps, n, msg);
+    }
     const char *name = (const char *)n->name;
     /* Non-rendering and descriptive elements: silently skipped. */
     if (!strcmp(name, "title") || !strcmp(name, "desc") || !strcmp(name, "metadata") ||
@@ -862,7 +1064,7 @@ static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *pare
                    !strcmp(name, "polyline") || !strcmp(name, "polygon");
     if (!strcmp(name, "g") || !strcmp(name, "a")) {
       if ((s = inherit(ps, n, &st))) return s;
-      if ((s = walk(ps, n->children, &st))) return s;
+      if ((s = walk(ps, n->children, &st, depth + 1))) return s;
     } else if (is_shape) {
       if ((s = inherit(ps, n, &st))) return s;
       if ((s = begin_curve(ps, n, &st))) return s;
@@ -907,29 +1109,135 @@ static ch_status root_mapping(svg_parser *ps, const xmlNode *root, svg_style *st
   return CH_OK;
 }
 
+/* What the XML parser may do on chisel's behalf: libxml2 runs in its huge
+ * mode (no 10 MB cap on a text node, such as the d attribute of a long
+ * path), which also switches off its own guard against entity expansion
+ * (the "billion laughs"); every entity reference it resolves passes
+ * through count_entity, which stops the parse past chisel's caps. Every
+ * message libxml2 raises while parsing (including the encoding and I/O
+ * ones it would print itself) is caught by keep_error; the first error
+ * becomes chisel's one line. */
+typedef struct xml_guard {
+  xmlParserCtxtPtr ctx;
+  xmlEntityPtr (*get_entity)(void *, const xmlChar *); /* libxml2's own */
+  long refs;
+  size_t bytes;
+  int over;            /* 1: too many references, 2: too much text, 3: too deep */
+  char message[300];   /* the first error, one line */
+  int line;
+} xml_guard;
+
+static xmlEntityPtr count_entity(void *user, const xmlChar *name) {
+  xmlParserCtxtPtr ctx = user;
+  xml_guard *g = ctx->_private;
+  xmlEntityPtr ent = g->get_entity(user, name);
+  if (!ent || g->over) return g->over ? NULL : ent;
+  /* (entities within entities: a file's own are never nested deep) */
+  if (ctx->depth > CH_SVG_MAX_ENTITY_DEPTH) {
+    g->over = 3;
+    xmlStopParser(ctx);
+    return NULL;
+  }
+  g->refs++;
+  g->bytes += ent->length > 0 ? (size_t)ent->length : 0;
+  if (g->refs > CH_SVG_MAX_ENTITY_REFS || g->bytes > CH_SVG_MAX_ENTITY_BYTES) {
+    g->over = g->refs > CH_SVG_MAX_ENTITY_REFS ? 1 : 2;
+    xmlStopParser(ctx);
+    return NULL;
+  }
+  return ent;
+}
+
+static void keep_error(void *user, xmlErrorPtr e) {
+  xml_guard *g = user;
+  if (!e || e->level < XML_ERR_ERROR || g->message[0]) return;
+  /* libxml2 ends messages with a newline and sometimes has one inside
+   * (an encoding error's "Bytes: ..."): one line, separated by "; ". */
+  const char *m = e->message ? e->message : "";
+  size_t n = strlen(m), k = 0;
+  while (n > 0 && (m[n - 1] == '\n' || m[n - 1] == ' ')) n--;
+  for (size_t i = 0; i < n && k + 3 < sizeof g->message; i++) {
+    if (m[i] != '\n') {
+      g->message[k++] = m[i];
+    } else {
+      g->message[k++] = ';';
+      g->message[k++] = ' ';
+    }
+  }
+  g->message[k] = '\0';
+  if (!k) snprintf(g->message, sizeof g->message, "not well-formed XML");
+  g->line = e->line;
+}
+
+static void drop_message(void *user, const char *fmt, ...) {
+  (void)user;
+  (void)fmt;
+}
+
+/* Parses data into a tree under the guard; NULL with the reason in g. */
+static xmlDocPtr parse_xml(const char *data, size_t size, const char *name, xml_guard *g) {
+  /* libxml2's error handlers are per thread: set for this parse, then
+   * restored, so other threads and callers are not affected. */
+  xmlStructuredErrorFunc old_structured = xmlStructuredError;
+  void *old_structured_user = xmlStructuredErrorContext;
+  xmlGenericErrorFunc old_generic = xmlGenericError;
+  void *old_generic_user = xmlGenericErrorContext;
+  xmlSetStructuredErrorFunc(g, keep_error);
+  xmlSetGenericErrorFunc(NULL, drop_message);
+  xmlDocPtr doc = NULL;
+  g->ctx = xmlNewParserCtxt();
+  if (g->ctx) {
+    g->ctx->_private = g;
+    g->get_entity = g->ctx->sax->getEntity;
+    g->ctx->sax->getEntity = count_entity;
+    doc = xmlCtxtReadMemory(g->ctx, data, (int)size, name, NULL, XML_PARSE_NONET | XML_PARSE_HUGE);
+    if (doc && (g->over || !g->ctx->wellFormed)) {
+      xmlFreeDoc(doc);
+      doc = NULL;
+    }
+  }
+  xmlSetStructuredErrorFunc(old_structured_user, old_structured);
+  xmlSetGenericErrorFunc(old_generic_user, old_generic);
+  return doc;
+}
+
 ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name, ch_curve_set *out,
                               ch_error *err) {
+  return ch_curves_parse_svg_ex(data, size, name, NULL, out, err);
+}
+
+ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name, const ch_svg_desc *desc,
+                                 ch_curve_set *out, ch_error *err) {
   memset(out, 0, sizeof *out);
   if (size > (size_t)CH_SVG_MAX_BYTES)
-    return ch_error_set(err, CH_ERR_INPUT, "%s: file too large for an SVG (%zu bytes)", name, size);
-  xmlParserCtxtPtr ctx = xmlNewParserCtxt();
+    return ch_error_set(err, CH_ERR_INPUT, "%s: file too large for an SVG (%zu bytes, limit %d)", name, size,
+                        CH_SVG_MAX_BYTES);
+  xml_guard guard = {0};
+  xmlDocPtr doc = parse_xml(data, size, name, &guard);
+  xmlParserCtxtPtr ctx = guard.ctx;
   if (!ctx) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
-  xmlDocPtr doc = xmlCtxtReadMemory(ctx, data, (int)size, name, NULL,
-                                    XML_PARSE_NONET | XML_PARSE_NOERROR | XML_PARSE_NOWARNING);
   if (!doc) {
-    const xmlError *xe = xmlCtxtGetLastError(ctx);
-    char msg[300] = "not well-formed XML";
-    int line = 0;
-    if (xe && xe->message) {
-      snprintf(msg, sizeof msg, "%s", xe->message);
-      size_t n = strlen(msg);
-      while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == ' ')) msg[--n] = '\0';
-      line = xe->line;
-    }
+    ch_status st;
+    if (guard.over == 1)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: more than %d entity references (an entity expansion attack?)", name,
+                        CH_SVG_MAX_ENTITY_REFS);
+    else if (guard.over == 3)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: entities nested deeper than %d levels (an entity expansion attack?)",
+                        name, CH_SVG_MAX_ENTITY_DEPTH);
+    else if (guard.over == 2)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: entities expand to more than %d bytes (an entity expansion attack?)",
+                        name, CH_SVG_MAX_ENTITY_BYTES);
+    else if (guard.line > 0)
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: line %d: bad XML: %s", name, guard.line,
+                        guard.message[0] ? guard.message : "not well-formed XML");
+    else /* encoding and I/O errors have no line */
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: bad XML: %s", name,
+                        guard.message[0] ? guard.message : "not well-formed XML");
     xmlFreeParserCtxt(ctx);
-    return ch_error_set(err, CH_ERR_INPUT, "%s: line %d: bad XML: %s", name, line, msg);
+    return st;
   }
   svg_parser ps = {.name = name, .err = err, .set = out};
+  ps.fill_height = desc && desc->fill_height != 0.0 ? desc->fill_height : 0.01;
   ch_error local = {0};
   if (!err) ps.err = &local;
   ch_status st = CH_OK;
@@ -941,7 +1249,7 @@ ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name, c
     svg_style style = {0};
     st = root_mapping(&ps, root, &style);
     if (!st) st = inherit(&ps, root, &style);
-    if (!st) st = walk(&ps, root->children, &style);
+    if (!st) st = walk(&ps, root->children, &style, 1);
   }
   if (!st && out->num_curves == 0)
     st = ch_error_set(ps.err, CH_ERR_INPUT, "%s: no curves (no <path> or basic shape elements)", name);
@@ -961,12 +1269,16 @@ ch_status ch_curves_parse_svg(const char *data, size_t size, const char *name, c
 }
 
 ch_status ch_curves_read_svg(const char *path, ch_curve_set *out, ch_error *err) {
+  return ch_curves_read_svg_ex(path, NULL, out, err);
+}
+
+ch_status ch_curves_read_svg_ex(const char *path, const ch_svg_desc *desc, ch_curve_set *out, ch_error *err) {
   memset(out, 0, sizeof *out);
   char *data;
   size_t size;
   ch_status st = ch_file_read_all(path, CH_SVG_MAX_BYTES, &data, &size, err);
   if (st) return st;
-  st = ch_curves_parse_svg(data, size, path, out, err);
+  st = ch_curves_parse_svg_ex(data, size, path, desc, out, err);
   free(data);
   return st;
 }

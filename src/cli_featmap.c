@@ -45,19 +45,6 @@ static const char usage[] =
     "                     the curves have step curves (default 1024)\n"
     "  --stats            counts per configuration class, bytes and timings on stderr\n";
 
-/* The study's default light (ch_render): ambient 0.15, albedo 0.75,
- * specular 0.25, shininess 40, seen from straight above. */
-static unsigned char lit(const double n[3]) {
-  static const double L[3] = {-0.35, -0.45, 0.82};
-  double l = sqrt(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]);
-  double d = (n[0] * L[0] + n[1] * L[1] + n[2] * L[2]) / l;
-  double h[3] = {L[0] / l, L[1] / l, L[2] / l + 1.0}, hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-  double s = pow(fmax(0.0, (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hl), 40.0);
-  double v = 0.75 * (0.15 + 0.85 * fmax(0.0, d)) + 0.25 * s;
-  v = pow(fmin(fmax(v, 0.0), 1.0), 1.0 / 2.2);
-  return (unsigned char)lround(255.0 * v);
-}
-
 static ch_status write_preview(const char *path, const ch_featmap *m, ch_error *err) {
   int W = 2 * m->resolution;
   if (W > 4096) W = 4096;
@@ -73,7 +60,7 @@ static ch_status write_preview(const char *path, const ch_featmap *m, ch_error *
       double u = m->rect[0] + (x + 0.5) * (m->rect[2] - m->rect[0]) / W;
       double v = m->rect[3] - (y + 0.5) * (m->rect[3] - m->rect[1]) / H;
       ch_featmap_eval(m, CH_FEATMAP_FEATNORM, u, v, &s);
-      px[(size_t)y * W + x] = lit(s.normal);
+      px[(size_t)y * W + x] = cli_lit_grey(s.normal);
     }
   unsigned char *rgb = malloc((size_t)W * H * 3);
   ch_status st = CH_OK;
@@ -93,6 +80,7 @@ static int run(int argc, char **argv) {
   long res = 0, dci_res = 1024;
   int stats = 0, have_rect = 0, linear = 0, no_fallback = 0;
   double rect[4] = {0, 0, 1, 1};
+  ch_svg_desc svg_desc = {0};
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--res")) {
@@ -115,6 +103,9 @@ static int run(int argc, char **argv) {
       no_fallback = 1;
     } else if (!strcmp(a, "--stats")) {
       stats = 1;
+    } else if (!strcmp(a, "--fill-height")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_fill_height(cmd, v, &svg_desc)) return 2;
     } else if (a[0] == '-' && a[1]) {
       return cli_usage_error(cmd, "unknown option '%s'", a);
     } else if (!svg) {
@@ -128,24 +119,27 @@ static int run(int argc, char **argv) {
   if (!out) return cli_usage_error(cmd, "missing -o MAPS.exr");
   if (have_rect && !(rect[2] > rect[0] && rect[3] > rect[1]))
     return cli_usage_error(cmd, "--rect needs u0 < u1 and v0 < v1");
-  if (!strcmp(svg, out) || (png && (!strcmp(png, out) || !strcmp(png, svg))))
-    return cli_usage_error(cmd, "an output names the same file as another output or the input");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (png && (rc = cli_check_output(cmd, "--png", png)))) return rc;
+  if (cli_is_stdout(out)) return cli_refuse_stdout(cmd, "-o", "an EXR");
+  if (cli_is_stdout(png)) return cli_refuse_stdout(cmd, "--png", "a PNG");
+  const cli_file in_files[] = {{"CURVES.svg", svg}}, out_files[] = {{"-o", out}, {"--png", png}};
+  int rc = cli_check_files(cmd, in_files, 1, out_files, 2);
+  if (rc) return rc;
 
   ch_error err = cli_error();
   ch_curve_set set;
-  if (ch_curves_read_svg(svg, &set, &err)) return cli_fail(&err);
+  cli_progress_start(cmd);
+  cli_progress_stage("reading %s", svg);
+  if (ch_curves_read_svg_ex(svg, &svg_desc, &set, &err)) return cli_fail(&err);
   int steps = 0;
   for (int c = 0; c < set.num_curves; c++) steps += set.curves[c].kind == CH_CURVE_STEP;
   ch_height height = {0};
   ch_featmap maps = {0};
   ch_msdf msdf = {0};
-  cli_outputs outs = {0};
   ch_status st = CH_OK;
   double t0 = omp_get_wtime(), t_height = 0.0;
   if (steps) {
     /* h_step, for the base normals and the conventional normal map */
+    cli_progress_stage("h_step: the step curves' diffusion at %ld x %ld", dci_res, dci_res);
     ch_height_desc hd = {.dci_resolution = (int)dci_res, .step_method = CH_RECON_EXACT};
     st = ch_height_init(&height, &set, &hd, &err);
     t_height = omp_get_wtime() - t0;
@@ -153,9 +147,11 @@ static int run(int argc, char **argv) {
   ch_featmap_desc fd = {.resolution = (int)res, .linear = linear, .no_fallback = no_fallback,
                         .height = steps ? &height : NULL};
   memcpy(fd.rect, rect, sizeof rect);
+  if (!st) cli_progress_stage("feature maps at %ld x %ld", res, res);
   if (!st) st = ch_featmap_build(&set, &fd, &maps, &err);
   ch_msdf_desc md = {.resolution = (int)res};
   memcpy(md.rect, rect, sizeof rect);
+  if (!st) cli_progress_stage("msdf at %ld x %ld", res, res);
   if (!st) st = ch_msdf_build(&set, &md, &msdf, &err);
   if (!st && stats) {
     const ch_featmap_stats *s = &maps.stats;
@@ -181,14 +177,13 @@ static int run(int argc, char **argv) {
   }
   if (!st) {
     const ch_exr_attribute extra[] = {{"chisel:curves", svg}};
+    cli_progress_stage("writing %s", out);
     st = ch_featmap_write_exr(out, &maps, &msdf, extra, 1, &err);
-    if (!st) cli_outputs_add(&outs, out);
   }
-  if (!st && png) {
-    st = write_preview(png, &maps, &err);
-    if (!st) cli_outputs_add(&outs, png);
-  }
-  if (st) cli_outputs_remove_all(&outs);
+  if (!st && png) st = write_preview(png, &maps, &err);
+  if (!st)
+    cli_result("wrote %s (%ld x %ld cells, %ld in the fallback)%s%s in %.2f s", out, res, res,
+               maps.stats.fallback_cells, png ? ", " : "", png ? png : "", omp_get_wtime() - t0);
   ch_msdf_free(&msdf);
   ch_featmap_free(&maps);
   ch_height_free(&height);

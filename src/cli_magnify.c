@@ -3,6 +3,7 @@
  * (feature-curves-textures, normal-maps-discontinuities, and the baselines
  * stored beside them). */
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -49,8 +50,11 @@ static const char usage[] =
     "                     feature maps: featnorm (default), featnorm-linear,\n"
     "                     normal-bilinear or msdf\n"
     "  --curves FILE      the curve file the DCI was made from (for exact)\n"
-    "  --no-aa            no anti-aliasing of curve edges (DCI, paper §3.4)\n"
-    "  --exr FILE         also write the crop's values as a float EXR\n";
+    "  --no-aa            no anti-aliasing of curve edges (paper §3.4)\n"
+    "  --exr FILE         also write the crop's values as a float EXR (a DCI's h,\n"
+    "                     and Y = 0.5 + h / (2 max |h|) for image viewers)\n"
+    "  --fill-height H    with --curves: the height of filled shapes drawn without\n"
+    "                     data- attributes (docs/svg.md; default 0.01)\n";
 
 /* Feature-map methods: ch_featmap_method values, and msdf after them. */
 enum { METHOD_MSDF = 16 };
@@ -66,21 +70,9 @@ static int ends_with_exr(const char *path) {
   return n >= 4 && (!strcmp(path + n - 4, ".exr") || !strcmp(path + n - 4, ".EXR"));
 }
 
-/* The study's default light (ch_render) on a normal, as an sRGB grey. */
-static unsigned char lit(const double n[3]) {
-  static const double L[3] = {-0.35, -0.45, 0.82};
-  double l = sqrt(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]);
-  double d = (n[0] * L[0] + n[1] * L[1] + n[2] * L[2]) / l;
-  double h[3] = {L[0] / l, L[1] / l, L[2] / l + 1.0}, hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
-  double s = pow(fmax(0.0, (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hl), 40.0);
-  double v = 0.75 * (0.15 + 0.85 * fmax(0.0, d)) + 0.25 * s;
-  v = pow(fmin(fmax(v, 0.0), 1.0), 1.0 / 2.2);
-  return (unsigned char)lround(255.0 * v);
-}
-
 /* A crop of feature maps: the normals lit (PNG) and / or the values (EXR). */
 static int run_featmap(const char *maps_path, int method, const double rect[4], int W, int H, const char *png,
-                       const char *exr) {
+                       const char *exr, double t_start) {
   ch_error err = cli_error();
   ch_featmap maps;
   ch_msdf msdf;
@@ -109,16 +101,14 @@ static int run_featmap(const char *maps_path, int method, const double rect[4], 
         ch_image_plane(&crop, 5)[i] = (float)s.curve;
       }
   }
-  cli_outputs outs = {0};
   if (!st && png) {
     unsigned char *rgb = malloc((size_t)W * H * 3);
     if (!rgb) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
     for (size_t i = 0; !st && i < (size_t)W * H; i++) {
       double n[3] = {ch_image_plane(&crop, 0)[i], ch_image_plane(&crop, 1)[i], ch_image_plane(&crop, 2)[i]};
-      rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = lit(n);
+      rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = cli_lit_grey(n);
     }
     if (!st) st = ch_png_write(png, W, H, 3, rgb, &err);
-    if (!st) cli_outputs_add(&outs, png);
     free(rgb);
   }
   if (!st && exr) {
@@ -127,9 +117,10 @@ static int run_featmap(const char *maps_path, int method, const double rect[4], 
                                       {"chisel:method", method == METHOD_MSDF ? "msdf" : methods[method]}};
     ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = 2};
     st = ch_exr_write(exr, &crop, &wd, &err);
-    if (!st) cli_outputs_add(&outs, exr);
   }
-  if (st) cli_outputs_remove_all(&outs);
+  if (!st)
+    cli_result("wrote %s (%d x %d)%s%s in %.2f s", png ? png : exr, W, H, png && exr ? ", " : "",
+               png && exr ? exr : "", omp_get_wtime() - t_start);
   ch_image_free(&crop);
   ch_msdf_free(&msdf);
   ch_featmap_free(&maps);
@@ -142,6 +133,7 @@ static int run(int argc, char **argv) {
   long out_res = 0;
   int method = CH_RECON_5X5, have_rect = 0, aa = 1, fmethod = -1;
   double rect[4];
+  ch_svg_desc svg_desc = {0};
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--out-res")) {
@@ -167,6 +159,9 @@ static int run(int argc, char **argv) {
       if (!(exr = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--no-aa")) {
       aa = 0;
+    } else if (!strcmp(a, "--fill-height")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_fill_height(cmd, v, &svg_desc)) return 2;
     } else if (a[0] == '-' && a[1]) {
       return cli_usage_error(cmd, "unknown option '%s'", a);
     } else if (!maps) {
@@ -184,18 +179,18 @@ static int run(int argc, char **argv) {
   double aspect = (rect[3] - rect[1]) / (rect[2] - rect[0]);
   long out_h = lround(out_res * aspect);
   if (out_h < 1 || out_h > 16384) return cli_usage_error(cmd, "--rect and --out-res give %ld rows (1..16384)", out_h);
-  if (!strcmp(out, maps) || (exr && (!strcmp(exr, out) || !strcmp(exr, maps))))
-    return cli_usage_error(cmd, "an output names the same file as another output or the input");
-  int rc;
-  if ((rc = cli_check_output(cmd, "-o", out)) || (exr && (rc = cli_check_output(cmd, "--exr", exr)))) return rc;
-  if (fmethod < 0 && ends_with_exr(out)) { /* values of a DCI crop: h */
+  if (cli_is_stdout(out)) return cli_refuse_stdout(cmd, "-o", "a PNG");
+  if (cli_is_stdout(exr)) return cli_refuse_stdout(cmd, "--exr", "an EXR");
+  const cli_file in_files[] = {{"MAPS.exr", maps}, {"--curves", curves}}, out_files[] = {{"-o", out}, {"--exr", exr}};
+  int rc = cli_check_files(cmd, in_files, 2, out_files, 2);
+  if (rc) return rc;
+  double t_start = omp_get_wtime();
+  if (ends_with_exr(out)) { /* the crop's values instead of a picture */
     if (exr) return cli_usage_error(cmd, "-o is an EXR already: --exr is not needed");
     exr = out;
     out = NULL;
   }
-  if (fmethod >= 0)
-    return run_featmap(maps, fmethod, rect, (int)out_res, (int)out_h, ends_with_exr(out) ? NULL : out,
-                       ends_with_exr(out) ? out : exr);
+  if (fmethod >= 0) return run_featmap(maps, fmethod, rect, (int)out_res, (int)out_h, out, exr, t_start);
 
   ch_error err = cli_error();
   ch_image maps_img = {0};
@@ -219,7 +214,7 @@ static int run(int argc, char **argv) {
   if (st) return cli_fail(&err);
   ch_curve_set set = {0};
   ch_recon recon = {0};
-  if (curves) st = ch_curves_read_svg(curves, &set, &err);
+  if (curves) st = ch_curves_read_svg_ex(curves, &svg_desc, &set, &err);
   if (!st) st = ch_recon_init(&recon, &dci, curves ? &set : NULL, &err);
   int W = (int)out_res, H = (int)out_h;
   float *h = NULL;
@@ -243,7 +238,6 @@ static int run(int argc, char **argv) {
         memcpy(rgb + 3 * i, rs.color, sizeof rs.color);
       }
   }
-  cli_outputs outs = {0};
   if (!st && out) {
     unsigned char *pix = malloc((size_t)W * H * 3);
     if (!pix) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
@@ -263,7 +257,6 @@ static int run(int argc, char **argv) {
         }
       }
       st = ch_png_write(out, W, H, 3, pix, &err);
-      if (!st) cli_outputs_add(&outs, out);
       free(pix);
     }
   }
@@ -273,12 +266,19 @@ static int run(int argc, char **argv) {
     st = ch_image_init(&crop, W, H, 1, names, &err);
     if (!st) {
       memcpy(ch_image_plane(&crop, 0), h, (size_t)W * H * sizeof *h);
-      st = ch_exr_write(exr, &crop, NULL, &err);
-      if (!st) cli_outputs_add(&outs, exr);
+      char scale_text[32];
+      ch_exr_write_desc wd = {0};
+      cli_height_luminance(h, (size_t)W * H, "h", &wd, scale_text, sizeof scale_text);
+      const ch_exr_attribute attrs[] = {{"chisel:height_scale", scale_text}, {"chisel:Y", CLI_Y_NOTE}};
+      wd.attributes = attrs;
+      wd.num_attributes = 2;
+      st = ch_exr_write(exr, &crop, &wd, &err);
     }
     ch_image_free(&crop);
   }
-  if (st) cli_outputs_remove_all(&outs);
+  if (!st)
+    cli_result("wrote %s (%d x %d)%s%s in %.2f s", out ? out : exr, W, H, out && exr ? ", " : "",
+               out && exr ? exr : "", omp_get_wtime() - t_start);
   free(h);
   free(rgb);
   ch_recon_free(&recon);

@@ -8,22 +8,29 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <omp.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "ch_curves.h"
 #include "ch_exr.h"
 #include "ch_featshade.h"
 #include "ch_file.h"
+#include "ch_gtex.h"
 #include "ch_height.h"
 #include "ch_math.h"
 #include "ch_mesh.h"
 #include "ch_metrics.h"
 #include "ch_png.h"
+#include "ch_relief.h"
 #include "ch_render.h"
+#include "ch_texray.h"
 #include "ch_trace.h"
+#include "ch_version.h"
 #include "ch_truth.h"
 #include "cli.h"
+
 
 static const char usage[] =
     "usage: chisel study SCENE.json -o DIR\n"
@@ -54,19 +61,31 @@ static const char usage[] =
     "    \"methods\": [                    optional\n"
     "      {\"name\": \"snapped\", \"mesh\": \"snapped.obj\"}   OBJ/PLY/OFF/STL with UVs\n"
     "      {\"name\": \"normalmap\", \"mesh\": \"plane.obj\", \"shader\": \"exact-normals\"}\n"
-    "      {\"name\": \"fn\", \"mesh\": \"plane.obj\", \"shader\": \"featnorm\", \"resolution\": 256}\n"
     "                                   optional \"family\": methods of one family\n"
     "                                   (e.g. one method at several triangle counts)\n"
     "                                   are one line in the report's plots\n"
     "                                   a texture-space method on the base mesh:\n"
     "                                   exact-normals = the truth's normal at the\n"
-    "                                   hit's UV (a perfect normal map); with\n"
-    "                                   \"resolution\": R (4..4096), maps built from\n"
-    "                                   the curves at R: featnorm, featnorm-linear\n"
-    "                                   (feature-curve textures), normal-bilinear\n"
-    "                                   (a conventional normal map of h), msdf (a\n"
-    "                                   multi-channel distance field with the\n"
-    "                                   grooves' profiles)\n"
+    "                                   hit's UV (a perfect normal map)\n"
+    "      {\"name\": \"fn\", \"mesh\": \"plane.obj\", \"shader\": \"featnorm\", \"resolution\": 256}\n"
+    "                                   normals from maps built from the curves at\n"
+    "                                   R x R (R in 4..4096): featnorm,\n"
+    "                                   featnorm-linear (feature-curve textures),\n"
+    "                                   normal-bilinear (a conventional normal map\n"
+    "                                   of h), msdf (a multi-channel distance field\n"
+    "                                   with the grooves' profiles)\n"
+    "      {\"name\": \"g\", \"mesh\": \"plane.obj\", \"shader\": \"grooves\", \"resolution\": 128}\n"
+    "                                   path-based groove textures on a G x G grid\n"
+    "                                   (G in 1..4096; grooves only: a step curve is\n"
+    "                                   an error), traced per ray in texture space,\n"
+    "                                   walls and shadows included; \"paper\": true\n"
+    "                                   intersects curved pieces as the paper does\n"
+    "      {\"name\": \"r\", \"mesh\": \"plane.obj\", \"shader\": \"relief\", \"resolution\": 1024,\n"
+    "       \"steps\": 32}                relief mapping (linear + binary search) on an\n"
+    "                                   R x R height texture of h (R in 2..16384, as\n"
+    "                                   chisel sample bakes it), K linear steps\n"
+    "                                   (1..4096, default 32); \"pom\": parallax\n"
+    "                                   occlusion mapping (K..K/4 steps by view angle)\n"
     "    ]\n"
     "  }\n"
     "Names are letters, digits, '-' and '_' (they name files), unique per list.\n"
@@ -86,7 +105,8 @@ static const char usage[] =
     "                           (all pixels, groove pixels), groove id mismatch %,\n"
     "                           depth error / scene size, normal error mean and\n"
     "                           p95 (degrees), shading RMSE and SSIM, shadow mismatch %\n"
-    "On failure nothing is left in DIR.\n"
+    "On failure nothing is left in DIR. Prints the bytes of each texture\n"
+    "method's textures, then the table (Mrays/s: primary and shadow rays).\n"
     "\n"
     "  -o, --output DIR   the output folder (required)\n";
 
@@ -105,6 +125,9 @@ typedef struct method {
   int featshade;     /* "shader": a ch_featshade_method, or -1 */
   int resolution;    /* its maps' resolution */
   ch_featshade fs;
+  int textured;      /* "shader": "grooves", "relief" or "pom" */
+  ch_texray_desc tex;
+  ch_texray *tr;
   ch_mesh mesh;
   ch_trace *scene;
 } method;
@@ -226,10 +249,75 @@ static void study_free(study *s) {
     free(s->methods[i].path);
     ch_trace_destroy(s->methods[i].scene);
     ch_featshade_free(&s->methods[i].fs);
+    ch_texray_destroy(s->methods[i].tr);
     ch_mesh_free(&s->methods[i].mesh);
   }
   free(s->methods);
   memset(s, 0, sizeof *s);
+}
+
+/* A method's "shader" and its parameters: exact-normals; grooves with
+ * "resolution" G (and "paper"); relief, pom with "resolution" R and
+ * "steps" K (default 32). */
+static int parse_shader(const cJSON *m, method *mt, const char *where, const char *file, ch_error *err) {
+  const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
+  const cJSON *res = cJSON_GetObjectItemCaseSensitive(m, "resolution"), *steps = cJSON_GetObjectItemCaseSensitive(m, "steps");
+  const cJSON *paper = cJSON_GetObjectItemCaseSensitive(m, "paper");
+  const char *name = cJSON_IsString(shader) ? shader->valuestring : "";
+  int grooves = !strcmp(name, "grooves"), relief = !strcmp(name, "relief"), pom = !strcmp(name, "pom");
+  int feat = ch_featshade_method_parse(name);
+  mt->featshade = feat;
+  if (shader && !grooves && !relief && !pom && feat < 0 && strcmp(name, "exact-normals")) {
+    ch_error_set(err, CH_ERR_INPUT,
+                 "%s: %s.shader: unknown shader (known: \"exact-normals\", \"grooves\", \"relief\", \"pom\", "
+                 "\"featnorm\", \"featnorm-linear\", \"normal-bilinear\", \"msdf\")",
+                 file, where);
+    return 0;
+  }
+  const char *extra = !(grooves || relief || pom || feat >= 0) && res ? "resolution"
+                      : !(relief || pom) && steps                     ? "steps"
+                      : !grooves && paper                                                    ? "paper"
+                                                                                             : NULL;
+  if (extra) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.%s: only for %s", file, where, extra,
+                 !strcmp(extra, "steps") ? "\"shader\": \"relief\" or \"pom\""
+                 : !strcmp(extra, "paper") ? "\"shader\": \"grooves\""
+                                            : "\"shader\": \"grooves\", \"relief\" or \"pom\"");
+    return 0;
+  }
+  mt->exact_normals = shader && !strcmp(name, "exact-normals");
+  if (feat >= 0) {
+    double r = 0;
+    if (!res) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s.resolution: missing (shader \"%s\" needs the maps' resolution R)", file,
+                   where, name);
+      return 0;
+    }
+    if (!get_number(m, "resolution", CH_FEATMAP_MIN_RES, CH_FEATMAP_MAX_RES, 1, &r, where, file, err)) return 0;
+    mt->resolution = (int)r;
+    return 1;
+  }
+  if (!(grooves || relief || pom)) return 1;
+  if (!res) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.resolution: missing (shader \"%s\" needs the %s)", file, where, name,
+                 grooves ? "grid resolution G" : "height texture's resolution R");
+    return 0;
+  }
+  double r = 0, k = 32;
+  if (!get_number(m, "resolution", grooves ? CH_GTEX_MIN_RES : CH_RELIEF_MIN_RES,
+                  grooves ? CH_GTEX_MAX_RES : CH_RELIEF_MAX_RES, 1, &r, where, file, err) ||
+      !get_number(m, "steps", CH_RELIEF_MIN_STEPS, CH_RELIEF_MAX_STEPS, 1, &k, where, file, err))
+    return 0;
+  if (paper && !cJSON_IsBool(paper)) {
+    ch_error_set(err, CH_ERR_INPUT, "%s: %s.paper: expected true or false", file, where);
+    return 0;
+  }
+  mt->textured = 1;
+  mt->tex.kind = grooves ? CH_TEXRAY_GROOVES : relief ? CH_TEXRAY_RELIEF : CH_TEXRAY_POM;
+  mt->tex.resolution = (int)r;
+  mt->tex.steps = (int)k;
+  mt->tex.paper = cJSON_IsTrue(paper);
+  return 1;
 }
 
 static ch_status parse_scene(const char *file, const char *text, study *s, ch_error *err) {
@@ -247,7 +335,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
   static const char *const light_keys[] = {"direction", "ambient", "albedo", "specular", "shininess", NULL};
   static const char *const view_keys[] = {"name",   "eye",         "target",       "up",    "fov", "width",
                                           "height", "supersample", "ortho_height", "orbit", NULL};
-  static const char *const method_keys[] = {"name", "mesh", "shader", "family", "resolution", NULL};
+  static const char *const method_keys[] = {"name", "mesh", "shader", "family", "resolution", "steps", "paper", NULL};
   char where[96];
   const cJSON *curves = cJSON_GetObjectItemCaseSensitive(root, "curves");
   const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "views");
@@ -401,27 +489,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
       }
       strcpy(mt->family, family->valuestring);
     }
-    const cJSON *shader = cJSON_GetObjectItemCaseSensitive(m, "shader");
-    mt->featshade = -1;
-    if (shader) {
-      if (cJSON_IsString(shader)) mt->featshade = ch_featshade_method_parse(shader->valuestring);
-      if (!cJSON_IsString(shader) || (strcmp(shader->valuestring, "exact-normals") && mt->featshade < 0)) {
-        ch_error_set(err, CH_ERR_INPUT,
-                     "%s: %s.shader: unknown shader (known: \"exact-normals\", \"featnorm\", \"featnorm-linear\", "
-                     "\"normal-bilinear\", \"msdf\")",
-                     file, where);
-        goto fail;
-      }
-      mt->exact_normals = mt->featshade < 0;
-    }
-    double res = 0;
-    if (!get_number(m, "resolution", CH_FEATMAP_MIN_RES, CH_FEATMAP_MAX_RES, 1, &res, where, file, err)) goto fail;
-    if ((mt->featshade >= 0) != (res > 0)) {
-      ch_error_set(err, CH_ERR_INPUT, "%s: %s: \"resolution\" goes with the shaders featnorm, featnorm-linear, "
-                   "normal-bilinear and msdf, and they need it", file, where);
-      goto fail;
-    }
-    mt->resolution = (int)res;
+    if (!parse_shader(m, mt, where, file, err)) goto fail;
     if (!(mt->path = resolve(file, mesh->valuestring))) goto nomem;
   }
   cJSON_Delete(root);
@@ -493,8 +561,16 @@ static ch_status write_png(const char *path, picture what, const ch_image *img, 
 static ch_status write_exr(const char *path, const ch_image *img, const char *viewname, const char *methodname,
                            written *w, ch_error *err) {
   const ch_exr_attribute attrs[] = {{"chisel:command", "study"}, {"chisel:view", viewname}, {"chisel:method", methodname}};
-  ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3};
-  ch_status st = ch_exr_write(path, img, &desc, err);
+  /* Names every reader parses: a one-value layer of more than one letter
+   * is written NAME.X (Blender's multilayer reader wants a layer and a
+   * one-letter channel, as its own index passes have), the shading also
+   * as Y for viewers. The pixels are shared, not copied. */
+  ch_image named = *img;
+  for (int c = 0; c < named.num_channels; c++)
+    if (!strchr(named.names[c], '.') && strlen(named.names[c]) > 1 && strlen(named.names[c]) + 3 <= CH_IMAGE_NAME_MAX)
+      strcat(named.names[c], ".X");
+  ch_exr_write_desc desc = {.attributes = attrs, .num_attributes = 3, .luminance = "shade.X"};
+  ch_status st = ch_exr_write(path, &named, &desc, err);
   if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
   return st;
 }
@@ -621,8 +697,8 @@ static void html_plot(FILE *f, const study *s, const row *rows, int nrows, int v
     double px = L + (PW - L - R) * (e - xmin) / (xmax - xmin);
     fprintf(f, "<text x=\"%.1f\" y=\"%d\" font-size=\"10\" text-anchor=\"middle\">1e%d</text>\n", px, PH - B + 14, e);
   }
-  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles</text>\n", L + (PW - L - R) / 2,
-          PH - 8);
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles (log scale)</text>\n",
+          L + (PW - L - R) / 2, PH - 8);
   static const char *colours[] = {"#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"};
   int nf = 0;
   for (int m = 0; m < s->num_methods; m++) {
@@ -660,7 +736,115 @@ static void html_plot(FILE *f, const study *s, const row *rows, int nrows, int v
   fprintf(f, "</svg>\n");
 }
 
-static ch_status write_index(const char *dir, const study *s, const row *rows, int nrows, written *w, ch_error *err) {
+/* A colour bar for a heat map: the map chisel's PNGs use (ch_colormap_heat)
+ * from lo to hi in unit, as an inline SVG beside the picture. */
+static void html_colorbar(FILE *f, double lo, double hi, const char *unit) {
+  static int id = 0;
+  id++;
+  fprintf(f, "<svg class=\"bar\" width=\"170\" height=\"40\" viewBox=\"0 0 170 40\"><defs><linearGradient id=\"cb%d\">",
+          id);
+  for (int k = 0; k <= 10; k++) {
+    uint8_t c[3];
+    ch_colormap_heat(k / 10.0, c);
+    fprintf(f, "<stop offset=\"%d%%\" stop-color=\"#%02x%02x%02x\"/>", 10 * k, c[0], c[1], c[2]);
+  }
+  fprintf(f, "</linearGradient></defs><rect x=\"5\" y=\"2\" width=\"160\" height=\"10\" fill=\"url(#cb%d)\"/>", id);
+  for (int k = 0; k <= 2; k++)
+    fprintf(f, "<text x=\"%d\" y=\"24\" font-size=\"10\" text-anchor=\"%s\">%g</text>", 5 + 80 * k,
+            k == 0 ? "start" : k == 1 ? "middle" : "end", lo + (hi - lo) * k / 2.0);
+  fprintf(f, "<text x=\"85\" y=\"36\" font-size=\"10\" text-anchor=\"middle\">%s</text></svg>", unit);
+}
+
+/* A metric of a row, for the tables and plots: class % in grooves, normal
+ * p95 (degrees), depth error (relative), SSIM. */
+static double row_metric(const row *r, int which) {
+  switch (which) {
+  case 0: return r->m.class_mismatch;
+  case 1: return r->m.class_mismatch_groove;
+  case 2: return r->m.depth_error;
+  case 3: return r->m.normal_p95_deg;
+  default: return r->m.shade_ssim;
+  }
+}
+
+/* Means over the views, per method: the figure a paper quotes. One plot per
+ * metric, log-log, a line per family. */
+static void html_summary_plot(FILE *f, const study *s, const row *rows, int nrows, int which, const char *title) {
+  const int PW = 440, PH = 270, L = 64, R = 120, T = 30, B = 44;
+  double mean[64] = {0}, x[64] = {0};
+  int count[64] = {0};
+  for (int i = 0; i < nrows; i++) {
+    int m = rows[i].method;
+    if (m >= 64) continue;
+    mean[m] += row_metric(&rows[i], which), count[m]++;
+    x[m] = (double)rows[i].triangles;
+  }
+  double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+  for (int m = 0; m < s->num_methods && m < 64; m++) {
+    if (!count[m] || x[m] < 1) continue;
+    mean[m] /= count[m];
+    xmin = fmin(xmin, log10(x[m])), xmax = fmax(xmax, log10(x[m]));
+    if (mean[m] > 0) ymin = fmin(ymin, log10(mean[m])), ymax = fmax(ymax, log10(mean[m]));
+  }
+  if (!(xmin <= xmax)) return;
+  if (!(ymin <= ymax)) ymin = -3, ymax = 0;
+  xmin = floor(xmin - 0.05), xmax = ceil(xmax + 0.05);
+  ymin = floor(ymin), ymax = ceil(ymax);
+  if (xmax - xmin < 1) xmax = xmin + 1;
+  if (ymax - ymin < 1) ymax = ymin + 1;
+  double floor_y = ymin; /* zeros sit on the bottom axis */
+  fprintf(f, "<svg class=\"plot\" width=\"%d\" height=\"%d\" viewBox=\"0 0 %d %d\">\n", PW, PH, PW, PH);
+  fprintf(f, "<text x=\"%d\" y=\"18\" font-size=\"13\">%s</text>\n", L, title);
+  fprintf(f, "<rect x=\"%d\" y=\"%d\" width=\"%d\" height=\"%d\" fill=\"none\" stroke=\"#888\"/>\n", L, T, PW - L - R,
+          PH - T - B);
+#define PX(lx) (L + (PW - L - R) * ((lx) - xmin) / (xmax - xmin))
+#define PY(ly) (PH - B - (PH - T - B) * ((ly) - ymin) / (ymax - ymin))
+  for (int e = (int)ymin; e <= (int)ymax; e++)
+    fprintf(f, "<line x1=\"%d\" x2=\"%d\" y1=\"%.1f\" y2=\"%.1f\" stroke=\"#eee\"/><text x=\"%d\" y=\"%.1f\" "
+               "font-size=\"10\" text-anchor=\"end\">1e%d</text>\n",
+            L, PW - R, PY(e), PY(e), L - 4, PY(e) + 3, e);
+  for (int e = (int)xmin; e <= (int)xmax; e++)
+    fprintf(f, "<text x=\"%.1f\" y=\"%d\" font-size=\"10\" text-anchor=\"middle\">1e%d</text>\n", PX(e), PH - B + 14, e);
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\">triangles (log scale)</text>\n",
+          L + (PW - L - R) / 2, PH - 10);
+  fprintf(f, "<text x=\"12\" y=\"%d\" font-size=\"11\" text-anchor=\"middle\" transform=\"rotate(-90 12 %d)\">"
+             "mean over views (log scale)</text>\n", T + (PH - T - B) / 2, T + (PH - T - B) / 2);
+  static const char *colours[] = {"#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"};
+  int nf = 0;
+  for (int m = 0; m < s->num_methods && m < 64; m++) {
+    int first = 1;
+    for (int j = 0; j < m; j++) first &= strcmp(s->methods[j].family, s->methods[m].family) != 0;
+    if (!first) continue;
+    const char *col = colours[nf % 7];
+    int idx[64], np = 0;
+    for (int j = 0; j < s->num_methods && j < 64; j++)
+      if (count[j] && x[j] >= 1 && !strcmp(s->methods[j].family, s->methods[m].family)) idx[np++] = j;
+    for (int a = 1; a < np; a++)
+      for (int b = a; b > 0 && x[idx[b]] < x[idx[b - 1]]; b--) {
+        int t = idx[b];
+        idx[b] = idx[b - 1], idx[b - 1] = t;
+      }
+    fprintf(f, "<polyline fill=\"none\" stroke=\"%s\" stroke-width=\"1.5\" points=\"", col);
+    for (int a = 0; a < np; a++)
+      fprintf(f, "%.1f,%.1f ", PX(log10(x[idx[a]])), PY(mean[idx[a]] > 0 ? fmax(log10(mean[idx[a]]), floor_y) : floor_y));
+    fputs("\"/>\n", f);
+    for (int a = 0; a < np; a++)
+      fprintf(f, "<circle r=\"3\" fill=\"%s\" cx=\"%.1f\" cy=\"%.1f\"><title>%s: %.0f triangles, mean %.4g</title></circle>\n",
+              col, PX(log10(x[idx[a]])), PY(mean[idx[a]] > 0 ? fmax(log10(mean[idx[a]]), floor_y) : floor_y),
+              s->methods[idx[a]].name, x[idx[a]], mean[idx[a]]);
+    fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"11\" fill=\"%s\">%s</text>\n", PW - R + 8, T + 12 + 14 * nf, col,
+            s->methods[m].family);
+    nf++;
+  }
+#undef PX
+#undef PY
+  fprintf(f, "<text x=\"%d\" y=\"%d\" font-size=\"9\" fill=\"#666\">0 is drawn on the bottom axis</text>\n", L + 4,
+          PH - B - 4);
+  fputs("</svg>\n", f);
+}
+
+static ch_status write_index(const char *dir, const study *s, const row *rows, int nrows, const char *command,
+                             const char *scene_path, const char *scene_text, written *w, ch_error *err) {
   char path[4096];
   snprintf(path, sizeof path, "%s/index.html", dir);
   ch_atomic_file af;
@@ -672,9 +856,27 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
         "td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{background:#eee}td.l{text-align:left}"
         "figure{display:inline-block;margin:4px;text-align:center;font-size:12px}figure img{display:block;"
         "image-rendering:pixelated}figure.wide{display:block}figure.wide img{max-width:100%}"
-        ".plot{margin:6px;background:#fff}</style></head><body>\n",
+        ".plot{margin:6px;background:#fff}.bar{display:block;margin:2px auto}pre{background:#f6f6f6;padding:6px;"
+        "font-size:12px;max-height:16em;overflow:auto}</style></head><body>\n",
         f);
-  fputs("<h1>chisel study</h1>\n<p>Curves <code>", f);
+  fputs("<h1>chisel study</h1>\n", f);
+  /* What made the report: a published figure needs them. The date is
+   * SOURCE_DATE_EPOCH when set (reproducible builds' convention), so a
+   * rerun can give the same bytes. */
+  {
+    char date[64] = "unknown";
+    const char *sde = getenv("SOURCE_DATE_EPOCH");
+    time_t now = sde && *sde ? (time_t)strtoll(sde, NULL, 10) : time(NULL);
+    struct tm tmv;
+    if (gmtime_r(&now, &tmv)) strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", &tmv);
+    fprintf(f, "<p>chisel %s, %s. Command: <code>", CH_VERSION_STRING, date);
+    html_text(f, command);
+    fputs("</code>. Scene <code>", f);
+    html_text(f, scene_path);
+    fputs("</code>:</p>\n<pre>", f);
+    html_text(f, scene_text);
+    fputs("</pre>\n<p>Curves <code>", f);
+  }
   html_text(f, s->curves_path);
   fprintf(f,
           "</code> over the planar base; truth: Embree, exact h of SPEC §3 (bounds grid %d, step DCI %d). Classes: "
@@ -697,6 +899,40 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
   fputs("</table>\n<p>Also as <a href=\"summary.csv\">summary.csv</a> and <a href=\"summary.json\">summary.json</a>."
         "</p>\n",
         f);
+  /* Over the views: the mean a paper quotes and the worst view beside it. */
+  fprintf(f, "<h2>Over the %d views: mean (worst)</h2>\n<table><tr><th>method</th><th>triangles</th><th>class %%</th>"
+             "<th>in grooves %%</th><th>depth / scene</th><th>normal p95 °</th><th>SSIM</th></tr>\n",
+          s->num_views);
+  for (int m = 0; m < s->num_methods; m++) {
+    double sum[5] = {0}, worst[5] = {0, 0, 0, 0, 1};
+    long tris = 0;
+    int n = 0;
+    for (int i = 0; i < nrows; i++) {
+      if (rows[i].method != m) continue;
+      for (int k = 0; k < 5; k++) {
+        double v = row_metric(&rows[i], k);
+        sum[k] += v;
+        worst[k] = k == 4 ? fmin(worst[k], v) : fmax(worst[k], v);
+      }
+      tris = rows[i].triangles;
+      n++;
+    }
+    if (!n) continue;
+    fprintf(f, "<tr class=\"over\"><td class=\"l\">");
+    html_text(f, s->methods[m].name);
+    fprintf(f, "</td><td>%ld</td>", tris);
+    for (int k = 0; k < 5; k++)
+      fprintf(f, k == 2 ? "<td>%.3e (%.3e)</td>" : k == 4 ? "<td>%.5f (%.5f)</td>" : "<td>%.4f (%.4f)</td>", sum[k] / n,
+              worst[k]);
+    fputs("</tr>\n", f);
+  }
+  fputs("</table>\n<div>\n", f);
+  if (s->num_methods > 0) {
+    html_summary_plot(f, s, rows, nrows, 3, "normal error p95 (degrees) against triangles");
+    html_summary_plot(f, s, rows, nrows, 1, "class mismatch in grooves (%) against triangles");
+    html_summary_plot(f, s, rows, nrows, 2, "depth error / scene size against triangles");
+  }
+  fputs("</div>\n", f);
   for (int v = 0; v < s->num_views; v++) {
     const char *vn = s->views[v].name;
     fprintf(f, "<h2>View %s</h2>\n<div>\n", vn);
@@ -713,16 +949,63 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
     for (int m = 0; m < s->num_methods; m++) {
       const char *mn = s->methods[m].name;
       fprintf(f, "<div><figure><img src=\"%s.%s.png\" alt=\"%s\">%s</figure>", vn, mn, mn, mn);
-      fprintf(f, "<figure><img src=\"%s.%s.class.png\" alt=\"class mismatch\">class mismatch (red)</figure>", vn, mn);
-      fprintf(f, "<figure><img src=\"%s.%s.normal.png\" alt=\"normal error\">normal error 0..20°</figure>", vn, mn);
-      fprintf(f, "<figure><img src=\"%s.%s.depth.png\" alt=\"depth error\">depth error 0..1%%</figure></div>\n", vn,
-              mn);
+      fprintf(f, "<figure><img src=\"%s.%s.class.png\" alt=\"class mismatch\"><svg class=\"bar\" width=\"170\" "
+                 "height=\"40\"><rect x=\"5\" y=\"2\" width=\"10\" height=\"10\" fill=\"#e61414\"/><text x=\"20\" "
+                 "y=\"11\" font-size=\"10\">class differs from the truth</text></svg>class mismatch</figure>",
+              vn, mn);
+      fprintf(f, "<figure><img src=\"%s.%s.normal.png\" alt=\"normal error\">", vn, mn);
+      html_colorbar(f, 0.0, 20.0, "degrees");
+      fprintf(f, "normal error (black: not seen by both)</figure><figure><img src=\"%s.%s.depth.png\" alt=\"depth error\">",
+              vn, mn);
+      html_colorbar(f, 0.0, 1.0, "% of the scene's diagonal");
+      fputs("depth error</figure></div>\n", f);
     }
   }
   fputs("</body></html>\n", f);
   st = ch_atomic_commit(&af, err);
   if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
   return st;
+}
+
+/* Every file the study writes into dir (as run() names them), checked
+ * against its inputs and each other before any work (cli_check_files);
+ * nothing to check while dir does not exist. 0 or the exit status. */
+static int check_outputs(const char *cmd, const char *scene_path, const study *s, const char *dir) {
+  struct stat sb;
+  if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) return 0;
+  static const char *const truth_files[] = {"truth.exr", "truth.png", "truth.class.png", "montage.png"};
+  static const char *const method_files[] = {"exr", "png", "class.png", "normal.png", "depth.png"};
+  static const char *const study_files[] = {"summary.csv", "summary.json", "index.html"};
+  int per_view = 4 + 5 * s->num_methods, n = s->num_views * per_view + 3, k = 0;
+  cli_file *outs = calloc((size_t)n, sizeof *outs);
+  cli_file *ins = calloc((size_t)s->num_methods + 2, sizeof *ins);
+  char *names = malloc((size_t)n * 4096);
+  if (!outs || !ins || !names) {
+    free(outs);
+    free(ins);
+    free(names);
+    fprintf(stderr, "chisel: out of memory\n");
+    return 1;
+  }
+  for (int v = 0; v < s->num_views; v++) {
+    for (int i = 0; i < 4; i++, k++)
+      snprintf(names + (size_t)k * 4096, 4096, "%s/%s.%s", dir, s->views[v].name, truth_files[i]);
+    for (int m = 0; m < s->num_methods; m++)
+      for (int i = 0; i < 5; i++, k++)
+        snprintf(names + (size_t)k * 4096, 4096, "%s/%s.%s.%s", dir, s->views[v].name, s->methods[m].name,
+                 method_files[i]);
+  }
+  for (int i = 0; i < 3; i++, k++) snprintf(names + (size_t)k * 4096, 4096, "%s/%s", dir, study_files[i]);
+  for (int i = 0; i < n; i++) outs[i] = (cli_file){names + (size_t)i * 4096, names + (size_t)i * 4096};
+  int ni = 0;
+  ins[ni++] = (cli_file){"SCENE.json", scene_path};
+  ins[ni++] = (cli_file){"curves", s->curves_path};
+  for (int m = 0; m < s->num_methods; m++) ins[ni++] = (cli_file){s->methods[m].name, s->methods[m].path};
+  int rc = cli_check_files(cmd, ins, ni, outs, n);
+  free(outs);
+  free(ins);
+  free(names);
+  return rc;
 }
 
 static int run(int argc, char **argv) {
@@ -757,8 +1040,29 @@ static int run(int argc, char **argv) {
   int nrows = 0, made_dir = 0;
   if (ch_file_read_all(scene_path, 16 << 20, &text, &size, &err)) return cli_fail(&err);
   ch_status st = parse_scene(scene_path, text, &s, &err);
-  free(text);
-  if (st) return cli_fail(&err);
+  char *scene_text = text; /* kept for the report */
+  if (st) {
+    free(scene_text);
+    return cli_fail(&err);
+  }
+  /* The command as typed (quoted where a shell would need it), for the report. */
+  char command[4096];
+  size_t clen = (size_t)snprintf(command, sizeof command, "chisel");
+  int typed = cli_argv != NULL; /* as typed (with -q, -j), else as parsed */
+  for (int i = typed ? 1 : 0; i < (typed ? cli_argc : argc) && clen < sizeof command; i++) {
+    const char *a = typed ? cli_argv[i] : argv[i];
+    int plain = a[0] != '\0';
+    for (const char *c = a; *c; c++)
+      if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-_./=,:+@%", *c)) plain = 0;
+    clen += (size_t)snprintf(command + clen, sizeof command - clen, plain ? " %s" : " '%s'", a);
+  }
+  int rc = check_outputs(cmd, scene_path, &s, dir);
+  if (rc) {
+    free(scene_text);
+    study_free(&s);
+    return rc;
+  }
+  double t_start = omp_get_wtime();
   /* Every input is read and checked before anything is written. */
   ch_height_desc hd = {.dci_resolution = s.dci_resolution, .step_method = CH_RECON_EXACT};
   ch_truth_desc td = {.grid = s.truth_grid};
@@ -768,6 +1072,20 @@ static int run(int argc, char **argv) {
     method *m = &s.methods[i];
     st = ch_mesh_read(m->path, &m->mesh, &err);
     if (!st) st = ch_trace_create_mesh(&m->mesh, m->path, &m->scene, &err);
+    if (!st && m->textured) {
+      ch_error terr = cli_error();
+      /* Relief and POM at one resolution read one map: bake it once. */
+      for (int j = 0; j < i && m->tex.kind != CH_TEXRAY_GROOVES; j++)
+        if (s.methods[j].textured && s.methods[j].tex.kind != CH_TEXRAY_GROOVES &&
+            s.methods[j].tex.resolution == m->tex.resolution)
+          m->tex.same_map = s.methods[j].tr;
+      st = ch_texray_create(&m->tex, &set, &height, s.curves_path, &m->tr, &terr);
+      if (st) ch_error_set(&err, st, "%s: methods[%d] ('%s'): %s", scene_path, i, m->name, terr.message);
+      else
+        printf("texture method %s: %s at %d, %zu bytes\n", m->name,
+               m->tex.kind == CH_TEXRAY_GROOVES ? "grooves" : m->tex.kind == CH_TEXRAY_RELIEF ? "relief" : "pom",
+               m->tex.resolution, ch_texray_bytes(m->tr));
+    }
   }
   for (int i = 0; !st && i < s.num_methods; i++)
     if (s.methods[i].featshade >= 0)
@@ -792,7 +1110,7 @@ static int run(int argc, char **argv) {
   double tb[6];
   if (!st) ch_trace_bounds(truth_scene, tb);
   double scene_size = st ? 1.0 : sqrt(1.0 + 1.0 + (tb[5] - tb[2]) * (tb[5] - tb[2]));
-  int progress = isatty(2);
+  int progress = isatty(2) && !cli_quiet;
   char path[4096];
   for (int v = 0; !st && v < s.num_views; v++) {
     const view *vw = &s.views[v];
@@ -812,9 +1130,11 @@ static int run(int argc, char **argv) {
       const method *mt = &s.methods[m];
       ch_image *img = &imgs[m + 1];
       row *r = &rows[nrows];
-      ch_render_shader sh = mt->featshade >= 0 ? ch_featshade_shader(&mt->fs) : ch_shader_exact_normals(truth);
-      st = ch_render_shaded(mt->scene, mt->exact_normals || mt->featshade >= 0 ? &sh : NULL, truth, &vw->camera,
-                            &s.light, img, &rs, &err);
+      ch_render_shader sh = mt->featshade >= 0 ? ch_featshade_shader(&mt->fs)
+                            : mt->textured      ? ch_texray_shader(mt->tr)
+                                                : ch_shader_exact_normals(truth);
+      st = ch_render_shaded(mt->scene, mt->exact_normals || mt->textured || mt->featshade >= 0 ? &sh : NULL, truth,
+                            &vw->camera, &s.light, img, &rs, &err);
       if (!st) st = ch_metrics_compare(img, &timg, scene_size, &r->m, &err);
       if (!st) {
         r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;
@@ -847,7 +1167,7 @@ static int run(int argc, char **argv) {
     ch_image_free(&timg);
   }
   if (!st) st = write_summaries(dir, &s, rows, nrows, &w, &err);
-  if (!st) st = write_index(dir, &s, rows, nrows, &w, &err);
+  if (!st) st = write_index(dir, &s, rows, nrows, command, scene_path, scene_text ? scene_text : "", &w, &err);
   if (!st) {
     printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%",
            "depth", "n_mean", "n_p95", "shade", "ssim", "shadow%", "Mrays/s");
@@ -859,7 +1179,12 @@ static int run(int argc, char **argv) {
              m->shadow_mismatch, rows[i].seconds > 0 ? rows[i].rays / rows[i].seconds * 1e-6 : 0.0);
     }
   }
-  written_free(&w, st != CH_OK);
+  if (!st)
+    cli_result("wrote %s/index.html and %d files (%d views x %d methods) in %.1f s", dir, w.count - 1, s.num_views,
+               s.num_methods, omp_get_wtime() - t_start);
+  free(scene_text);
+  written_free(&w, 0); /* staged (cli_run): on failure they are removed, previous files kept */
+  if (st) ch_file_stage_abort(); /* before the folder it made goes */
   if (st && made_dir) rmdir(dir);
   free(rows);
   ch_trace_destroy(truth_scene);
@@ -870,5 +1195,6 @@ static int run(int argc, char **argv) {
   return st ? cli_fail(&err) : 0;
 }
 
-const cli_command cli_study_command = {"study", "every method's mesh against the Embree-traced true surface", usage,
-                                       run};
+const cli_command cli_study_command = {
+    "study", "meshes and texture methods (groove textures, relief mapping) against the Embree-traced true surface",
+    usage, run};

@@ -14,10 +14,26 @@
 #include "ch_grid.h"
 #include "ch_math.h"
 #include "ch_samples.h"
+#include "ch_segtree.h"
 #include "ch_thin.h"
 #include "ch_warp.h"
 
 enum { MAX_U_LINES = 60, MAX_LINES = 2 * MAX_U_LINES + 2, MAX_CURVES_LABELLED = 1 << 20, BISECTIONS = 46, JUNCTION_BISECTIONS = 30, MAX_EDGE_SAMPLES = 32 };
+/* A triangle is cut from at most MAX_NODES boundary nodes (its corners and
+ * its edges' crossings); one with more is refined, in the first
+ * DENSE_ROUNDS rounds only: where crossings are spread along its edges
+ * (a hatch of lines) halving resolves them, where they meet at a point
+ * (grooves crossing there) it never does, and every round would quadruple
+ * the triangles there (2000 grooves through a point: minutes). */
+enum { MAX_NODES = 192, DENSE_ROUNDS = 4 };
+/* Grooves crowd where a cell of the groove field's grid lists more than
+ * this many segments (the bundled sets: 24 at most): compute_crossings. */
+enum { CROWDED_CELL = 48 };
+/* The refinement's cap on working triangles (ch_embed_desc.max_triangles):
+ * 8 per base triangle plus 8M (some GB of working mesh and crossings), far
+ * above what the bundled sets need. */
+#define MAX_REFINED_PER_BASE 8.0
+#define MAX_REFINED_EXTRA 8388608.0
 #define MIN_SPLIT_LENGTH 1e-5
 #define WALL_GROUP (UINT64_C(1) << 62)
 
@@ -34,6 +50,16 @@ typedef struct labeler {
   double *crease_t;
   ch_grid step_grid;   /* step segments, boxes grown by radius */
   double (*step_boxes)[4];
+  ch_grid groove_grid; /* groove segments, boxes grown by half their width */
+  ch_segtree tree;     /* every segment: a curve's closest, the nearest step curve */
+  /* Sharp corners of step curves (joints turning by more than 30 degrees,
+   * coarse_at_step_corner): the segments leaving them, bucketed by the
+   * corner's cell of a corner_res^2 grid over the unit square (clamped). */
+  int *corner_seg, *corner_start, corner_res;
+  /* Open ends of grooves but u ones (coarse_at_cap): 2 * segment + end,
+   * bucketed so by their point; the largest half width among them. */
+  int *end_item, *end_start, end_res;
+  double end_reach;
   double radius;
   int has_steps;
   /* Quiet cells: no point within reach of a cell's points is in a groove's
@@ -81,6 +107,12 @@ static void labeler_free(labeler *lb) {
   free(lb->chord_tol);
   free(lb->step_boxes);
   ch_grid_free(&lb->step_grid);
+  ch_grid_free(&lb->groove_grid);
+  ch_segtree_free(&lb->tree);
+  free(lb->corner_seg);
+  free(lb->corner_start);
+  free(lb->end_item);
+  free(lb->end_start);
   memset(lb, 0, sizeof *lb);
 }
 
@@ -181,6 +213,100 @@ static double warp_density(const ch_warp *w, const ch_curve_set *set, int c, dou
   }
   *len = total;
   return total > 0.0 ? sum / total : 1.0;
+}
+
+/* Whether the joint at the start of step segment s turns by more than 30
+ * degrees (a polygon's vertex: coarse_at_step_corner). */
+static int sharp_step_corner(const ch_curve_set *set, int s) {
+  const ch_segment *sg = &set->segments[s];
+  if (sg->prev < 0 || set->curves[sg->curve].kind != CH_CURVE_STEP) return 0;
+  double ta[2], tb[2], pa[3][2], pb[3][2];
+  memcpy(pa, set->segments[sg->prev].p, sizeof pa);
+  memcpy(pb, sg->p, sizeof pb);
+  ch_bezier_tangent(pa, 1.0, ta);
+  ch_bezier_tangent(pb, 0.0, tb);
+  return ta[0] * tb[0] + ta[1] * tb[1] < 0.8660254037844387; /* cos 30 degrees */
+}
+
+/* The cell of coordinate x on res cells over [0, 1], clamped (far
+ * outside, or not a number: the border's). */
+static int corner_cell(int res, double x) {
+  double f = floor(x * res);
+  return !(f >= 0.0) ? 0 : f >= res ? res - 1 : (int)f;
+}
+
+/* The sharp corners of the step curves, bucketed (a counting sort keeps
+ * each cell's in segment order). */
+static ch_status find_step_corners(labeler *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int n = 0;
+  for (int s = 0; s < set->num_segments; s++) n += sharp_step_corner(set, s);
+  int res = (int)fmin(256.0, fmax(1.0, floor(sqrt((double)n))));
+  lb->corner_res = res;
+  lb->corner_seg = malloc((size_t)(n > 0 ? n : 1) * sizeof *lb->corner_seg);
+  lb->corner_start = calloc((size_t)res * res + 1, sizeof *lb->corner_start);
+  if (!lb->corner_seg || !lb->corner_start) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for step corners");
+  for (int s = 0; s < set->num_segments; s++)
+    if (sharp_step_corner(set, s)) {
+      const double *q = set->segments[s].p[0];
+      lb->corner_start[corner_cell(res, q[1]) * res + corner_cell(res, q[0]) + 1]++;
+    }
+  for (int c = 0; c < res * res; c++) lb->corner_start[c + 1] += lb->corner_start[c];
+  int *fill = malloc((size_t)res * res * sizeof *fill);
+  if (!fill) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for step corners");
+  memcpy(fill, lb->corner_start, (size_t)res * res * sizeof *fill);
+  for (int s = 0; s < set->num_segments; s++)
+    if (sharp_step_corner(set, s)) {
+      const double *q = set->segments[s].p[0];
+      lb->corner_seg[fill[corner_cell(res, q[1]) * res + corner_cell(res, q[0])]++] = s;
+    }
+  free(fill);
+  return CH_OK;
+}
+
+/* Whether end (0: start, 1: end) of segment s is an open end of a groove
+ * whose cap coarse_at_cap sizes (all profiles but u). */
+static int capped_end(const ch_curve_set *set, int s, int end) {
+  const ch_segment *sg = &set->segments[s];
+  const ch_curve *cv = &set->curves[sg->curve];
+  return cv->kind == CH_CURVE_GROOVE && cv->profile.kind != CH_PROFILE_U && (end == 0 ? sg->prev : sg->next) < 0;
+}
+
+/* The open ends coarse_at_cap looks at, bucketed like the step corners. */
+static ch_status find_open_ends(labeler *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int n = 0;
+  for (int s = 0; s < set->num_segments; s++)
+    for (int end = 0; end < 2; end++)
+      if (capped_end(set, s, end)) {
+        n++;
+        lb->end_reach = fmax(lb->end_reach, 0.5 * set->curves[set->segments[s].curve].width);
+      }
+  int res = (int)fmin(256.0, fmax(1.0, floor(sqrt((double)n))));
+  lb->end_res = res;
+  lb->end_item = malloc((size_t)(n > 0 ? n : 1) * sizeof *lb->end_item);
+  lb->end_start = calloc((size_t)res * res + 1, sizeof *lb->end_start);
+  int *fill = malloc((size_t)res * res * sizeof *fill);
+  if (!lb->end_item || !lb->end_start || !fill) {
+    free(fill);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the grooves' ends");
+  }
+  for (int pass = 0; pass < 2; pass++) {
+    if (pass == 1) {
+      for (int c = 0; c < res * res; c++) lb->end_start[c + 1] += lb->end_start[c];
+      memcpy(fill, lb->end_start, (size_t)res * res * sizeof *fill);
+    }
+    for (int s = 0; s < set->num_segments; s++)
+      for (int end = 0; end < 2; end++) {
+        if (!capped_end(set, s, end)) continue;
+        const double *q = set->segments[s].p[end == 0 ? 0 : 2];
+        int cell = corner_cell(res, q[1]) * res + corner_cell(res, q[0]);
+        if (pass == 0) lb->end_start[cell + 1]++;
+        else lb->end_item[fill[cell]++] = 2 * s + end;
+      }
+  }
+  free(fill);
+  return CH_OK;
 }
 
 static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_warp *warp, double radius,
@@ -304,7 +430,15 @@ static ch_status labeler_init(labeler *lb, const ch_height *height, const ch_war
       lb->step_boxes[i][2] = 0.0; /* empty: not in the grid */
     }
   }
+  /* Box grids for one curve's distance (closest_in_cell), whose answer
+   * beyond reach is the cell's (so the level functions the crossing search
+   * follows, and the bytes out, stay as they were); the groove field's
+   * own grid lists long segments only along their way. */
   ch_status st = ch_grid_build(&lb->step_grid, set->num_segments, (const double(*)[4])lb->step_boxes, err);
+  if (!st) st = ch_grid_build(&lb->groove_grid, set->num_segments, (const double(*)[4])height->grooves.boxes, err);
+  if (!st) st = ch_segtree_build(&lb->tree, set, err);
+  if (!st) st = find_step_corners(lb, err);
+  if (!st) st = find_open_ends(lb, err);
   if (st) {
     labeler_free(lb);
     return st;
@@ -395,21 +529,13 @@ static uint64_t label_at(const labeler *lb, const double uv[2]) {
   }
   uint64_t s = 0;
   if (lb->has_steps) {
-    const int *items;
-    int n = ch_grid_query(&lb->step_grid, uv[0], uv[1], &items);
-    double best = lb->radius * lb->radius, best_t = 0.0;
-    int best_seg = -1;
-    for (int k = 0; k < n; k++) {
-      const double *b = lb->step_boxes[items[k]];
-      if (uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]) continue;
-      double t;
-      double d2 = ch_bezier_closest(set->segments[items[k]].p, set->segments[items[k]].is_line, uv, &t);
-      if (d2 < best) {
-        best = d2;
-        best_t = t;
-        best_seg = items[k];
-      }
-    }
+    /* The nearest step segment within the radius (the lowest index of
+     * equals): through the tree, whose cost follows the curves near uv,
+     * not all those within the radius (a grid cell of a coarse mesh's
+     * radius over 10,000 small loops holds thousands). */
+    double best, best_t = 0.0;
+    int best_seg = ch_segtree_closest(&lb->tree, set, 0, lb->tree.num_step_leaves, uv, lb->radius * lb->radius,
+                                      &best, &best_t);
     if (best_seg >= 0) {
       int curve = set->segments[best_seg].curve;
       int left = ch_curve_side(set, best_seg, best_t, uv) > 0;
@@ -436,11 +562,19 @@ static int closest_in_cell(const ch_curve_set *set, const ch_grid *grid, const d
                            const double uv[2], double reach, int beyond, double *d2, double *t) {
   const int *items = NULL;
   int n = ch_grid_query(grid, uv[0], uv[1], &items), best_seg = -1;
+  /* The cell's items ascend and c's segments are consecutive: its run
+   * (by bisection: cells near many curves hold thousands of items). */
+  int s0 = set->curves[c].first_segment, s1 = s0 + set->curves[c].num_segments, k0 = 0, k1 = n;
+  while (k0 < k1) { /* the first item >= s0 */
+    int mid = k0 + (k1 - k0) / 2;
+    if (items[mid] < s0) k0 = mid + 1;
+    else k1 = mid;
+  }
+  for (k1 = k0; k1 < n && items[k1] < s1;) k1++;
   double best = INFINITY, best_t = 0.0;
   for (int pass = 0; pass < (beyond ? 2 : 1) && !(best <= reach * reach); pass++)
-    for (int k = 0; k < n; k++) {
+    for (int k = k0; k < k1; k++) {
       const ch_segment *sg = &set->segments[items[k]];
-      if (sg->curve != c) continue;
       const double *b = boxes[items[k]];
       int inside = !(uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]);
       if (inside != (pass == 0)) continue;
@@ -469,10 +603,17 @@ static double signed_distance_in(const labeler *lb, const ch_grid *grid, const d
   double d2, t;
   int seg = closest_in_cell(lb->set, grid, boxes, c, uv, reach, beyond, &d2, &t);
   if (seg < 0 || (!(d2 <= reach * reach) && !beyond)) {
-    ch_curve_point cp;
-    ch_curve_closest(lb->set, c, uv, &cp);
-    if (segment) *segment = cp.segment;
-    return cp.signed_distance;
+    /* the whole curve (ch_curve_closest's answer), through the tree: a
+     * scan of a path of 500k segments per point took minutes */
+    int first, last;
+    ch_segtree_curve(&lb->tree, lb->set, c, &first, &last);
+    seg = ch_segtree_closest(&lb->tree, lb->set, first, last, uv, INFINITY, &d2, &t);
+    if (seg < 0) { /* (a curve has segments; for safety, as ch_curve_closest would) */
+      seg = lb->set->curves[c].first_segment;
+      d2 = ch_bezier_closest(lb->set->segments[seg].p, lb->set->segments[seg].is_line, uv, &t);
+    }
+    if (segment) *segment = seg;
+    return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
   }
   if (segment) *segment = seg;
   return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
@@ -480,7 +621,7 @@ static double signed_distance_in(const labeler *lb, const ch_grid *grid, const d
 
 static double groove_distance_in(const labeler *lb, int c, const double uv[2], int *segment, int cell_beyond) {
   const ch_groove_field *gf = &lb->height->grooves;
-  return signed_distance_in(lb, &gf->grid, (const double(*)[4])gf->boxes, c, uv, 0.5 * lb->set->curves[c].width,
+  return signed_distance_in(lb, &lb->groove_grid, (const double(*)[4])gf->boxes, c, uv, 0.5 * lb->set->curves[c].width,
                             cell_beyond, segment);
 }
 
@@ -922,10 +1063,15 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
   int count = 0, cap = 0;
   double x0 = 0.0;
   uint64_t l0 = w->verts[e->a].label;
-  for (int i = 1; i <= n; i++) {
+  const int *items;
+  int crowded = ch_grid_query(&lb->height->grooves.grid, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), &items) >
+                CROWDED_CELL;
+  /* An edge with MAX_NODES crossings makes every triangle holding it one
+   * that cannot be cut: the search stops there (what is found is kept). */
+  for (int i = 1; i <= n && count < MAX_NODES; i++) {
     double x1 = (double)i / n;
     uint64_t l1 = edge_label(lb, w, e, x1);
-    while (l0 != l1) {
+    while (l0 != l1 && count < MAX_NODES) {
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
       narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi);
@@ -938,6 +1084,13 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
           hi = mid;
           lhi = lm;
         }
+        /* Where grooves crowd (many crossing each other), many changes
+         * between two samples defeat the fast path and every label is a
+         * sum over all of them: once bisection has cut the bracket 64
+         * times, it tries again between l0 and the label the bracket now
+         * ends on, most often the only change left in it (a dozen
+         * one-curve evaluations instead of 40 more labels). */
+        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi);
       }
       if (grow((void **)&list, &cap, count + 1, sizeof *list)) {
         free(list);
@@ -959,7 +1112,6 @@ static int compute_crossings(const labeler *lb, const work *w, wedge *e, double 
       c->copy_a = c->copy_b = -1;
       x0 = hi;
       l0 = lhi;
-      if (count > 4096) break; /* absurd: a fractal of curves; what is found is kept */
     }
     x0 = x1;
     l0 = l1;
@@ -1270,7 +1422,6 @@ static void out_free(out_mesh *o) {
  * them, the crossings of its edges. Each crossing joins the piece before it
  * to the piece after it; inside the triangle it is one end of a chord to the
  * crossing with the same two pieces. */
-enum { MAX_NODES = 192 };
 
 typedef struct bnode {
   int corner;               /* vertex of a corner, -1 for a crossing */
@@ -1284,11 +1435,18 @@ typedef struct bnode {
 
 typedef enum cut_kind { CUT_NONE, CUT_REGIONS, CUT_COMPLEX } cut_kind;
 
-static int gather_nodes(const work *w, int t, bnode *nodes) {
+/* The boundary's nodes into nodes[cap]; -1 if there are more (the
+ * triangle is then refined, or fanned once refinement is over). */
+static int gather_nodes_into(const work *w, int t, bnode *nodes, int cap) {
   const wtri *T = &w->tris[t];
   int m = 0;
   for (int k = 0; k < 3; k++) {
     const wvert *v = &w->verts[T->v[k]];
+    const wedge *e = &w->edges[w->tri_edge[3 * (size_t)t + k]];
+    /* room for the corner and its edge's crossings (2000 grooves through
+     * one point overran the array by the corner written before a check
+     * that counted only the crossings) */
+    if (e->ncross < 0 || m + 1 + e->ncross > cap) return -1;
     bnode *c = &nodes[m++];
     c->corner = T->v[k];
     c->edge = -1;
@@ -1298,9 +1456,7 @@ static int gather_nodes(const work *w, int t, bnode *nodes) {
     memcpy(c->uv, T->uv[k], sizeof c->uv);
     memcpy(c->st, T->st[k], sizeof c->st);
     c->pair = -1;
-    const wedge *e = &w->edges[w->tri_edge[3 * (size_t)t + k]];
     int forward = T->v[k] == e->a;
-    if (m + e->ncross > MAX_NODES) return -1;
     for (int i = 0; i < e->ncross; i++) {
       const crossing *x = &e->cross[forward ? i : e->ncross - 1 - i];
       bnode *b = &nodes[m++];
@@ -1320,6 +1476,8 @@ static int gather_nodes(const work *w, int t, bnode *nodes) {
   }
   return m;
 }
+
+static int gather_nodes(const work *w, int t, bnode *nodes) { return gather_nodes_into(w, t, nodes, MAX_NODES); }
 
 /* Pairs the crossings into chords: two crossings between the same two
  * pieces, in opposite directions. Crossings left unpaired must be where
@@ -1585,6 +1743,23 @@ static int emit_walls(const bnode *nodes, int m, out_mesh *o, ch_embed_stats *st
   return bad;
 }
 
+/* Counts an unresolved triangle of centre uv: the first one's place and
+ * the box of all. */
+static void note_unresolved(ch_embed_stats *stats, const double uv[2]) {
+  if (stats->unresolved++ == 0) {
+    stats->unresolved_uv[0] = uv[0], stats->unresolved_uv[1] = uv[1];
+    stats->unresolved_box[0] = stats->unresolved_box[2] = uv[0];
+    stats->unresolved_box[1] = stats->unresolved_box[3] = uv[1];
+    return;
+  }
+  stats->unresolved_box[0] = fmin(stats->unresolved_box[0], uv[0]);
+  stats->unresolved_box[1] = fmin(stats->unresolved_box[1], uv[1]);
+  stats->unresolved_box[2] = fmax(stats->unresolved_box[2], uv[0]);
+  stats->unresolved_box[3] = fmax(stats->unresolved_box[3], uv[1]);
+}
+
+static int fan_triangle(const labeler *lb, const work *w, const wtri *T, const bnode *nodes, int m, out_mesh *o);
+
 /* Cuts triangle t into its pieces, with walls where h jumps. */
 static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out_mesh *o, ch_embed_stats *stats) {
   const wtri *T = &w->tris[t];
@@ -1602,9 +1777,27 @@ static int cut_triangle(const labeler *lb, const work *w, int t, double tol, out
   }
   /* Left after refinement: a fan from a vertex at the centre over the
    * whole boundary, in the centre's piece: closed, but not following the
-   * features inside (counted). */
-  stats->unresolved++;
-  if (m < 0) return out_tri(o, T->v[0], T->v[1], T->v[2], T->uv[0], T->uv[1], T->uv[2], w->verts[T->v[0]].label);
+   * features inside (counted, and where, for the warning). */
+  {
+    double cuv[2] = {0, 0};
+    for (int k = 0; k < 3; k++)
+      for (int i = 0; i < 2; i++) cuv[i] += T->uv[k][i] / 3.0;
+    note_unresolved(stats, cuv);
+  }
+  bnode *all = nodes;
+  if (m < 0) { /* more nodes than a cut takes: all of them for the fan, so its neighbours' crossings meet it */
+    int total = 3;
+    for (int k = 0; k < 3; k++) total += w->edges[w->tri_edge[3 * (size_t)t + k]].ncross;
+    if (!(all = malloc((size_t)total * sizeof *all))) return -1;
+    m = gather_nodes_into(w, t, all, total);
+  }
+  int bad = fan_triangle(lb, w, T, all, m, o);
+  if (all != nodes) free(all);
+  return bad;
+}
+
+/* The fan of cut_triangle's last resort over nodes[m]. */
+static int fan_triangle(const labeler *lb, const work *w, const wtri *T, const bnode *nodes, int m, out_mesh *o) {
   double cst[2] = {0, 0}, cuv[2] = {0, 0};
   for (int k = 0; k < 3; k++)
     for (int i = 0; i < 2; i++) {
@@ -1651,24 +1844,26 @@ static double chord_factor(const labeler *lb, const double uv[2]) {
 }
 
 static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
-  const ch_groove_field *gf = &lb->height->grooves;
-  const int *items;
-  int n = ch_grid_query(&gf->grid, c[0], c[1], &items);
-  for (int k = 0; k < n; k++) {
-    const ch_segment *sg = &lb->set->segments[items[k]];
-    if (sg->prev >= 0 && sg->next >= 0) continue;
-    const ch_curve *cv = &lb->set->curves[sg->curve];
-    double half = 0.5 * cv->width;
-    /* A u cap is already cut into rings by its lines; refining under all
-     * of them costs more than it gains. */
-    if (cv->profile.kind == CH_PROFILE_U) continue;
-    for (int end = 0; end < 2; end++) {
-      if ((end == 0 ? sg->prev : sg->next) >= 0) continue;
-      const double *q = sg->p[end == 0 ? 0 : 2];
-      if (longest > lb->cap_angle * local_factor(lb, q) * half && hypot(c[0] - q[0], c[1] - q[1]) <= half + longest)
-        return 1;
-    }
-  }
+  /* The open ends near c (bucketed once: 2000 lines through a point put
+   * all of theirs in every cell there), counted only if the grooves' grid
+   * lists their segment at c, as the scan of its cell did. A u cap is
+   * already cut into rings by its lines; refining under all of them costs
+   * more than it gains (capped_end leaves them out). */
+  int res = lb->end_res, r[4];
+  double reach = lb->end_reach + longest;
+  r[0] = corner_cell(res, c[0] - reach), r[1] = corner_cell(res, c[1] - reach);
+  r[2] = corner_cell(res, c[0] + reach), r[3] = corner_cell(res, c[1] + reach);
+  for (int y = r[1]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[2]; x++)
+      for (int k = lb->end_start[y * res + x]; k < lb->end_start[y * res + x + 1]; k++) {
+        int s = lb->end_item[k] / 2, end = lb->end_item[k] % 2;
+        const ch_segment *sg = &lb->set->segments[s];
+        double half = 0.5 * lb->set->curves[sg->curve].width;
+        const double *q = sg->p[end == 0 ? 0 : 2];
+        if (longest > lb->cap_angle * local_factor(lb, q) * half && hypot(c[0] - q[0], c[1] - q[1]) <= half + longest &&
+            ch_grid_cell_holds(&lb->groove_grid, lb->height->grooves.boxes[s], c[0], c[1]))
+          return 1;
+      }
   return 0;
 }
 
@@ -1680,31 +1875,35 @@ static int coarse_at_cap(const labeler *lb, const double c[2], double longest) {
  * wrong height one triangle wide). */
 static int coarse_at_step_corner(const labeler *lb, const double uv[3][2], const double c[2], double longest) {
   if (!lb->has_steps) return 0;
-  const int *items;
-  int n = ch_grid_query(&lb->step_grid, c[0], c[1], &items);
-  for (int k = 0; k < n; k++) {
-    const ch_segment *sg = &lb->set->segments[items[k]];
-    if (sg->prev < 0) continue;
-    const double *q = sg->p[0];
-    double d0 = (uv[1][0] - uv[0][0]) * (q[1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (q[0] - uv[0][0]);
-    double d1 = (uv[2][0] - uv[1][0]) * (q[1] - uv[1][1]) - (uv[2][1] - uv[1][1]) * (q[0] - uv[1][0]);
-    double d2 = (uv[0][0] - uv[2][0]) * (q[1] - uv[2][1]) - (uv[0][1] - uv[2][1]) * (q[0] - uv[2][0]);
-    if (!((d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0))) continue;
-    if (longest <= lb->junction_size * local_factor(lb, q)) continue;
-    double ta[2], tb[2], pa[3][2], pb[3][2];
-    memcpy(pa, lb->set->segments[sg->prev].p, sizeof pa);
-    memcpy(pb, sg->p, sizeof pb);
-    ch_bezier_tangent(pa, 1.0, ta);
-    ch_bezier_tangent(pb, 0.0, tb);
-    if (ta[0] * tb[0] + ta[1] * tb[1] < 0.8660254037844387) return 1; /* cos 30 degrees */
-  }
+  /* The corners in the triangle's box (bucketed once: a scan of the step
+   * curves near it took a fifth of 1000 small loops' run), counted only if
+   * the step grid's cell at c lists their segment, as the scan of that
+   * cell did. */
+  int res = lb->corner_res, r[4];
+  double lo[2] = {fmin(uv[0][0], fmin(uv[1][0], uv[2][0])), fmin(uv[0][1], fmin(uv[1][1], uv[2][1]))};
+  double hi[2] = {fmax(uv[0][0], fmax(uv[1][0], uv[2][0])), fmax(uv[0][1], fmax(uv[1][1], uv[2][1]))};
+  r[0] = corner_cell(res, lo[0]), r[1] = corner_cell(res, lo[1]), r[2] = corner_cell(res, hi[0]);
+  r[3] = corner_cell(res, hi[1]);
+  for (int y = r[1]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[2]; x++)
+      for (int k = lb->corner_start[y * res + x]; k < lb->corner_start[y * res + x + 1]; k++) {
+        int s = lb->corner_seg[k];
+        const double *q = lb->set->segments[s].p[0];
+        double d0 = (uv[1][0] - uv[0][0]) * (q[1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (q[0] - uv[0][0]);
+        double d1 = (uv[2][0] - uv[1][0]) * (q[1] - uv[1][1]) - (uv[2][1] - uv[1][1]) * (q[0] - uv[1][0]);
+        double d2 = (uv[0][0] - uv[2][0]) * (q[1] - uv[2][1]) - (uv[0][1] - uv[2][1]) * (q[0] - uv[2][0]);
+        if (!((d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0))) continue;
+        if (!ch_grid_cell_holds(&lb->step_grid, lb->step_boxes[s], c[0], c[1])) continue;
+        if (longest <= lb->junction_size * local_factor(lb, q)) continue;
+        return 1;
+      }
   return 0;
 }
 
 /* Whether triangle t needs splitting: its crossings do not make chords and
  * one junction, or a piece that none of its boundary touches hides inside,
  * or it is coarse over a rounded cap. */
-static int needs_refinement(const labeler *lb, const work *w, int t, int only_uncut) {
+static int needs_refinement(const labeler *lb, const work *w, int t, int only_uncut, int round) {
   const wtri *T = &w->tris[t];
   if (quiet(lb, T->uv[0]) && quiet(lb, T->uv[1]) && quiet(lb, T->uv[2])) return 0;
   double longest = 0.0;
@@ -1717,7 +1916,8 @@ static int needs_refinement(const labeler *lb, const work *w, int t, int only_un
   if (!only_uncut && coarse_at_step_corner(lb, T->uv, centre, longest)) return 1;
   bnode nodes[MAX_NODES];
   int m = gather_nodes(w, t, nodes);
-  if (m < 0 || classify(nodes, m) == CUT_COMPLEX) return 1;
+  if (m < 0) return round < DENSE_ROUNDS;
+  if (classify(nodes, m) == CUT_COMPLEX) return 1;
   if (only_uncut) return 0;
   /* Junctions are placed by estimate: keep their triangles small. */
   for (int i = 0; i < m; i++)
@@ -2168,9 +2368,17 @@ static ch_status embed_finish(const ch_surface *surface, const ch_curve_set *set
 }
 
 /* ch_embed_build; a count-only run hands its cut to *kept if asked. */
+/* Reports a stage of embedding run `run` (1, 2, ... of ch_embed_to_target)
+ * at refinement round `round`. */
+static void report(const ch_embed_desc *desc, int run, int round, const char *what, double fraction) {
+  if (!desc || !desc->progress) return;
+  ch_progress_reportf(desc->progress, fraction, "embedding: run %d%s, round %d, %s", run,
+                      desc->count_only ? " (pilot)" : "", round, what);
+}
+
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                            const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats_out, embed_kept *kept,
-                           ch_error *err) {
+                           int run, ch_error *err) {
   memset(out, 0, sizeof *out);
   ch_embed_stats stats = {0};
   const ch_mesh *tm = &tess->mesh;
@@ -2279,6 +2487,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   int labelled = 0;
   for (int round = 0;; round++) {
     double ta = omp_get_wtime();
+    report(desc, run, round, "labels", -1.0);
     label_vertices(&lb, &w, labelled);
     labelled = w.nverts;
     double tb = omp_get_wtime();
@@ -2287,10 +2496,15 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.seconds_labels += tb - ta;
     stats.seconds_edges += tc - tb;
     int oom = 0;
+    /* (in blocks, so a long search reports how far it is) */
+    for (int i0 = 0, block = w.nedges / 32 > 4096 ? w.nedges / 32 : 4096; i0 < w.nedges && !oom; i0 += block) {
+      report(desc, run, round, "crossings", (double)i0 / w.nedges);
+      int i1 = i0 + block < w.nedges ? i0 + block : w.nedges;
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
-    for (int i = 0; i < w.nedges; i++) {
-      wedge *e = &w.edges[i];
-      if (e->ncross < 0) oom |= compute_crossings(&lb, &w, e, delta);
+      for (int i = i0; i < i1; i++) {
+        wedge *e = &w.edges[i];
+        if (e->ncross < 0) oom |= compute_crossings(&lb, &w, e, delta);
+      }
     }
     if (oom) goto nomem;
     double td = omp_get_wtime();
@@ -2298,11 +2512,12 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     if (round >= max_rounds) break;
     unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
     if (!refine) goto nomem;
+    report(desc, run, round, "refinement", -1.0);
     /* Only triangles made by the last split can have changed: the others
      * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
     for (int t = 0; t < w.ntris; t++)
-      refine[t] = (unsigned char)((!fresh || fresh[t]) && needs_refinement(&lb, &w, t, round >= 8));
+      refine[t] = (unsigned char)((!fresh || fresh[t]) && needs_refinement(&lb, &w, t, round >= 8, round));
     double te = omp_get_wtime();
     stats.seconds_classify += te - td;
     int split = 0;
@@ -2318,6 +2533,17 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       }
     free(refine);
     if (!split) break;
+    /* Each split edge adds about two triangles. Curves that need more than
+     * the cap would take memory and time without end: */
+    double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
+                                                 : MAX_REFINED_PER_BASE * (double)tm->num_faces + MAX_REFINED_EXTRA;
+    if ((double)w.ntris + 2.0 * split > cap) {
+      st = ch_error_set(err, CH_ERR_INPUT,
+                        "feature embedding: the curves need more than %.0f triangles (refinement round %d over %d "
+                        "base triangles): too many curves meet in too small a place; fewer or wider curves, or "
+                        "--no-snap", cap, round + 1, tm->num_faces);
+      goto done;
+    }
     stats.refine_rounds = round + 1;
     stats.refined_edges += split;
     if ((st = split_triangles(&w, &fresh, err))) goto done;
@@ -2382,6 +2608,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.wall_points += (int)walls;
     free(first);
   }
+  report(desc, run, stats.refine_rounds, "cut", -1.0);
   /* The cut, in parallel over fixed chunks of triangles: each part numbers
    * its new vertices (junctions) after the shared ones; the parts are then
    * joined in chunk order, so the bytes do not depend on the threads. */
@@ -2415,6 +2642,17 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         const double *u = &q->uv[6 * (size_t)t];
         oom |= out_tri(&o, v[0], v[1], v[2], u, u + 2, u + 4, q->group[t]) != 0;
       }
+      if (pstats[c].unresolved > 0) { /* chunks in order: the first is the first chunk's */
+        if (stats.unresolved == 0) {
+          memcpy(stats.unresolved_uv, pstats[c].unresolved_uv, sizeof stats.unresolved_uv);
+          memcpy(stats.unresolved_box, pstats[c].unresolved_box, sizeof stats.unresolved_box);
+        } else {
+          for (int k = 0; k < 2; k++) {
+            stats.unresolved_box[k] = fmin(stats.unresolved_box[k], pstats[c].unresolved_box[k]);
+            stats.unresolved_box[2 + k] = fmax(stats.unresolved_box[2 + k], pstats[c].unresolved_box[2 + k]);
+          }
+        }
+      }
       stats.unresolved += pstats[c].unresolved;
       stats.junctions += pstats[c].junctions;
       stats.wall_triangles += pstats[c].wall_triangles;
@@ -2432,6 +2670,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * 260k triangles over the UV square) the cut is left as it is. */
   if (!(desc && desc->no_thinning) && reference_edge >= 1.0 / 360.0) {
     double tt = omp_get_wtime();
+    report(desc, run, stats.refine_rounds, "thinning", -1.0);
     int thinned = thin_output(&lb, tess, longest_edge, &o);
     if (thinned < 0) goto nomem;
     stats.thinned = thinned;
@@ -2468,7 +2707,7 @@ done:
 
 ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                          const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err) {
-  return embed_run(surface, tess, height, desc, out, stats, NULL, err);
+  return embed_run(surface, tess, height, desc, out, stats, NULL, 1, err);
 }
 
 /* The base count b with b + c0 + c1 sqrt(b) = target (bisection; 1 if
@@ -2536,6 +2775,17 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   double rescale_f0 = 0.0, rescale_f1 = 0.0; /* what the features added to the pilots before a coarsening */
   ch_embed_desc d = desc ? *desc : (ch_embed_desc){0};
   int auto_angle = !(d.normal_tolerance_deg > 0.0), coarsenings = 0;
+  /* The angle step shapes only grooves (their u lines, the caps of open
+   * ends, the thinning's normals): with step curves alone a coarser one
+   * changes nothing, and each coarsening would rerun the pilots (1000
+   * small loops: four times, for the same answer). */
+  int has_grooves = 0, has_u = 0;
+  for (int c = 0; c < height->set->num_curves; c++) {
+    const ch_curve *cv = &height->set->curves[c];
+    has_grooves |= cv->kind == CH_CURVE_GROOVE;
+    has_u |= cv->kind == CH_CURVE_GROOVE && cv->profile.kind == CH_PROFILE_U;
+  }
+  if (!has_grooves) auto_angle = 0;
   for (int pass = 0; pass < 8; pass++) {
     ch_tess_desc td = {.target_triangles = base, .warp = d.warp};
     if ((st = ch_tess_build(surface, &td, &cur_tess, err))) break;
@@ -2554,7 +2804,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     /* Pilots only count; one that lands is finished from its cut. */
     d.count_only = pass < pilots;
     embed_kept kept = {0};
-    st = embed_run(surface, &cur_tess, height, &d, &cur, &cur_stats, d.count_only ? &kept : NULL, err);
+    st = embed_run(surface, &cur_tess, height, &d, &cur, &cur_stats, d.count_only ? &kept : NULL, runs + 1, err);
     if (st) break;
     runs++;
     double nb = cur_tess.mesh.num_faces, no = (double)cur_stats.triangles, miss = fabs(no - (double)target);
@@ -2570,6 +2820,28 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
       miss = fabs(no - (double)target);
     }
     out_free(&kept.o);
+    if (d.count_only && pass == 0 && no > 1.25 * (double)target && !has_u) {
+      /* The first pilot alone is well over the target. Without u lines the
+       * angle step shapes only the caps of open ends: the coarsest step at
+       * once (one rerun of the first pilot, not four: bricks at 60k needs
+       * it), and if the features still need more than the target, the
+       * fewest triangles the base gives (by the model), without the second
+       * pilot (500 grooves through a point: 7 runs to reach the same base). */
+      if (auto_angle && coarsenings < 4) {
+        double step = coarsenings == 0 ? ch_embed_angle_deg(d.reference_edge) : d.normal_tolerance_deg;
+        for (; coarsenings < 4; coarsenings++) step *= 1.5;
+        d.normal_tolerance_deg = step;
+        ch_tess_free(&cur_tess);
+        ch_mesh_free(&cur);
+        memset(&cur_tess, 0, sizeof cur_tess);
+        memset(&cur, 0, sizeof cur);
+        pass = -1;
+        base = first_base;
+        continue;
+      }
+      pilots = 1;
+      auto_angle = 0;
+    }
     if (d.count_only && pass == 0 && rescale_f0 > 0.0) {
       /* After a coarsening only the first pilot runs again: what the
        * features add to the second is taken to change as they did at the

@@ -31,6 +31,7 @@
 
 #include "ch_error.h"
 #include "ch_height.h"
+#include "ch_progress.h"
 #include "ch_mesh.h"
 #include "ch_surface.h"
 
@@ -70,6 +71,13 @@ typedef struct ch_embed_desc {
                               a groove's lines and chords are then as fine as
                               the mesh where the warp is densest over the
                               curve (e / sqrt(slope_u slope_v) for e above) */
+  long max_triangles;      /* the refinement stops with CH_ERR_INPUT ("the
+                              curves need more than N triangles") before its
+                              working mesh would exceed this; 0 -> 8 per base
+                              triangle plus 8M */
+  const ch_progress *progress; /* NULL, or where the runs, refinement rounds
+                              and their stages are reported (from the
+                              calling thread) */
 } ch_embed_desc;
 
 typedef struct ch_embed_stats {
@@ -79,6 +87,9 @@ typedef struct ch_embed_stats {
   int junctions;           /* triangles where three pieces meet */
   int wall_triangles;
   int unresolved;          /* triangles left uncut after refinement (0 expected) */
+  double unresolved_uv[2]; /* with unresolved > 0: the centre of the first
+                              (in the tessellation's order), UV */
+  double unresolved_box[4];/* and the UV box of all their centres */
   int thinned;             /* vertices the thinning of the grooves' layers removed */
   double angle_deg;        /* the angle step of the u lines the run used */
   long triangles;          /* output triangles (with count_only: before the

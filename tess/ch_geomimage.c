@@ -291,7 +291,7 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
 }
 
 ch_status ch_geomimage_to_image(const ch_geomimage *gi, ch_image *out, ch_error *err) {
-  const char *names[] = {"P.x", "P.y", "P.z", "N.x", "N.y", "N.z", "face", "s", "t"};
+  const char *names[] = {"P.x", "P.y", "P.z", "N.x", "N.y", "N.z", "face.X", "s", "t"};
   ch_status st = ch_image_init(out, gi->width, gi->height, 9, names, err);
   if (st) return st;
   size_t n = (size_t)gi->width * gi->height;

@@ -46,8 +46,10 @@ ch_status ch_geomimage_build_warped(const ch_surface *surface, int width, int he
                                     const struct ch_warp *warp, ch_geomimage *out, ch_error *err);
 void ch_geomimage_free(ch_geomimage *gi);
 
-/* The geometry image as EXR layers: P.x P.y P.z, N.x N.y N.z, face
- * (-1 outside the charts), s, t. */
+/* The geometry image as EXR layers: P.x P.y P.z, N.x N.y N.z, face.X
+ * (the base face, -1 outside the charts; a one-channel layer, as Blender
+ * names its index passes, since Blender's multilayer reader refuses a
+ * channel name of more than one letter without a layer), s, t. */
 ch_status ch_geomimage_to_image(const ch_geomimage *gi, ch_image *out, ch_error *err);
 
 /* Finds the (s, t) of face whose UV is uv. Returns CH_OK with st set, or

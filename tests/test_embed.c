@@ -523,7 +523,86 @@ static void test_warped(void) {
   }
 }
 
+/* Many grooves through one point (the crash: a triangle's boundary nodes
+ * overran their array by the corner written before a bound check that
+ * counted only the crossings). At a CI size, under ASan in its build:
+ * - a hatch of 96 step lines in one column of the plane: its edges there
+ *   cross exactly 191 piece boundaries, so corner, crossings and the next
+ *   corner were 193 nodes in an array of 192 (the old code's overflow);
+ * - 100 v grooves through one point over the coarsest plane: the
+ *   embedding finishes, with the triangles it cannot cut at the point
+ *   counted, every vertex finite, the same bytes on 1 and 2 threads;
+ * - and the refinement's cap gives a clear error instead of working on. */
+static char *many_lines_svg(int n, int hatch) {
+  size_t cap = 256 + (size_t)n * 96, len = 0;
+  char *svg = malloc(cap);
+  if (!svg) return NULL;
+  len += (size_t)snprintf(svg + len, cap - len, "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>%s",
+                          hatch ? "<g data-kind='step' data-right='0.01'>"
+                                : "<g data-profile='v' data-width='0.2' data-depth='0.01'>");
+  for (int k = 0; k < n; k++) {
+    double a = 3.141592653589793 * k / n, c = cos(a), s = sin(a), x = 50.0 + 6.25 * (k + 0.5) / n;
+    if (hatch)
+      len += (size_t)snprintf(svg + len, cap - len, "<path d='M %.6f 1 L %.6f 99'/>", x, x);
+    else
+      len += (size_t)snprintf(svg + len, cap - len, "<path d='M %.6f %.6f L %.6f %.6f'/>", 50 - 45 * c, 50 - 45 * s,
+                              50 + 45 * c, 50 + 45 * s);
+  }
+  snprintf(svg + len, cap - len, "</g></svg>");
+  return svg;
+}
+
+static int all_finite(const ch_mesh *m) {
+  for (int i = 0; i < 3 * m->num_positions; i++)
+    if (!isfinite(m->positions[i])) return 0;
+  return 1;
+}
+
+static void test_many_grooves_through_a_point(void) {
+  scene s;
+  ch_mesh a = {0}, b = {0};
+  ch_embed_stats stats;
+  ch_error err = {0};
+  char *svg = many_lines_svg(96, 1);
+  REQUIRE(svg != NULL);
+  int loaded = scene_load(&s, "plane", svg, NULL, CH_SCHEME_BILINEAR, 512);
+  free(svg);
+  REQUIRE(loaded);
+  CHECK_MSG(ch_embed_build(s.surface, &s.tess, &s.height, NULL, &a, &stats, &err) == CH_OK, "%s", err.message);
+  CHECK(a.num_faces > s.tess.mesh.num_faces && all_finite(&a));
+  ch_mesh_free(&a);
+  scene_free(&s);
+
+  svg = many_lines_svg(100, 0);
+  REQUIRE(svg != NULL);
+  loaded = scene_load(&s, "plane", svg, NULL, CH_SCHEME_BILINEAR, 512);
+  free(svg);
+  REQUIRE(loaded);
+  ch_embed_desc d = {.max_refine_rounds = 5};
+  int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  CHECK_MSG(ch_embed_build(s.surface, &s.tess, &s.height, &d, &a, &stats, &err) == CH_OK, "%s", err.message);
+  omp_set_num_threads(threads > 1 ? threads : 2);
+  CHECK(ch_embed_build(s.surface, &s.tess, &s.height, &d, &b, NULL, &err) == CH_OK);
+  omp_set_num_threads(threads);
+  fprintf(stderr, "  100 grooves through a point over %d triangles: %d triangles out, %d left uncut\n",
+          s.tess.mesh.num_faces, a.num_faces, stats.unresolved);
+  CHECK(a.num_faces > s.tess.mesh.num_faces && stats.unresolved > 0 && all_finite(&a));
+  CHECK(a.num_positions == b.num_positions && a.num_faces == b.num_faces);
+  if (a.num_positions == b.num_positions && a.num_faces == b.num_faces)
+    CHECK(!memcmp(a.positions, b.positions, 3 * sizeof(double) * (size_t)a.num_positions) &&
+          !memcmp(a.corner_position, b.corner_position, sizeof(int) * (size_t)a.num_corners));
+  ch_mesh_free(&a);
+  ch_mesh_free(&b);
+  ch_embed_desc capped = {.max_triangles = 3000};
+  CHECK(ch_embed_build(s.surface, &s.tess, &s.height, &capped, &a, NULL, &err) == CH_ERR_INPUT);
+  CHECK_MSG(strstr(err.message, "the curves need more than 3000 triangles") != NULL, "%s", err.message);
+  CHECK(a.num_faces == 0);
+  scene_free(&s);
+}
+
 int main(void) {
+  RUN(test_many_grooves_through_a_point);
   RUN(test_straight_features_are_edges);
   RUN(test_torus_closed);
   RUN(test_deterministic);

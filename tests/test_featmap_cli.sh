@@ -49,7 +49,7 @@ expect 2 "$chisel" featmap "$svg" -o "$maps" && one_line_with "missing --res"
 expect 2 "$chisel" featmap "$svg" --res 16 && one_line_with "missing -o"
 expect 2 "$chisel" featmap "$svg" --res 3 -o "$maps" && one_line_with "--res 3 is outside 4..4096"
 expect 2 "$chisel" featmap "$svg" --res 4097 -o "$maps" && one_line_with "--res 4097 is outside 4..4096"
-expect 2 "$chisel" featmap "$svg" --res 16 -o "$svg" && one_line_with "same file"
+expect 2 "$chisel" featmap "$svg" --res 16 -o "$svg" && one_line_with "an output never replaces an input"
 expect 2 "$chisel" featmap "$svg" --res 16 -o "$maps" --rect 0.5,0,0.2,1 && one_line_with "--rect needs"
 expect 2 "$chisel" featmap "$svg" --res 16 -o "$maps" --frob && one_line_with "unknown option '--frob'"
 no_file "$maps"
@@ -103,7 +103,7 @@ for cut in 100 $((size / 3)) $((size - 40)); do
     one_line_with "cut.exr"
   no_file "$tmp/m.png"
 done
-expect 2 "$chisel" magnify "$maps" --rect 0,0,1,1 --out-res 8 --method featnorm -o "$maps" && one_line_with "same file"
+expect 2 "$chisel" magnify "$maps" --rect 0,0,1,1 --out-res 8 --method featnorm -o "$maps" && one_line_with "an output never replaces an input"
 
 # ---- the crop's values against a straight groove in closed form ----
 if command -v "$python" >/dev/null; then

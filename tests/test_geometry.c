@@ -4,11 +4,14 @@
  * every curve. */
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_groove.h"
+#include "ch_segtree.h"
 #include "ch_test.h"
 
 
@@ -343,6 +346,101 @@ static void test_field_vs_scan(void) {
   ch_curves_free(&set);
 }
 
+/* A few grooves far wider than the square among many thin ones (a fuzzed
+ * file took 6 s and 1.3 GB here): the grid stays within its budget of
+ * items, and the field still agrees with a scan of every curve. */
+static void test_mixed_box_sizes(void) {
+  enum { THIN = 4000 };
+  size_t cap = 200 + THIN * 80, len = 0;
+  char *svg = malloc(cap);
+  REQUIRE(svg != NULL);
+  len += (size_t)snprintf(svg + len, cap - len, "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>");
+  for (int i = 0; i < THIN; i++)
+    len += (size_t)snprintf(svg + len, cap - len, "<path d='M %.3f 10 L %.3f 90' data-width='0.01'/>",
+                            5 + 90.0 * i / THIN, 5.01 + 90.0 * i / THIN);
+  for (int i = 0; i < 4; i++)
+    len += (size_t)snprintf(svg + len, cap - len, "<path d='M 20 %d L 80 %d' data-width='1e9' data-depth='1e-9'/>",
+                            20 + 20 * i, 20 + 20 * i);
+  len += (size_t)snprintf(svg + len, cap - len, "</svg>");
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(svg, len, "mixed_sizes.svg", &set, &err) == CH_OK);
+  free(svg);
+  ch_groove_field field;
+  REQUIRE(ch_groove_field_init(&field, &set, &err) == CH_OK);
+  size_t items = (size_t)field.grid.cell_start[(size_t)field.grid.nx * field.grid.ny];
+  CHECK_MSG(items <= 16 * (size_t)set.num_segments + ((size_t)1 << 22), "%zu items for %d segments", items,
+            set.num_segments);
+  int mismatches = 0;
+  for (int i = 0; i < 2000; i++) {
+    double q[2] = {ch_test_rnd(), ch_test_rnd()};
+    double min_carve = 0, max_raise = 0;
+    for (int c = 0; c < set.num_curves; c++) {
+      ch_curve_point cp;
+      ch_curve_closest(&set, c, q, &cp);
+      double g = set.curves[c].depth * ch_profile_eval(&set.curves[c].profile, cp.signed_distance / set.curves[c].width);
+      if (g < min_carve) min_carve = g;
+      if (g > max_raise) max_raise = g;
+    }
+    if (fabs(ch_groove_field_eval(&field, q[0], q[1], NULL) - (min_carve < 0 ? min_carve : max_raise)) > 1e-12)
+      mismatches++;
+  }
+  CHECK_MSG(mismatches == 0, "%d of 2000 points differ", mismatches);
+  ch_groove_field_free(&field);
+  ch_curves_free(&set);
+}
+
+/* The segment tree against a scan in index order (strictly smaller
+ * distances kept: the lowest index wins ties): per curve without a bound,
+ * over the step curves within a radius; on the mixed set, on a long path,
+ * and on curves that share segments' geometry exactly (ties). */
+static void test_segtree_vs_scan(void) {
+  static const char *files[] = {CHISEL_TEST_DATA "/svg/mixed.svg", CHISEL_MODELS "/curves/relief.svg",
+                                CHISEL_MODELS "/curves/spiral.svg", CHISEL_MODELS "/curves/steps_simple.svg"};
+  /* and twin curves: every segment twice, so every answer is a tie */
+  static const char twins[] = "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+                              "<path data-kind='step' d='M 10 10 L 90 20 Q 50 90 10 10 Z'/>"
+                              "<path data-kind='step' d='M 10 10 L 90 20 Q 50 90 10 10 Z'/>"
+                              "<path d='M 20 80 C 40 10 60 150 80 20'/><path d='M 20 80 C 40 10 60 150 80 20'/></svg>";
+  for (int f = 0; f < 5; f++) {
+    ch_curve_set set;
+    ch_error err = {0};
+    if (f < 4)
+      REQUIRE(ch_curves_read_svg(files[f], &set, &err) == CH_OK);
+    else
+      REQUIRE(ch_curves_parse_svg(twins, sizeof twins - 1, "twins.svg", &set, &err) == CH_OK);
+    ch_segtree tree;
+    REQUIRE(ch_segtree_build(&tree, &set, &err) == CH_OK);
+    int bad = 0, found = 0;
+    for (int i = 0; i < 3000; i++) {
+      double q[2] = {ch_test_rnd() * 1.4 - 0.2, ch_test_rnd() * 1.4 - 0.2};
+      int c = (int)(ch_test_rnd() * set.num_curves);
+      ch_curve_point cp;
+      ch_curve_closest(&set, c, q, &cp);
+      int first, last, seg;
+      double d2 = -1, t = -1;
+      ch_segtree_curve(&tree, &set, c, &first, &last);
+      seg = ch_segtree_closest(&tree, &set, first, last, q, INFINITY, &d2, &t);
+      bad += seg != cp.segment || t != cp.t || sqrt(d2) != cp.distance;
+      /* the nearest step segment within r */
+      double r2 = 0.01 * (1 + i % 10), best = r2, best_t = 0;
+      int want = -1;
+      for (int s = 0; s < set.num_segments; s++) {
+        if (set.curves[set.segments[s].curve].kind != CH_CURVE_STEP) continue;
+        double ts, d = ch_bezier_closest(set.segments[s].p, set.segments[s].is_line, q, &ts);
+        if (d < best) best = d, best_t = ts, want = s;
+      }
+      seg = ch_segtree_closest(&tree, &set, 0, tree.num_step_leaves, q, r2, &d2, &t);
+      found += want >= 0;
+      bad += seg != want || (want >= 0 && (d2 != best || t != best_t));
+    }
+    CHECK_MSG(bad == 0, "set %d: %d of 6000 answers differ from the scan", f, bad);
+    CHECK(f == 2 || found > 0);
+    ch_segtree_free(&tree);
+    ch_curves_free(&set);
+  }
+}
+
 /* h_groove at hand-computed points. */
 static void test_groove_values(void) {
   static const char svg[] =
@@ -407,5 +505,7 @@ int main(void) {
   RUN(test_arc_split);
   RUN(test_groove_values);
   RUN(test_field_vs_scan);
+  RUN(test_mixed_box_sizes);
+  RUN(test_segtree_vs_scan);
   TEST_MAIN_END();
 }

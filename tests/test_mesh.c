@@ -379,8 +379,13 @@ static void test_hostile_inputs(void) {
   expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                       "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                      "3 0 1 2 4 0 0 1 0\n",
+                      "ply", "face 0: 4 texcoord values for 3 corners (want 2 per corner)");
+  expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "property list uchar float texcoords\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
                       "3 0 1 2 6 0 0 1 0 0 1\n",
-                      "ply", "list property 'texcoord' of element face is not supported");
+                      "ply", "list property 'texcoords' of element face is not supported");
   expect_memory_error("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                       "end_header\n0 0 0\n1 0 0\n0 1 nan\n3 0 1 2\n",
@@ -779,18 +784,23 @@ static void test_ply_round_trip(void) {
   CHECK(ch_mesh_write_ply(out2, &a, &err) == CH_OK);
   CHECK(files_equal(out1, out2));
   REQUIRE(ch_mesh_read(out1, &b, &err) == CH_OK);
-  /* Each cube position carries three normals: split into 8 + 16 vertices. */
-  CHECK_MSG(b.num_positions == 24, "%d", b.num_positions);
+  /* One vertex per position, so the cube stays closed although each corner
+   * has its own UV (the face texcoord lists) and three normals meet there
+   * (left out: PLY has no per-corner normals). */
+  CHECK_MSG(b.num_positions == 8, "%d", b.num_positions);
   CHECK(b.num_faces == a.num_faces && b.num_corners == a.num_corners);
   CHECK(memcmp(b.positions, a.positions, sizeof(double) * 3 * 8) == 0);
+  CHECK(memcmp(b.corner_position, a.corner_position, sizeof(int) * (size_t)a.num_corners) == 0);
+  CHECK(!b.corner_normal);
   int same = 1;
   for (int c = 0; c < a.num_corners; c++) {
     same &= memcmp(corner_pos(&a, c), corner_pos(&b, c), 3 * sizeof(double)) == 0;
     same &= memcmp(corner_uv(&a, c), corner_uv(&b, c), 2 * sizeof(double)) == 0;
-    same &= memcmp(&a.normals[3 * a.corner_normal[c]], &b.normals[3 * b.corner_normal[c]],
-                   3 * sizeof(double)) == 0;
   }
   CHECK(same);
+  ch_mesh_report rb;
+  REQUIRE(validate(&b, &rb, NULL) == CH_OK);
+  CHECK_MSG(rb.num_boundary_edges == 0, "%d boundary edges", rb.num_boundary_edges);
   ch_mesh_free(&a);
   ch_mesh_free(&b);
 
@@ -806,6 +816,69 @@ static void test_ply_round_trip(void) {
   CHECK_NEAR(r.uv_coverage, 1.0, 1e-3);
   ch_mesh_free(&a);
   ch_mesh_free(&b);
+}
+
+static uint32_t le32(const unsigned char *p) {
+  return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static float lef32(const unsigned char *p) {
+  uint32_t u = le32(p);
+  float f;
+  memcpy(&f, &u, 4);
+  return f;
+}
+
+/* glTF binary: the container's lengths, then every triangle corner read
+ * back through the index buffer equals the OBJ's corner (float32). */
+static void test_glb(void) {
+  ch_mesh a;
+  ch_error err = new_error(NULL);
+  REQUIRE(read_data("cube.obj", &a, NULL) == CH_OK);
+  const char *out1 = tmp_path("cube1.glb"), *out2 = tmp_path("cube2.glb");
+  CHECK_MSG(ch_mesh_write_glb(out1, &a, &err) == CH_OK, "%s", err.message);
+  CHECK(ch_mesh_write_glb(out2, &a, &err) == CH_OK);
+  CHECK(files_equal(out1, out2));
+  FILE *fp = fopen(out1, "rb");
+  REQUIRE(fp);
+  unsigned char buf[8192];
+  size_t n = fread(buf, 1, sizeof buf, fp);
+  fclose(fp);
+  REQUIRE(n > 28 && n < sizeof buf);
+  CHECK(memcmp(buf, "glTF", 4) == 0 && le32(buf + 4) == 2 && le32(buf + 8) == n);
+  uint32_t jlen = le32(buf + 12);
+  CHECK(jlen % 4 == 0 && memcmp(buf + 16, "JSON", 4) == 0);
+  REQUIRE(20 + jlen + 8 <= n);
+  const unsigned char *bh = buf + 20 + jlen, *bin = bh + 8;
+  CHECK(memcmp(bh + 4, "BIN\0", 4) == 0);
+  /* 8 positions with 3 normals each: 24 vertices; 6 quads: 36 indices. */
+  uint32_t nv = 24, ni = 36;
+  CHECK_MSG(le32(bh) == nv * 12 + nv * 12 + nv * 8 + ni * 4, "BIN %u bytes", le32(bh));
+  CHECK(20 + jlen + 8 + le32(bh) == n);
+  CHECK(strstr((const char *)buf + 20, "\"TEXCOORD_0\":2") != NULL);
+  const unsigned char *pos = bin, *nrm = bin + 12 * nv, *uv = nrm + 12 * nv, *idx = uv + 8 * nv;
+  int bad = 0, k = 0;
+  for (int f = 0; f < a.num_faces; f++)
+    for (int c = a.face_start[f] + 1; c + 1 < a.face_start[f + 1]; c++) {
+      int corners[3] = {a.face_start[f], c, c + 1};
+      for (int j = 0; j < 3; j++, k++) {
+        uint32_t v = le32(idx + 4 * k);
+        int oc = corners[j];
+        if (v >= nv) {
+          bad++;
+          continue;
+        }
+        for (int d = 0; d < 3; d++) {
+          bad += lef32(pos + 12 * v + 4 * d) != (float)corner_pos(&a, oc)[d];
+          bad += lef32(nrm + 12 * v + 4 * d) != (float)a.normals[3 * a.corner_normal[oc] + d];
+        }
+        bad += lef32(uv + 8 * v) != (float)corner_uv(&a, oc)[0];
+        bad += lef32(uv + 8 * v + 4) != (float)(1.0 - corner_uv(&a, oc)[1]);
+      }
+    }
+  CHECK(k == (int)ni);
+  CHECK_MSG(bad == 0, "%d values differ", bad);
+  ch_mesh_free(&a);
 }
 
 static void test_write_errors(void) {
@@ -848,8 +921,10 @@ int main(void) {
   RUN(test_obj_round_trip);
   RUN(test_obj_numbers);
   RUN(test_ply_round_trip);
+  RUN(test_glb);
   RUN(test_write_errors);
-  const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply"};
+  const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply",
+                        "cube1.glb",  "cube2.glb"};
   for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) remove(tmp_path(made[i]));
   rmdir(tmp_dir);
   TEST_MAIN_END();

@@ -33,6 +33,57 @@ else
   fail "study of box_groove.json failed: $(cat "$tmp/stderr")"
 fi
 
+# 1b. A box groove across a raised step plateau, seen from 0.2 above the
+#    plane: its exact mesh (coordinates such as 0.58 and 0.8 are not floats,
+#    so the mesh reader puts its walls up to 3e-8 off the curves) and
+#    chisel's snapped mesh have the truth's classes; walls once classed by
+#    probes 1e-8 apart were groove walls where the step inside the groove's
+#    floor is (0.44% of the pixels seen along the groove).
+checks=$((checks + 1))
+"$chisel" displace "$models/plane.obj" "$data/plateaus.svg" -o "$tmp/plateaus_snapped.obj" --target-tris 30000 \
+  2>/dev/null || fail "displace plateaus"
+sed 's#"plateaus.svg"#"'"$data"'/plateaus.svg"#; s#"plateaus.obj"}#"'"$data"'/plateaus.obj"},\n    {"name": "snapped", "mesh": "plateaus_snapped.obj"}#' \
+  "$data/plateaus.json" >"$tmp/plateaus.json"
+if "$chisel" study "$tmp/plateaus.json" -o "$tmp/plateaus" >"$tmp/stdout" 2>"$tmp/stderr"; then
+  check [ "$(tail -n +2 "$tmp/plateaus/summary.csv" | wc -l)" = 4 ]
+  bad=$(tail -n +2 "$tmp/plateaus/summary.csv" | awk -F, '$2 == "exact" && ($5 != 0 || $7 != 0 || $8 > 1e-8 || $10 > 1e-3)' | wc -l)
+  check [ "$bad" = 0 ]
+  bad=$(tail -n +2 "$tmp/plateaus/summary.csv" | awk -F, '$2 == "snapped" && ($5 > 0.02 || $7 != 0)' | wc -l)
+  check [ "$bad" = 0 ]
+  # Both views see walls of both kinds.
+  check grep -q '"groove_pixels":	[1-9]' "$tmp/plateaus/summary.json"
+else
+  fail "study of plateaus failed: $(cat "$tmp/stderr")"
+fi
+
+# 1c. Texture methods that move hits, on the box groove: the groove
+#    texture is the truth's surface (walls, floor, shadows in texture
+#    space; its curves are floats, 3e-8 off), relief mapping on a 256^2 map
+#    is not; both report their bytes.
+sed 's#"mesh": "box_groove.obj"}#"mesh": "box_groove.obj"},\n    {"name": "g16", "mesh": "'"$models"'/plane.obj", "shader": "grooves", "resolution": 16},\n    {"name": "r256", "mesh": "'"$models"'/plane.obj", "shader": "relief", "resolution": 256, "steps": 32}#; s#"box_groove.svg"#"'"$data"'/box_groove.svg"#; s#"box_groove.obj"#"'"$data"'/box_groove.obj"#' \
+  "$data/box_groove.json" >"$tmp/textures.json"
+checks=$((checks + 1))
+if "$chisel" study "$tmp/textures.json" -o "$tmp/textures" >"$tmp/stdout" 2>"$tmp/stderr"; then
+  # 16 bytes a texel: 16^2 grid texels and 40 data texels.
+  check grep -q '^texture method g16: grooves at 16, 4736 bytes$' "$tmp/stdout"
+  check grep -q '^texture method r256: relief at 256, 262144 bytes$' "$tmp/stdout"
+  bad=$(tail -n +2 "$tmp/textures/summary.csv" |
+        awk -F, '$2 == "g16" && $1 != "oblique" && ($5 != 0 || $8 > 1e-7 || $10 > 0.01 || $13 != 0)' | wc -l)
+  check [ "$bad" = 0 ]
+  # Seen from the square's open side, rays that pass under the plane's edge
+  # into the groove miss the base mesh, so no shader sees them: at most
+  # those pixels (0.27%) differ.
+  bad=$(tail -n +2 "$tmp/textures/summary.csv" | awk -F, '$1 == "oblique" && $2 == "g16" && ($5 > 0.3 || $13 != 0)' | wc -l)
+  check [ "$bad" = 0 ]
+  # Relief mapping: sloped walls a texel wide, so more class mismatch in
+  # every view but the orthographic one from above.
+  worse=$(awk -F, '$2 == "g16" {g[$1] = $5} $2 == "r256" {r[$1] = $5} END {n = 0; for (v in g) n += r[v] > g[v]; print n}' \
+          "$tmp/textures/summary.csv")
+  check [ "$worse" -ge 2 ]
+else
+  fail "study of texture methods failed: $(cat "$tmp/stderr")"
+fi
+
 # 2. Snapped against naive at equal triangles on the glyphs.
 svg="$models/curves/glyphs.svg"
 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/snapped.obj" --target-tris 20000 2>/dev/null || fail "displace"
@@ -120,7 +171,31 @@ bad badname "badname.json: views[0]: \"name\" must be" \
 bad nouv "nouv.obj: the mesh has no texture coordinates" \
   '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "nouv.obj"}]}'
 bad shader "shader.json: methods[0].shader: unknown shader" \
-  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "a.obj", "shader": "relief"}]}'
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "a.obj", "shader": "parallax"}]}'
+# Texture methods: their parameters, and curves they cannot hold.
+plane="$models/plane.obj"
+bad nores 'nores.json: methods[0].resolution: missing (shader "grooves"' \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "g", "mesh": "'"$plane"'", "shader": "grooves"}]}'
+bad nores2 'nores2.json: methods[1].resolution: missing (shader "pom"' \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "g", "mesh": "'"$plane"'", "shader": "grooves",
+    "resolution": 64}, {"name": "p", "mesh": "'"$plane"'", "shader": "pom", "steps": 16}]}'
+bad gres 'gres.json: methods[0].resolution: expected an integer in [1, 4096]' \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "g", "mesh": "'"$plane"'", "shader": "grooves",
+    "resolution": 5000}]}'
+bad rsteps 'rsteps.json: methods[0].steps: expected an integer in [1, 4096]' \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "r", "mesh": "'"$plane"'", "shader": "relief",
+    "resolution": 256, "steps": 0}]}'
+bad gsteps 'gsteps.json: methods[0].steps: only for "shader": "relief" or "pom"' \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "g", "mesh": "'"$plane"'", "shader": "grooves",
+    "resolution": 64, "steps": 8}]}'
+bad meshres 'meshres.json: methods[0].resolution: only for "shader": "grooves", "relief" or "pom"' \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "m", "mesh": "'"$plane"'", "resolution": 64}]}'
+bad gsteps2 "gsteps2.json: methods[0] ('g'): $models/curves/relief.svg: <path> 'ground' (line 13): a step curve, which a groove texture cannot hold" \
+  '{"curves": "'"$models/curves/relief.svg"'", "views": ['"$view"'], "methods": [{"name": "g", "mesh": "'"$plane"'",
+    "shader": "grooves", "resolution": 64}]}'
+bad gcell "gcell.json: methods[0] ('g'): $svg: groove texture: cell (0, 0) (u 0..1, v 0..1) is crossed by" \
+  '{"curves": "'"$svg"'", "views": ['"$view"'], "methods": [{"name": "g", "mesh": "'"$plane"'",
+    "shader": "grooves", "resolution": 1}]}'
 bad nosvg "missing.svg" '{"curves": "missing.svg", "views": ['"$view"']}'
 bad orbit0 "orbit0.json: views[0].orbit" \
   '{"curves": "'"$svg"'", "views": [{"name": "v", "eye": [0.5, -1, 1], "target": [0.5, 0.5, 0], "orbit": 0}]}'

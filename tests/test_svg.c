@@ -2,6 +2,8 @@
  * inheritance and the viewBox mapping on valid input; one clear message for
  * every malformed file in data/svg/bad. */
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ch_bezier.h"
@@ -236,9 +238,13 @@ static void test_malformed_files(void) {
       {"fractional_priority.svg", "not an integer"},
       {"negative_blur.svg", "negative data-blur"},
       {"bad_length.svg", "is not a length"},
-      {"billion_laughs.svg", "bad XML"},
+      {"billion_laughs.svg", "more than 10000 entity references"},
+      {"bad_encoding.svg", "bad XML: input conversion failed"},
+      {"not_utf8.svg", "Input is not proper UTF-8, indicate encoding !; Bytes: 0xFF 0xFE"},
       {"external_entity.svg", "external entity"},
-      {"deep_nesting.svg", "bad XML"},
+      {"deep_nesting.svg", "<g> (line 1): elements nested deeper than 256 levels"},
+      {"huge_entity.svg", "entities expand to more than 1048576 bytes"},
+      {"far_viewbox.svg", "'far' (line 1): coordinates far outside the texture (|u| or |v| above 1e+06"},
   };
   for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
     char path[512];
@@ -261,6 +267,53 @@ static void test_malformed_files(void) {
   CHECK(strstr(err.message, "/nonexistent/x.svg") != NULL);
 }
 
+/* Files beyond libxml2's default limits but within chisel's: a path whose d
+ * attribute is over 10 MB (libxml2's cap on one text node without its huge
+ * mode) parses, with every segment; elements nest up to CH_SVG_MAX_DEPTH
+ * levels and one more is refused; an entity expansion in text content (not
+ * expanded by the reader) passes with the ignored element's warning. */
+static void test_large_and_deep(void) {
+  enum { SEGMENTS = 900000 };
+  size_t cap = 200 + (size_t)SEGMENTS * 16, len = 0;
+  char *text = malloc(cap);
+  REQUIRE(text != NULL);
+  len += (size_t)snprintf(text + len, cap - len,
+                          "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'><path d='M 0 0");
+  for (int i = 1; i <= SEGMENTS; i++) /* a zigzag, so no two segments are collinear */
+    len += (size_t)snprintf(text + len, cap - len, " L %.3f %d", 100.0 * i / SEGMENTS, i % 2 ? 50 : 49);
+  len += (size_t)snprintf(text + len, cap - len, "'/></svg>");
+  CHECK(len > 10u * 1000 * 1000);
+  ch_curve_set s;
+  ch_error err = {0};
+  CHECK_MSG(ch_curves_parse_svg(text, len, "long.svg", &s, &err) == CH_OK, "%s", err.message);
+  CHECK(s.num_segments == SEGMENTS);
+  if (s.num_segments == SEGMENTS) CHECK_NEAR(s.segments[SEGMENTS - 1].p[2][0], 1.0, 1e-12);
+  ch_curves_free(&s);
+  for (int depth = CH_SVG_MAX_DEPTH; depth <= CH_SVG_MAX_DEPTH + 1; depth++) {
+    len = 0;
+    len += (size_t)snprintf(text + len, cap - len, "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 1 1'>");
+    for (int i = 1; i < depth; i++) len += (size_t)snprintf(text + len, cap - len, "<g>");
+    len += (size_t)snprintf(text + len, cap - len, "<path d='M 0 0 L 1 1'/>");
+    for (int i = 1; i < depth; i++) len += (size_t)snprintf(text + len, cap - len, "</g>");
+    len += (size_t)snprintf(text + len, cap - len, "</svg>");
+    memset(&err, 0, sizeof err);
+    ch_status st = ch_curves_parse_svg(text, len, "deep.svg", &s, &err);
+    if (depth == CH_SVG_MAX_DEPTH) {
+      CHECK_MSG(st == CH_OK && s.num_curves == 1, "%d levels: %s", depth, err.message);
+      ch_curves_free(&s);
+    } else {
+      CHECK(st == CH_ERR_INPUT && strstr(err.message, "nested deeper than 256 levels") != NULL);
+    }
+  }
+  free(text);
+  char path[512];
+  snprintf(path, sizeof path, "%s/svg/laughs_in_text.svg", CHISEL_TEST_DATA);
+  memset(&err, 0, sizeof err);
+  CHECK_MSG(ch_curves_read_svg(path, &s, &err) == CH_OK, "%s", err.message);
+  CHECK(s.num_curves == 1 && err.num_warnings == 1);
+  ch_curves_free(&s);
+}
+
 /* Every bundled curve set parses without warnings. */
 static void test_bundled_curves(void) {
   static const char *files[] = {"glyphs", "ornament", "frame", "relief", "star", "spiral", "bricks", "panels"};
@@ -281,6 +334,7 @@ int main(void) {
   RUN(test_shapes_and_sides);
   RUN(test_transforms_and_inheritance);
   RUN(test_malformed_files);
+  RUN(test_large_and_deep);
   RUN(test_bundled_curves);
   TEST_MAIN_END();
 }

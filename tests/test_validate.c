@@ -450,6 +450,82 @@ static void test_normal_map_shader(void) {
   world_free(&w);
 }
 
+/* A wall hit's class does not hang on where exactly the mesh put its
+ * wall: on a box groove across a raised step plateau (u 0.3..0.7, v
+ * 0.2..0.8, +0.02; groove u 0.58..0.62, depth 0.01), points off each wall
+ * by a float's rounding (3e-8), by a vertex placed a little off (2e-6) and
+ * by a chord's sagitta (5e-5), on either side, along the wall's normal, are
+ * classed as that wall: the groove's walls on and off the plateau, the
+ * plateau's step wall, and the step wall inside the groove's floor. */
+static void test_wall_classes(void) {
+  world w;
+  REQUIRE(world_load(&w,
+                     "<rect x='30' y='20' width='40' height='60' data-kind='step' data-left='0' data-right='0.02'/>"
+                     "<path d='M 60 -10 L 60 110' data-profile='box' data-width='4' data-depth='0.01'/>",
+                     256, 0));
+  static const struct {
+    double uv[2], n[2];
+    ch_vis_class cls;
+    int id;
+  } walls[] = {
+      {{0.58, 0.5}, {1, 0}, CH_VIS_GROOVE_WALL, 1},  /* groove wall on the plateau */
+      {{0.62, 0.1}, {-1, 0}, CH_VIS_GROOVE_WALL, 1}, /* off it */
+      {{0.45, 0.8}, {0, -1}, CH_VIS_STEP_WALL, 0},   /* the plateau's edge */
+      {{0.3, 0.5}, {1, 0}, CH_VIS_STEP_WALL, 0},
+      {{0.6, 0.8}, {0, -1}, CH_VIS_STEP_WALL, 0},    /* the step inside the groove's floor */
+      {{0.6, 0.2}, {0, 1}, CH_VIS_STEP_WALL, 0},
+  };
+  static const double offsets[] = {0.0, 3e-8, -3e-8, 2e-6, -2e-6, 5e-5, -5e-5};
+  int wrong = 0;
+  for (size_t i = 0; i < sizeof walls / sizeof walls[0]; i++)
+    for (size_t k = 0; k < sizeof offsets / sizeof offsets[0]; k++) {
+      double uv[2] = {walls[i].uv[0] + offsets[k] * walls[i].n[0], walls[i].uv[1] + offsets[k] * walls[i].n[1]};
+      ch_vis_class cls;
+      int id;
+      ch_truth_classify_wall(w.truth, uv, walls[i].n, &cls, &id);
+      if (cls != walls[i].cls || id != walls[i].id) {
+        wrong++;
+        fprintf(stderr, "  wall %zu off by %g: class %d id %d (want %d, %d)\n", i, offsets[k], (int)cls, id,
+                (int)walls[i].cls, walls[i].id);
+      }
+    }
+  CHECK(wrong == 0);
+  /* Away from any wall (a mesh wall where the truth has none): the old
+   * rules (groove wall inside a groove, top outside). */
+  ch_vis_class cls;
+  int id;
+  double in[2] = {0.6, 0.1}, out[2] = {0.1, 0.1}, n[2] = {1, 0};
+  ch_truth_classify_wall(w.truth, in, n, &cls, &id);
+  CHECK(cls == CH_VIS_GROOVE_WALL && id == 1);
+  ch_truth_classify_wall(w.truth, out, n, &cls, &id);
+  CHECK(cls == CH_VIS_TOP && id == -1);
+  world_free(&w);
+}
+
+/* A blurred step has no wall: h_step is smooth there, though read from
+ * float texels it moves in steps of a float's rounding (5e-10 at 0.006),
+ * which the truth must not take for walls (it did: horizontal normals on
+ * 0.5% of a blurred cloud's pixels). */
+static void test_blur_has_no_walls(void) {
+  world w;
+  REQUIRE(world_load(&w, "<circle cx='50' cy='50' r='25' data-kind='step' data-left='0.01' data-right='0' data-blur='4'/>",
+                     256, 0));
+  ch_render_camera cam = grazing();
+  ch_image img;
+  ch_error err = {0};
+  REQUIRE(ch_render(w.scene, w.truth, &cam, NULL, &img, NULL, &err) == CH_OK);
+  long walls = count_class(&img, CH_VIS_STEP_WALL), flat = 0, hits = 0;
+  const float *nz = ch_image_plane(&img, CH_RENDER_NZ), *cov = ch_image_plane(&img, CH_RENDER_COVERAGE);
+  for (int p = 0; p < img.width * img.height; p++) {
+    hits += cov[p] > 0.0f;
+    flat += cov[p] > 0.0f && nz[p] < 0.5f;
+  }
+  fprintf(stderr, "  blurred step: %ld of %ld pixels step wall, %ld steeper than 60 degrees\n", walls, hits, flat);
+  CHECK(hits > 1000 && walls == 0 && flat == 0);
+  ch_image_free(&img);
+  world_free(&w);
+}
+
 int main(void) {
   RUN(test_metrics_by_hand);
   RUN(test_normal_map_shader);
@@ -457,6 +533,8 @@ int main(void) {
   RUN(test_v_groove_from_above);
   RUN(test_tilted_views);
   RUN(test_mesh_is_truth);
+  RUN(test_wall_classes);
+  RUN(test_blur_has_no_walls);
   RUN(test_convergence);
   RUN(test_threads_same_bytes);
   TEST_MAIN_END();

@@ -21,3 +21,7 @@ foreach(t test_validate_headers_c test_validate_headers_cpp)
   target_compile_options(${t} PRIVATE -Werror)
   add_test(NAME ${t} COMMAND ${t})
 endforeach()
+# Path-based groove textures (shade/ch_gtex) against the groove field and
+# the Embree-traced truth; relief mapping and POM (shade/ch_relief).
+ch_add_test(NAME test_gtex SOURCES test_gtex.c LIBS chisel_validate OpenMP::OpenMP_C m)
+ch_add_test(NAME test_relief SOURCES test_relief.c LIBS chisel_shade OpenMP::OpenMP_C m)

@@ -711,6 +711,9 @@ static ch_status check_write_args(const char *path, const ch_image *img,
       return ch_error_set(err, CH_ERR_INPUT, "%s: unknown pixel type %d for channel '%s'", path,
                           (int)t, img->names[c]);
   }
+  if (d->luminance && (ch_image_find(img, d->luminance) < 0 || ch_image_find(img, "Y") >= 0 ||
+                       img->num_channels >= CH_IMAGE_MAX_CHANNELS))
+    return ch_error_set(err, CH_ERR_INPUT, "%s: cannot copy channel '%s' to Y", path, d->luminance);
   if (d->num_attributes < 0 || (d->num_attributes > 0 && !d->attributes))
     return ch_error_set(err, CH_ERR_INPUT, "%s: bad attribute list", path);
   for (int i = 0; i < d->num_attributes; i++) {
@@ -754,6 +757,13 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
       return exr_fail(io, err, rv, CH_ERR_INPUT, what);
     }
   }
+  if (d->luminance) {
+    ch_exr_type t = d->channel_types ? d->channel_types[ch_image_find(img, d->luminance)] : d->type;
+    io_reset_message(io);
+    rv = exr_add_channel(ctx, part, "Y", t == CH_EXR_HALF ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
+                         EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv != EXR_ERR_SUCCESS) return exr_fail(io, err, rv, CH_ERR_INPUT, "cannot add channel 'Y'");
+  }
   for (int i = 0; i < d->num_attributes; i++) {
     io_reset_message(io);
     rv = exr_attr_set_string(ctx, part, d->attributes[i].name, d->attributes[i].value);
@@ -773,6 +783,16 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
     return exr_fail(io, err, rv ? rv : EXR_ERR_UNKNOWN, CH_ERR_INTERNAL,
                     "cannot get scanlines per chunk");
 
+  /* Y: the luminance channel, mapped when asked (one plane). */
+  float *y_plane = NULL;
+  int lum = d->luminance ? ch_image_find(img, d->luminance) : -1;
+  if (lum >= 0 && d->luminance_scale != 0.0) {
+    size_t n = (size_t)img->width * (size_t)img->height;
+    y_plane = malloc(n * sizeof *y_plane);
+    if (!y_plane) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", io->name);
+    const float *src = ch_image_plane(img, lum);
+    for (size_t i = 0; i < n; i++) y_plane[i] = (float)(d->luminance_offset + d->luminance_scale * src[i]);
+  }
   exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
   ch_status st = CH_OK;
   int initialized = 0;
@@ -793,13 +813,15 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
     for (int k = 0; k < enc.channel_count; k++) {
       exr_coding_channel_info_t *ch = &enc.channels[k];
       int c = ch->channel_name ? ch_image_find(img, ch->channel_name) : -1;
+      int is_y = c < 0 && lum >= 0 && ch->channel_name && !strcmp(ch->channel_name, "Y");
+      if (is_y) c = lum;
       if (c < 0) {
         st = ch_error_set(err, CH_ERR_INTERNAL, "%s: channel '%s' lost while writing", io->name,
                           ch->channel_name ? ch->channel_name : "?");
         break;
       }
-      ch->encode_from_ptr =
-          (const uint8_t *)(ch_image_plane(img, c) + (size_t)y * (size_t)img->width);
+      ch->encode_from_ptr = (const uint8_t *)((is_y && y_plane ? y_plane : ch_image_plane(img, c)) +
+                                              (size_t)y * (size_t)img->width);
       ch->user_pixel_stride = (int32_t)sizeof(float);
       ch->user_line_stride = (int32_t)(sizeof(float) * (size_t)img->width);
       ch->user_data_type = EXR_PIXEL_FLOAT;
@@ -820,6 +842,7 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
     }
   }
   if (initialized) exr_encoding_destroy(ctx, &enc);
+  free(y_plane);
   return st;
 }
 
@@ -845,8 +868,7 @@ ch_status ch_exr_write(const char *path, const ch_image *img, const ch_exr_write
   if (rv != EXR_ERR_SUCCESS) {
     st = exr_fail(&io, err, rv, CH_ERR_INTERNAL, "cannot start writing");
     if (ctx) exr_finish(&ctx);
-    ch_atomic_abort(&f);
-    return st;
+    return ch_atomic_fail(&f, st, err);
   }
   st = write_body(ctx, &io, img, d, err);
   io_reset_message(&io);
@@ -855,9 +877,6 @@ ch_status ch_exr_write(const char *path, const ch_image *img, const ch_exr_write
     st = exr_fail(&io, err, rv, CH_ERR_INTERNAL, "cannot finish file");
   if (st == CH_OK && io.os_errno)
     st = ch_error_set(err, CH_ERR_IO, "%s: write error: %s", path, strerror(io.os_errno));
-  if (st != CH_OK) {
-    ch_atomic_abort(&f);
-    return st;
-  }
+  if (st != CH_OK) return ch_atomic_fail(&f, st, err); /* a failed write names its errno */
   return ch_atomic_commit(&f, err);
 }

@@ -32,6 +32,12 @@ typedef struct ch_exr_write_desc {
   ch_exr_compression compression;
   const ch_exr_attribute *attributes;
   int num_attributes;
+  const char *luminance;             /* NULL, or a channel also written as Y:
+                                        the grey channel RGBA readers show
+                                        (ImageMagick, Blender's image loader,
+                                        viewers that know R G B A and Y only) */
+  double luminance_offset, luminance_scale; /* Y = offset + scale * that
+                                        channel; scale 0 means a plain copy */
 } ch_exr_write_desc;
 
 /* Writes img atomically (temporary file + rename). desc may be NULL. Channel

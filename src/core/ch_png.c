@@ -65,8 +65,8 @@ ch_status ch_png_write(const char *path, int width, int height, int channels,
   }
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    ch_atomic_abort(&f);
-    return ch_error_set(err, CH_ERR_IO, "%s: cannot write PNG: %s", path, msg.text);
+    /* libpng says "Write Error"; the file knows which */
+    return ch_atomic_fail(&f, ch_error_set(err, CH_ERR_IO, "%s: cannot write PNG: %s", path, msg.text), err);
   }
   png_init_io(png, f.fp);
   png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 8,
@@ -77,6 +77,72 @@ ch_status ch_png_write(const char *path, int width, int height, int channels,
   for (int y = 0; y < height; y++) png_write_row(png, pixels + (size_t)y * stride);
   png_write_end(png, NULL);
   png_destroy_write_struct(&png, &info);
+  return ch_atomic_commit(&f, err);
+}
+
+ch_status ch_png_write_height16(const char *path, const float *plane, int width, int height, double *scale,
+                               ch_error *err) {
+  if (!path || !plane || width < 1 || height < 1 || width > CH_IMAGE_MAX_SIDE || height > CH_IMAGE_MAX_SIDE)
+    return ch_error_set(err, CH_ERR_INPUT, "%s: cannot write a %dx%d height PNG", path ? path : "(png)", width,
+                        height);
+  size_t n = (size_t)width * (size_t)height;
+  double s = 0.0;
+  for (size_t i = 0; i < n; i++)
+    if (isfinite(plane[i])) s = fmax(s, fabs((double)plane[i]));
+  uint8_t *rows = malloc(2 * n);
+  if (!rows) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+  /* 0.5 is h = 0, 0 and 1 are -s and +s: Blender's Displace modifier reads
+   * it with midlevel 0.5 and strength 2s. Big-endian samples (PNG). */
+  for (size_t i = 0; i < n; i++) {
+    double x = s > 0.0 && isfinite(plane[i]) ? 0.5 + 0.5 * plane[i] / s : 0.5;
+    long q = lround(65535.0 * (x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x));
+    rows[2 * i] = (uint8_t)(q >> 8);
+    rows[2 * i + 1] = (uint8_t)(q & 255);
+  }
+  char scale_text[64], note[256];
+  snprintf(scale_text, sizeof scale_text, "%.9g", s);
+  snprintf(note, sizeof note,
+           "h = (value / 65535 - 0.5) * %.9g; Blender Displace: midlevel 0.5, strength %.9g, colour space Non-Color",
+           2.0 * s, 2.0 * s);
+  ch_atomic_file f;
+  ch_status st = ch_atomic_open(&f, path, err);
+  if (st != CH_OK) {
+    free(rows);
+    return st;
+  }
+  png_msg msg = {{0}};
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &msg, on_png_error, on_png_warning);
+  png_infop info = png ? png_create_info_struct(png) : NULL;
+  if (!png || !info) {
+    png_destroy_write_struct(&png, &info);
+    ch_atomic_abort(&f);
+    free(rows);
+    return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory for the PNG writer", path);
+  }
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    ch_atomic_abort(&f);
+    free(rows);
+    return ch_error_set(err, CH_ERR_IO, "%s: cannot write PNG: %s", path, msg.text);
+  }
+  png_init_io(png, f.fp);
+  png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_text text[2];
+  memset(text, 0, sizeof text);
+  text[0].compression = PNG_TEXT_COMPRESSION_NONE;
+  text[0].key = "chisel:height_scale";
+  text[0].text = scale_text;
+  text[1].compression = PNG_TEXT_COMPRESSION_NONE;
+  text[1].key = "Comment";
+  text[1].text = note;
+  png_set_text(png, info, text, 2);
+  png_write_info(png, info);
+  for (int y = 0; y < height; y++) png_write_row(png, rows + (size_t)y * 2 * (size_t)width);
+  png_write_end(png, NULL);
+  png_destroy_write_struct(&png, &info);
+  free(rows);
+  if (scale) *scale = s;
   return ch_atomic_commit(&f, err);
 }
 

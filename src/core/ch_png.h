@@ -29,6 +29,15 @@ ch_status ch_png_read(const char *path, int *width, int *height, int *channels,
 ch_status ch_png_write_height(const char *path, const float *plane, int width,
                               int height, ch_error *err);
 
+/* A height map for tools that read only integer images: 16-bit grey, row 0
+ * on top, value 0.5 + h / (2 s) of full scale with s = max |h| (so 0.5 is
+ * h = 0: Blender's Displace modifier with midlevel 0.5 and strength 2 s
+ * gives back h, to 1/65535 of 2 s). The PNG carries s in a tEXt chunk
+ * "chisel:height_scale" and the recipe in "Comment"; *scale (may be NULL)
+ * gets s. Non-finite values are written as 0.5. Atomic. */
+ch_status ch_png_write_height16(const char *path, const float *plane, int width, int height, double *scale,
+                               ch_error *err);
+
 /* Maps x in [0,1] to an sRGB colour of a perceptually ordered map (turbo-like)
  * for error heat maps. */
 void ch_colormap_heat(double x, uint8_t rgb[3]);

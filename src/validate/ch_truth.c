@@ -30,6 +30,7 @@ struct ch_truth {
   double *lo, *hi;          /* per cell, row-major (row = v index) */
   double *tile_lo, *tile_hi;
   double zmin, zmax;
+  double jump_eps;          /* smallest jump of h taken as a wall */
   ch_grid seg_grid;         /* groove segments grown by w/2 + 2 radius */
   double (*seg_boxes)[4];
   unsigned char *symmetric; /* per curve: P(t) = P(-t) */
@@ -323,6 +324,11 @@ ch_status ch_truth_create(const ch_height *height, const ch_truth_desc *desc, ch
       T->zmin = fmin(T->zmin, lo);
       T->zmax = fmax(T->zmax, hi);
     }
+  /* h_step comes from float texels: it moves in steps of one float ulp of
+   * its values (5e-10 at 0.006) even where it is smooth (blurred curves),
+   * and such a step is no wall. A millionth of the surface's height range
+   * is 16 ulps of its largest value and far below any drawn jump. */
+  T->jump_eps = 1e-6 * fmax(T->zmax - T->zmin, 1e-9);
   *out = T;
   return CH_OK;
 fail:
@@ -402,8 +408,10 @@ static int groove_closest(const ch_truth *T, int curve, const double q[2], int *
 }
 
 /* The unit UV direction across curve `curve` at q (away from it): radial
- * from the closest point, or the left normal where q is on the curve. */
-static void across_curve(const ch_truth *T, int curve, const double q[2], double n[2]) {
+ * from the closest point, or the left normal where q is on the curve; for
+ * a wall (wall = 1) beyond a one-sided groove's open end, across the end's
+ * tangent line where the side flips. */
+static void across_curve(const ch_truth *T, int curve, const double q[2], int wall, double n[2]) {
   int seg;
   double t, cp[2];
   if (T->set->curves[curve].kind == CH_CURVE_GROOVE) {
@@ -414,6 +422,28 @@ static void across_curve(const ch_truth *T, int curve, const double q[2], double
     seg = p.segment, t = p.t, cp[0] = p.point[0], cp[1] = p.point[1];
   }
   double d[2] = {q[0] - cp[0], q[1] - cp[1]}, len = hypot(d[0], d[1]);
+  const ch_segment *sg = &T->set->segments[seg];
+  const ch_curve *cv = &T->set->curves[curve];
+  if (wall && cv->kind == CH_CURVE_GROOVE && !T->symmetric[curve] &&
+      ((t <= 0.0 && sg->prev < 0) || (t >= 1.0 && sg->next < 0))) {
+    /* Around an open end a one-sided profile's walls are circles |s| = b w
+     * (radial), but its side flips on the end's tangent line: across that
+     * line where q is on no jump circle. */
+    double cr[CH_PROFILE_MAX_POINTS + 2];
+    int nc = ch_profile_creases(&cv->profile, cr, CH_PROFILE_MAX_POINTS + 2), on_circle = 0;
+    for (int k = 0; k < nc; k++) {
+      double b = cr[k], e = 1e-9;
+      on_circle |= b != 0.0 && fabs(len - fabs(b) * cv->width) <= 1e-6 * cv->width &&
+                   fabs(ch_profile_eval(&cv->profile, b - e) - ch_profile_eval(&cv->profile, b + e)) > 1e-6;
+    }
+    if (!on_circle) {
+      double tg[2];
+      ch_bezier_tangent(sg->p, t <= 0.0 ? 0.0 : 1.0, tg);
+      n[0] = -tg[1];
+      n[1] = tg[0];
+      return;
+    }
+  }
   if (len > 1e-7) {
     n[0] = d[0] / len;
     n[1] = d[1] / len;
@@ -439,40 +469,99 @@ void ch_truth_classify(const ch_truth *T, const double uv[2], ch_vis_class *cls,
   *curve = gs.active;
 }
 
-/* The difference of the groove part and of the step part between a and b. */
-static void jumps(const ch_truth *T, const double a[2], const double b[2], double *dg, double *ds, ch_groove_sample *ga,
-                  ch_groove_sample *gb) {
-  ch_groove_field_eval(&T->height->grooves, a[0], a[1], ga);
-  ch_groove_field_eval(&T->height->grooves, b[0], b[1], gb);
-  *dg = fabs(ga->h - gb->h);
-  *ds = fabs(step_value(T, a[0], a[1], NULL) - step_value(T, b[0], b[1], NULL));
+/* One part of h at p: the groove part (filling *gs) or the step part. */
+static double part_at(const ch_truth *T, int groove, const double p[2], ch_groove_sample *gs) {
+  return groove ? ch_groove_field_eval(&T->height->grooves, p[0], p[1], gs) : step_value(T, p[0], p[1], NULL);
+}
+
+/* The jump of one part of h nearest to uv along n, within WALL_REACH.
+ * Windows [-r, r] grow by 4 from 1e-8; in the first whose ends differ,
+ * the half with the larger difference is kept down to 1e-13 UV; a jump
+ * keeps (at least a tenth of) the window's difference there, a slope
+ * does not, and jumps below jump_eps (float steps of h_step) do not
+ * count. Why a reach: a mesh's wall lies on the curve only as well as
+ * its coordinates do (float: 3e-8 at u ~ 0.6; a chord of a curved step
+ * or a vertex placed near a junction: 1e-6..5e-5), and probes closer
+ * than that stay on one side of the truth's jump. */
+#define WALL_REACH 1e-4
+typedef struct part_jump {
+  int window;                 /* the window index it was found in, or -1 */
+  double size;                /* |difference| across it */
+  double a[2], b[2];          /* the last bracket: either side of the jump */
+  ch_groove_sample ga, gb;    /* groove part: the samples at a and b */
+} part_jump;
+
+static void find_jump(const ch_truth *T, int groove, const double uv[2], const double n[2], part_jump *J) {
+  J->window = -1;
+  J->size = 0.0;
+  for (int k = 0;; k++) {
+    double r = fmin(1e-8 * pow(4.0, k), WALL_REACH), lo = -r, hi = r;
+    double pa[2] = {uv[0] + lo * n[0], uv[1] + lo * n[1]}, pb[2] = {uv[0] + hi * n[0], uv[1] + hi * n[1]};
+    ch_groove_sample ga, gb;
+    double fa = part_at(T, groove, pa, &ga), fb = part_at(T, groove, pb, &gb), d0 = fabs(fb - fa);
+    if (!(d0 > T->jump_eps)) {
+      if (r >= WALL_REACH) return;
+      continue;
+    }
+    while (hi - lo > 1e-13) {
+      double m = 0.5 * (lo + hi), pm[2] = {uv[0] + m * n[0], uv[1] + m * n[1]};
+      ch_groove_sample gm;
+      double fm = part_at(T, groove, pm, &gm);
+      if (fabs(fm - fa) >= fabs(fb - fm)) {
+        hi = m, fb = fm, gb = gm;
+        memcpy(pb, pm, sizeof pm);
+      } else {
+        lo = m, fa = fm, ga = gm;
+        memcpy(pa, pm, sizeof pm);
+      }
+    }
+    double d = fabs(fb - fa);
+    if (d > T->jump_eps && d >= 0.1 * d0) {
+      J->window = k;
+      J->size = d;
+      memcpy(J->a, pa, sizeof pa);
+      memcpy(J->b, pb, sizeof pb);
+      J->ga = ga;
+      J->gb = gb;
+      return;
+    }
+    if (r >= WALL_REACH) return;
+  }
 }
 
 void ch_truth_classify_wall(const ch_truth *T, const double uv[2], const double n_uv[2], ch_vis_class *cls, int *curve) {
-  double a[2] = {uv[0] - 1e-7 * n_uv[0], uv[1] - 1e-7 * n_uv[1]}, b[2] = {uv[0] + 1e-7 * n_uv[0], uv[1] + 1e-7 * n_uv[1]};
-  double a2[2] = {uv[0] - 1e-8 * n_uv[0], uv[1] - 1e-8 * n_uv[1]}, b2[2] = {uv[0] + 1e-8 * n_uv[0], uv[1] + 1e-8 * n_uv[1]};
-  ch_groove_sample ga, gb, ga2, gb2;
-  double dg, ds, dg2, ds2;
-  jumps(T, a, b, &dg, &ds, &ga, &gb);
-  jumps(T, a2, b2, &dg2, &ds2, &ga2, &gb2);
-  /* A jump keeps its size as the probes close in; a slope shrinks. */
-  int jump_g = dg2 > 0.5 * dg && dg2 > 1e-12, jump_s = ds2 > 0.5 * ds && ds2 > 1e-12;
-  int deeper = fabs(ga.h) >= fabs(gb.h) ? ga.active : gb.active;
+  part_jump g, s;
+  find_jump(T, 1, uv, n_uv, &g);
+  find_jump(T, 0, uv, n_uv, &s);
+  if (!T->height->has_steps) s.window = -1;
+  /* The nearer jump (by window); in one window, the larger. */
+  int use_g = g.window >= 0 && (s.window < 0 || g.window < s.window || (g.window == s.window && g.size >= s.size));
   int step_curve;
-  if (jump_g && (!jump_s || dg >= ds)) {
+  if (use_g) {
     *cls = CH_VIS_GROOVE_WALL;
-    *curve = deeper;
-  } else if (jump_s) {
-    step_value(T, uv[0], uv[1], &step_curve);
+    *curve = fabs(g.ga.h) >= fabs(g.gb.h) ? g.ga.active : g.gb.active;
+  } else if (s.window >= 0) {
+    double m[2] = {0.5 * (s.a[0] + s.b[0]), 0.5 * (s.a[1] + s.b[1])};
+    step_value(T, m[0], m[1], &step_curve);
     *cls = CH_VIS_STEP_WALL;
     *curve = step_curve;
-  } else if (ga.active >= 0 || gb.active >= 0) {
-    *cls = CH_VIS_GROOVE_WALL;
-    *curve = deeper >= 0 ? deeper : ga.active >= 0 ? ga.active : gb.active;
   } else {
-    step_value(T, uv[0], uv[1], &step_curve);
-    *cls = step_curve >= 0 ? CH_VIS_STEP_WALL : CH_VIS_TOP;
-    *curve = step_curve;
+    /* No jump within reach (a mesh wall where the truth has none, e.g. a
+     * steep facet near a u groove's rim): groove wall if a groove is
+     * active on either side, else step wall next to a step curve, else top. */
+    double a[2] = {uv[0] - 1e-7 * n_uv[0], uv[1] - 1e-7 * n_uv[1]}, b[2] = {uv[0] + 1e-7 * n_uv[0], uv[1] + 1e-7 * n_uv[1]};
+    ch_groove_sample ga, gb;
+    ch_groove_field_eval(&T->height->grooves, a[0], a[1], &ga);
+    ch_groove_field_eval(&T->height->grooves, b[0], b[1], &gb);
+    int deeper = fabs(ga.h) >= fabs(gb.h) ? ga.active : gb.active;
+    if (ga.active >= 0 || gb.active >= 0) {
+      *cls = CH_VIS_GROOVE_WALL;
+      *curve = deeper >= 0 ? deeper : ga.active >= 0 ? ga.active : gb.active;
+    } else {
+      step_value(T, uv[0], uv[1], &step_curve);
+      *cls = step_curve >= 0 ? CH_VIS_STEP_WALL : CH_VIS_TOP;
+      *curve = step_curve;
+    }
   }
 }
 
@@ -486,7 +575,7 @@ void ch_truth_normal(const ch_truth *T, const double uv[2], double n[3]) {
     if (slope != 0.0) {
       /* s = side |q - cp|: its gradient is the unit vector from cp, signed. */
       double ds[2];
-      across_curve(T, gs.active, uv, ds);
+      across_curve(T, gs.active, uv, 0, ds);
       double sign = gs.active_signed_distance >= 0.0 ? 1.0 : -1.0;
       int seg;
       double t, cp[2];
@@ -541,7 +630,7 @@ static void finish_hit(const ch_truth *T, const ray *R, double a, double b, doub
     }
     dh = fabs(hb - ha);
   }
-  hit->wall = dh > 0.5 * dh0 && dh > 1e-10 && R->duv_len > 0.0;
+  hit->wall = dh > 0.5 * dh0 && dh > T->jump_eps && R->duv_len > 0.0;
   double t = hit->wall ? 0.5 * (aa + bb) : (fa == fb ? a : a + (b - a) * fa / (fa - fb));
   hit->t = t;
   hit->uv[0] = R->o[0] + t * R->d[0];
@@ -558,7 +647,7 @@ static void finish_hit(const ch_truth *T, const ray *R, double a, double b, doub
   ch_vis_class cls;
   int curve;
   ch_truth_classify_wall(T, hit->uv, dn, &cls, &curve);
-  if (curve >= 0) across_curve(T, curve, hit->uv, n2);
+  if (curve >= 0) across_curve(T, curve, hit->uv, 1, n2);
   if (n2[0] * R->d[0] + n2[1] * R->d[1] > 0.0) n2[0] = -n2[0], n2[1] = -n2[1];
   hit->normal[0] = n2[0];
   hit->normal[1] = n2[1];

@@ -101,13 +101,17 @@ int ch_truth_intersect(const ch_truth *truth, const double org[3], const double 
  * not 0, floor where it is 0 (P linear pieces are flat or not exactly). */
 void ch_truth_classify(const ch_truth *truth, const double uv[2], ch_vis_class *cls, int *curve);
 
-/* The class of a vertical wall at uv whose horizontal normal is n_uv:
- * h is probed at uv -+ 1e-7 n_uv. If the groove part jumps at least as
- * much as the step part: groove wall of the active groove on the side where
- * |h_groove| is larger; if the step part jumps more: step wall of the
- * nearest step curve. Without a jump (a mesh wall where the truth has
- * none): groove wall if a groove is active on either side, else step wall
- * if a step curve is within 1e-4 UV, else top. */
+/* The class of a vertical wall at uv whose horizontal normal is n_uv: the
+ * wall of the jump of h nearest to uv along n_uv, within 1e-4 UV (a mesh's
+ * wall lies on its curve only to its coordinates' precision: float
+ * coordinates put it 3e-8 off, chords of curved walls more), found per
+ * part of h (groove, step) in windows growing from 1e-8 and located to
+ * 1e-13 by bisection. A groove jump: groove wall of the active groove on
+ * the side where |h_groove| is larger; a step jump: step wall of the
+ * nearest step curve; both: the nearer, then the larger. Without a jump
+ * within reach (a mesh wall where the truth has none): groove wall if a
+ * groove is active on either side, else step wall if a step curve is
+ * within 1e-4 UV, else top. */
 void ch_truth_classify_wall(const ch_truth *truth, const double uv[2], const double n_uv[2], ch_vis_class *cls,
                             int *curve);
 

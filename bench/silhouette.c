@@ -1,0 +1,53 @@
+/* chisel-silhouette TRUTH.exr METHOD.exr: for two study renders of one view
+ * (V.truth.exr, V.M.exr), the pixels the truth sees and the method does not
+ * (coverage 0: rays that pass the base mesh's outline, such as those under
+ * the plane's edge into a groove left open at the square's border, which no
+ * per-pixel method on the base sees), and the class mismatch without them
+ * (all pixels, the truth's groove pixels), as ch_metrics counts it. One
+ * line: pixels silhouette_misses class_pct groove_pct. */
+#include <stdio.h>
+
+#include "ch_exr.h"
+#include "ch_render.h"
+#include "ch_truth.h"
+
+static const float *plane(const ch_image *img, int layer) {
+  int c = ch_image_find(img, ch_render_layer_names[layer]);
+  return c < 0 ? NULL : ch_image_plane(img, c);
+}
+
+int main(int argc, char **argv) {
+  if (argc != 3) {
+    fprintf(stderr, "usage: chisel-silhouette TRUTH.exr METHOD.exr\n");
+    return 2;
+  }
+  ch_image a, b;
+  ch_error err = {0};
+  if (ch_exr_read(argv[1], &a, &err) || ch_exr_read(argv[2], &b, &err)) {
+    fprintf(stderr, "chisel-silhouette: %s\n", err.message);
+    return 2;
+  }
+  const float *ca = plane(&a, CH_RENDER_CLASS), *cb = plane(&b, CH_RENDER_CLASS);
+  const float *va = plane(&a, CH_RENDER_COVERAGE), *vb = plane(&b, CH_RENDER_COVERAGE);
+  if (!ca || !cb || !va || !vb || a.width != b.width || a.height != b.height) {
+    fprintf(stderr, "chisel-silhouette: not two study renders of one view\n");
+    return 2;
+  }
+  long n = (long)a.width * a.height, miss = 0, kept = 0, bad = 0, groove = 0, groove_bad = 0;
+  for (long p = 0; p < n; p++) {
+    if (va[p] > 0.0f && vb[p] == 0.0f) {
+      miss++;
+      continue;
+    }
+    kept++;
+    int ta = (int)ca[p], tb = (int)cb[p];
+    bad += ta != tb;
+    int g = ta == CH_VIS_GROOVE_WALL || ta == CH_VIS_GROOVE_FLOOR;
+    groove += g;
+    groove_bad += g && ta != tb;
+  }
+  printf("%ld %ld %.6f %.6f\n", n, miss, kept ? 100.0 * bad / kept : 0.0, groove ? 100.0 * groove_bad / groove : 0.0);
+  ch_image_free(&a);
+  ch_image_free(&b);
+  return 0;
+}
