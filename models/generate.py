@@ -1035,6 +1035,176 @@ def svg_panels():
                         [E('g', *kids, data_kind='groove', data_profile='v')])
 
 
+# ---------------------------------------------------------------- torture set
+
+# The configurations a texel-based representation of curves finds hardest
+# (feature-curve textures, signed distance fields), one class per file, drawn
+# against R = 256 over the UV square: one texel is 100/256 viewBox units.
+TEXEL = 100.0 / 256.0
+
+
+def fn4(x):
+    return fn(x, 4)
+
+
+def polyline_path(points):
+    return 'M ' + ' L '.join('%s %s' % (fn4(p[0]), fn4(p[1])) for p in points)
+
+
+def torture_easy():
+    notes = ['Torture set, class "easy" (the reference): isolated smooth curves far apart,',
+             'v grooves 2 wide: straight lines at odd angles, circles of radius 8 to 16, a',
+             'cubic S-wave, and one closed step circle.']
+    lines = []
+    for k, a in enumerate((7.0, 31.0, 58.0, 83.0)):
+        c = (14.0 + 22.0 * k, 18.0)
+        d = (12.0 * math.cos(math.radians(a)), -12.0 * math.sin(math.radians(a)))
+        lines.append(E('path', d=polyline_path([(c[0] - d[0], c[1] - d[1]), (c[0] + d[0], c[1] + d[1])])))
+    circles = [E('circle', cx=cx, cy=50, r=r) for cx, r in ((17, 8.3), (46, 12.1), (79.5, 15.7))]
+    wave = E('path', d='M 8 80 C 20 66 32 94 44 80 S 68 66 80 80', comment='a cubic S-wave (inflections)')
+    step = E('circle', cx=88, cy=88, r=7.3, inside=(0.01, None, 'a step disc'), outside=(0.0, None))
+    return svg_document('torture easy: isolated smooth curves', notes,
+                        [E('g', *(lines + circles + [wave]), data_kind='groove', data_profile='v', data_width='2',
+                           data_depth='0.01'),
+                         E('g', step, data_kind='step')])
+
+
+def torture_corners():
+    notes = ['Torture set, class "corners": open polylines turning by 90, 120, 135, 150,',
+             '160, 170 and 175 degrees (inner angles 90 down to 5 degrees), v grooves 1.5',
+             'wide, and a closed step triangle with a 5 degree apex.']
+    kids = []
+    for k, ang in enumerate((90.0, 60.0, 45.0, 30.0, 20.0, 10.0, 5.0)):
+        apex = (12.0 + 24.0 * (k % 4), 6.0 if k < 4 else 34.0)
+        h = 0.5 * math.radians(ang)
+        L = 16.0
+        a = (apex[0] - L * math.sin(h), apex[1] + L * math.cos(h))
+        b = (apex[0] + L * math.sin(h), apex[1] + L * math.cos(h))
+        kids.append(E('path', d=polyline_path([a, apex, b]), comment='inner angle %s degrees' % fn(ang)))
+    tri_apex, L, h = (12.0, 72.0), 80.0, 0.5 * math.radians(5.0)
+    tri = [tri_apex, (tri_apex[0] + L * math.cos(h), tri_apex[1] - L * math.sin(h)),
+           (tri_apex[0] + L * math.cos(h), tri_apex[1] + L * math.sin(h))]
+    step = E('path', d=polyline_path(tri) + ' Z', inside=(0.01, None, 'a 5 degree wedge'), outside=(0.0, None))
+    return svg_document('torture corners: sharp corners down to 5 degrees', notes,
+                        [E('g', *kids, data_kind='groove', data_profile='v', data_width='1.5', data_depth='0.008'),
+                         E('g', step, data_kind='step')])
+
+
+def torture_thin():
+    notes = ['Torture set, class "thin": strokes a quarter of a texel wide at R = 256',
+             '(grooves of width %s, lines, a circle and a wave) and step slabs a quarter of' % fn4(TEXEL / 4),
+             'a texel thick (closed rectangles, straight and rotated) and a thin ring.']
+    w = fn4(TEXEL / 4)
+    grooves = [E('path', d=polyline_path([(6, 10), (94, 14)])),
+               E('path', d=polyline_path([(8, 30), (40, 22)])),
+               E('circle', cx=70, cy=28, r=10.2),
+               E('path', d='M 6 48 C 20 36 34 60 48 48 S 76 36 94 48')]
+    slab = TEXEL / 4
+    rect = E('rect', x=8, y=66, width=40, height=fn4(slab), inside=(0.01, None, 'a straight slab'),
+             outside=(0.0, None))
+    rot = E('g', E('rect', x=56, y=66, width=36, height=fn4(slab), inside=(0.01, None, 'a rotated slab'),
+                   outside=(0.0, None)), transform='rotate(17 74 66)')
+    ring_r = 10.0
+    ring = E('path', d='M %s 86 A %s %s 0 1 0 %s 86 A %s %s 0 1 0 %s 86 Z M %s 86 A %s %s 0 1 1 %s 86 A %s %s 0 1 1 %s 86 Z' % (
+        fn4(30 - ring_r), fn4(ring_r), fn4(ring_r), fn4(30 + ring_r), fn4(ring_r), fn4(ring_r), fn4(30 - ring_r),
+        fn4(30 - ring_r - slab), fn4(ring_r + slab), fn4(ring_r + slab), fn4(30 + ring_r + slab), fn4(ring_r + slab),
+        fn4(ring_r + slab), fn4(30 - ring_r - slab)),
+        data_left='0.01', data_right='0', comment='a ring a quarter texel thick: two circles, opposite senses')
+    return svg_document('torture thin: strokes and slabs a quarter of a texel wide', notes,
+                        [E('g', *grooves, data_kind='groove', data_profile='v', data_width=w, data_depth='0.002'),
+                         E('g', rect, rot, ring, data_kind='step')])
+
+
+def torture_triple():
+    notes = ['Torture set, class "triple": three to five curves through one texel: bundles',
+             'of parallel lines and arcs a third of a texel apart, and fans of curves meeting',
+             'at shallow angles (narrow v grooves, 0.6 wide).']
+    gap = TEXEL / 3
+    kids = []
+    for n, (x0, y0, ang) in zip((3, 4, 5), ((8, 14, 12.0), (8, 40, -8.0), (8, 72, 21.0))):
+        d = (math.cos(math.radians(ang)), -math.sin(math.radians(ang)))
+        nrm = (-d[1], d[0])
+        for k in range(n):
+            o = (x0 + nrm[0] * gap * k, y0 + nrm[1] * gap * k)
+            kids.append(E('path', d=polyline_path([o, (o[0] + 34 * d[0], o[1] + 34 * d[1])])))
+    for k in range(4):
+        r = 14.0 + gap * k
+        kids.append(E('path', d='M %s 20 A %s %s 0 0 1 %s 20' % (fn4(70 - r), fn4(r), fn4(r), fn4(70 + r))))
+    for k, a in enumerate((-6.0, -2.0, 2.0, 6.0)):
+        tip = (88.0, 84.0)
+        kids.append(E('path', d=polyline_path([(tip[0] - 40 * math.cos(math.radians(a)), tip[1] - 40 * math.sin(math.radians(a))), tip])))
+    return svg_document('torture triple: three and more curves through one texel', notes,
+                        [E('g', *kids, data_kind='groove', data_profile='v', data_width='0.6', data_depth='0.004')])
+
+
+def torture_ends():
+    notes = ['Torture set, class "ends": open curves ending inside texels: dashes a',
+             'quarter of a texel to four texels long at several angles, short arcs, and open',
+             'step curves ending in the middle of the square.']
+    kids = []
+    for row, ang in enumerate((0.0, 17.0, 45.0, 71.0)):
+        x = 6.0
+        for L in (0.25, 0.5, 1.0, 2.0, 4.0, 0.25, 0.5, 1.0, 2.0, 4.0):
+            Lu = L * TEXEL
+            d = (Lu * math.cos(math.radians(ang)), -Lu * math.sin(math.radians(ang)))
+            y = 8.0 + 13.0 * row
+            kids.append(E('path', d=polyline_path([(x, y), (x + d[0], y + d[1])])))
+            x += 8.5
+    for k in range(5):
+        r = (0.5 + k) * TEXEL
+        kids.append(E('path', d='M %s 62 a %s %s 0 0 1 %s %s' % (fn4(8 + 12 * k), fn4(r), fn4(r), fn4(r), fn4(r))))
+    steps = [E('path', d='M 4 80 C 20 74 30 86 46 80', data_left='0.01', data_right='0'),
+             E('path', d='M 96 96 L 62 78', data_left='0', data_right='0.01')]
+    return svg_document('torture ends: curves ending inside texels', notes,
+                        [E('g', *kids, data_kind='groove', data_profile='v', data_width='1', data_depth='0.005'),
+                         E('g', *steps, data_kind='step')])
+
+
+def torture_crossings():
+    notes = ['Torture set, class "crossings": X crossings of two straight grooves at 90,',
+             '60, 30 and 15 degrees, of two arcs, and T junctions (a groove ending on another,',
+             'square and oblique); v grooves 1.5 wide; one X of two open step curves.']
+    kids = []
+    for k, ang in enumerate((90.0, 60.0, 30.0, 15.0)):
+        c = (13.0 + 24.0 * k, 14.0)
+        for s in (-0.5, 0.5):
+            a = math.radians(s * ang)
+            d = (9.0 * math.cos(a), 9.0 * math.sin(a))
+            kids.append(E('path', d=polyline_path([(c[0] - d[0], c[1] - d[1]), (c[0] + d[0], c[1] + d[1])])))
+    kids.append(E('circle', cx=20, cy=44, r=9))
+    kids.append(E('circle', cx=29, cy=44, r=9))
+    for k, ang in enumerate((90.0, 60.0, 30.0)):
+        x = 52.0 + 15.0 * k
+        kids.append(E('path', d=polyline_path([(x - 6, 40), (x + 6, 40)])))
+        a = math.radians(ang)
+        kids.append(E('path', d=polyline_path([(x - 10 * math.cos(a), 40 + 10 * math.sin(a)), (x, 40)])))
+    steps = [E('path', d='M 8 62 L 92 92', data_left='0.01', data_right='0'),
+             E('path', d='M 8 92 L 92 64', data_left='0.005', data_right='0')]
+    return svg_document('torture crossings: X crossings and T junctions', notes,
+                        [E('g', *kids, data_kind='groove', data_profile='v', data_width='1.5', data_depth='0.008'),
+                         E('g', *steps, data_kind='step')])
+
+
+def torture_loops():
+    notes = ['Torture set, class "loops": tiny closed loops of radius a quarter of a texel to',
+             'four texels: circles as narrow v grooves (width 0.4) and as step discs.']
+    kids, steps = [], []
+    for row, r in enumerate((0.25, 0.5, 1.0, 2.0, 4.0)):
+        for col in range(6):
+            # off the lattice by different fractions of a texel
+            kids.append(E('circle', cx=fn4(8.0 + 9.0 * col + 0.13 * col), cy=fn4(8.0 + 9.0 * row + 0.07 * row),
+                          r=fn4(r * TEXEL)))
+            steps.append(E('circle', cx=fn4(58.0 + 7.0 * col + 0.11 * col), cy=fn4(54.0 + 9.0 * row + 0.09 * row),
+                           r=fn4(r * TEXEL), inside=(0.01, None, 'a step disc'), outside=(0.0, None)))
+    return svg_document('torture loops: tiny closed loops', notes,
+                        [E('g', *kids, data_kind='groove', data_profile='v', data_width='0.4', data_depth='0.003'),
+                         E('g', *steps, data_kind='step')])
+
+
+TORTURE = [('easy.svg', torture_easy), ('corners.svg', torture_corners), ('thin.svg', torture_thin),
+           ('triple.svg', torture_triple), ('ends.svg', torture_ends), ('crossings.svg', torture_crossings),
+           ('loops.svg', torture_loops)]
+
 CURVES = [('glyphs.svg', svg_glyphs), ('ornament.svg', svg_ornament), ('frame.svg', svg_frame),
           ('relief.svg', svg_relief), ('star.svg', svg_star), ('spiral.svg', svg_spiral),
           ('bricks.svg', svg_bricks), ('panels.svg', svg_panels), ('steps_simple.svg', svg_steps_simple)]
@@ -1049,6 +1219,10 @@ def write_all(outdir):
             f.write(fun().text())
     for name, fun in CURVES:
         with open(os.path.join(outdir, 'curves', name), 'w', newline='\n') as f:
+            f.write(fun())
+    os.makedirs(os.path.join(outdir, 'torture'), exist_ok=True)
+    for name, fun in TORTURE:
+        with open(os.path.join(outdir, 'torture', name), 'w', newline='\n') as f:
             f.write(fun())
 
 
@@ -1285,6 +1459,11 @@ def check(folder, verbose=True):
             print('%-17s %s' % ('curves/' + name, info))
             for n in notes:
                 print('%17s   %s' % ('', n))
+    for name, _ in TORTURE:
+        e, info, notes = check_svg(os.path.join(folder, 'torture', name))
+        errors += e
+        if verbose:
+            print('%-17s %s' % ('torture/' + name, info))
     for e in errors:
         print('error: ' + e, file=sys.stderr)
     print('check: %s' % ('FAILED (%d problems)' % len(errors) if errors else 'all models OK'))

@@ -10,7 +10,7 @@ cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-g -O1" -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
   -DCHISEL_FUZZ=ON -DBUILD_TESTING=OFF >/dev/null
 cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl \
-  fuzz_exr fuzz_dci
+  fuzz_exr fuzz_dci fuzz_featmap
 run() {
   local target=$1 seeds=$2 secs=${3:-$seconds}
   local corpus=build-fuzz/corpus/$target
@@ -36,3 +36,4 @@ for format in ply off stl; do
 done
 run fuzz_exr tests/data/exr
 run fuzz_dci tests/data/dci
+run fuzz_featmap tests/data/featmap

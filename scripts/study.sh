@@ -5,7 +5,9 @@
 # heights read bilinearly from a 2048^2 height raster: what a subdivided
 # plane under a Displace modifier with a height texture gives) at the same
 # triangle count, and the flat base with the exact normals (a perfect
-# normal map),
+# normal map), the texture methods of the feature-curve maps (featnorm,
+# featnorm-linear, normal-bilinear: the conventional normal map of h,
+# msdf) at STUDY_TEXTURE_RES (default 256),
 # rendered with the Embree-traced truth from seven views (an orbit of four
 # oblique ones, a grazing one, a close-up and one from straight above) by
 # `chisel study`.
@@ -22,6 +24,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$here/build}
 out=${2:?usage: scripts/study.sh BUILD_DIR OUT_DIR [TRIANGLES] [SET ...]}
 tris=${3:-25000,100000}
+texres=${STUDY_TEXTURE_RES:-256}
 shift $(( $# < 3 ? $# : 3 ))
 sets=("$@")
 if [ ${#sets[@]} -eq 0 ]; then
@@ -45,6 +48,13 @@ for set in "${sets[@]}"; do
 "
     done
   done
+  # texture-space methods on the flat base at the texture resolution
+  texmethods=""
+  for sh in featnorm featnorm-linear normal-bilinear msdf; do
+    [ -n "$texmethods" ] && texmethods+=",
+"
+    texmethods+="    {\"name\": \"${sh}_$texres\", \"mesh\": \"$here/models/plane.obj\", \"shader\": \"$sh\", \"resolution\": $texres}"
+  done
   cat >"$dir/scene.json" <<JSON
 {
   "curves": "$svg",
@@ -61,7 +71,8 @@ for set in "${sets[@]}"; do
      "width": 256, "height": 256, "supersample": 2}
   ],
   "methods": [
-$methods    {"name": "normalmap", "mesh": "$here/models/plane.obj", "shader": "exact-normals"}
+$methods    {"name": "normalmap", "mesh": "$here/models/plane.obj", "shader": "exact-normals"},
+$texmethods
   ]
 }
 JSON

@@ -37,6 +37,10 @@
 /* shade/: texture-space methods, each built once and evaluated per pixel */
 #include "ch_gtex.h"
 #include "ch_relief.h"
+#include "ch_edt.h"
+#include "ch_featmap_cell.h"
+#include "ch_featmap.h"
+#include "ch_msdf.h"
 
 /* tess/: the base surface (OpenSubdiv), geometry images, displacement and
  * the feature embedding */
@@ -57,5 +61,6 @@
 #include "ch_render.h"
 #include "ch_metrics.h"
 #include "ch_texray.h"
+#include "ch_featshade.h"
 
 #endif

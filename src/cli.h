@@ -20,6 +20,7 @@ extern const cli_command cli_dci_command;
 extern const cli_command cli_magnify_command;
 extern const cli_command cli_displace_command;
 extern const cli_command cli_study_command;
+extern const cli_command cli_featmap_command;
 
 /* -q/--quiet (main.c): no result line and no notes; warnings and errors
  * still go to stderr. */
@@ -132,5 +133,10 @@ void cli_progress_done(void);
  * or not at all and previous files stay as they were. Returns the exit
  * status. */
 int cli_run(const cli_command *command, int argc, char **argv);
+
+/* A unit normal lit by the study's default light (ch_render: ambient
+ * 0.15, albedo 0.75, specular 0.25, shininess 40, seen from straight
+ * above, light from the upper left) as an sRGB grey: previews of normals. */
+unsigned char cli_lit_grey(const double n[3]);
 
 #endif

@@ -414,3 +414,14 @@ int cli_parse_fill_height(const char *cmd, const char *text, ch_svg_desc *desc) 
   desc->fill_height = h;
   return 0;
 }
+
+unsigned char cli_lit_grey(const double n[3]) {
+  static const double L[3] = {-0.35, -0.45, 0.82};
+  double l = sqrt(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]);
+  double d = (n[0] * L[0] + n[1] * L[1] + n[2] * L[2]) / l;
+  double h[3] = {L[0] / l, L[1] / l, L[2] / l + 1.0}, hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+  double s = pow(fmax(0.0, (n[0] * h[0] + n[1] * h[1] + n[2] * h[2]) / hl), 40.0);
+  double v = 0.75 * (0.15 + 0.85 * fmax(0.0, d)) + 0.25 * s;
+  v = pow(fmin(fmax(v, 0.0), 1.0), 1.0 / 2.2);
+  return (unsigned char)lround(255.0 * v);
+}

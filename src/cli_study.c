@@ -1,5 +1,5 @@
 /* chisel study: every method against the Embree-traced truth, per view
- * (issue 6). The scene file format is documented in `usage` below. */
+ * (docs/spec.md, docs/cli.md). The scene file format is documented in `usage` below. */
 #define _POSIX_C_SOURCE 200809L
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -15,6 +15,7 @@
 
 #include "ch_curves.h"
 #include "ch_exr.h"
+#include "ch_featshade.h"
 #include "ch_file.h"
 #include "ch_gtex.h"
 #include "ch_height.h"
@@ -66,6 +67,13 @@ static const char usage[] =
     "                                   a texture-space method on the base mesh:\n"
     "                                   exact-normals = the truth's normal at the\n"
     "                                   hit's UV (a perfect normal map)\n"
+    "      {\"name\": \"fn\", \"mesh\": \"plane.obj\", \"shader\": \"featnorm\", \"resolution\": 256}\n"
+    "                                   normals from maps built from the curves at\n"
+    "                                   R x R (R in 4..4096): featnorm,\n"
+    "                                   featnorm-linear (feature-curve textures),\n"
+    "                                   normal-bilinear (a conventional normal map\n"
+    "                                   of h), msdf (a multi-channel distance field\n"
+    "                                   with the grooves' profiles)\n"
     "      {\"name\": \"g\", \"mesh\": \"plane.obj\", \"shader\": \"grooves\", \"resolution\": 128}\n"
     "                                   path-based groove textures on a G x G grid\n"
     "                                   (G in 1..4096; grooves only: a step curve is\n"
@@ -114,6 +122,9 @@ typedef struct method {
   char family[NAME_MAX_LEN]; /* methods plotted as one line against triangles */
   char *path;
   int exact_normals; /* "shader": "exact-normals" */
+  int featshade;     /* "shader": a ch_featshade_method, or -1 */
+  int resolution;    /* its maps' resolution */
+  ch_featshade fs;
   int textured;      /* "shader": "grooves", "relief" or "pom" */
   ch_texray_desc tex;
   ch_texray *tr;
@@ -237,6 +248,7 @@ static void study_free(study *s) {
   for (int i = 0; i < s->num_methods; i++) {
     free(s->methods[i].path);
     ch_trace_destroy(s->methods[i].scene);
+    ch_featshade_free(&s->methods[i].fs);
     ch_texray_destroy(s->methods[i].tr);
     ch_mesh_free(&s->methods[i].mesh);
   }
@@ -253,13 +265,17 @@ static int parse_shader(const cJSON *m, method *mt, const char *where, const cha
   const cJSON *paper = cJSON_GetObjectItemCaseSensitive(m, "paper");
   const char *name = cJSON_IsString(shader) ? shader->valuestring : "";
   int grooves = !strcmp(name, "grooves"), relief = !strcmp(name, "relief"), pom = !strcmp(name, "pom");
-  if (shader && !grooves && !relief && !pom && strcmp(name, "exact-normals")) {
+  int feat = ch_featshade_method_parse(name);
+  mt->featshade = feat;
+  if (shader && !grooves && !relief && !pom && feat < 0 && strcmp(name, "exact-normals")) {
     ch_error_set(err, CH_ERR_INPUT,
-                 "%s: %s.shader: unknown shader (known: \"exact-normals\", \"grooves\", \"relief\", \"pom\")", file,
-                 where);
+                 "%s: %s.shader: unknown shader (known: \"exact-normals\", \"grooves\", \"relief\", \"pom\", "
+                 "\"featnorm\", \"featnorm-linear\", \"normal-bilinear\", \"msdf\")",
+                 file, where);
     return 0;
   }
-  const char *extra = !(grooves || relief || pom) && res ? "resolution" : !(relief || pom) && steps ? "steps"
+  const char *extra = !(grooves || relief || pom || feat >= 0) && res ? "resolution"
+                      : !(relief || pom) && steps                     ? "steps"
                       : !grooves && paper                                                    ? "paper"
                                                                                              : NULL;
   if (extra) {
@@ -270,6 +286,17 @@ static int parse_shader(const cJSON *m, method *mt, const char *where, const cha
     return 0;
   }
   mt->exact_normals = shader && !strcmp(name, "exact-normals");
+  if (feat >= 0) {
+    double r = 0;
+    if (!res) {
+      ch_error_set(err, CH_ERR_INPUT, "%s: %s.resolution: missing (shader \"%s\" needs the maps' resolution R)", file,
+                   where, name);
+      return 0;
+    }
+    if (!get_number(m, "resolution", CH_FEATMAP_MIN_RES, CH_FEATMAP_MAX_RES, 1, &r, where, file, err)) return 0;
+    mt->resolution = (int)r;
+    return 1;
+  }
   if (!(grooves || relief || pom)) return 1;
   if (!res) {
     ch_error_set(err, CH_ERR_INPUT, "%s: %s.resolution: missing (shader \"%s\" needs the %s)", file, where, name,
@@ -852,7 +879,7 @@ static ch_status write_index(const char *dir, const study *s, const row *rows, i
   }
   html_text(f, s->curves_path);
   fprintf(f,
-          "</code> over the planar base; truth: Embree, exact h of SPEC §3 (bounds grid %d, step DCI %d). Classes: "
+          "</code> over the planar base; truth: Embree, exact h of docs/spec.md §3 (bounds grid %d, step DCI %d). Classes: "
           "top, groove wall, groove floor, step wall. Depth error relative to the scene's diagonal; SSIM of the "
           "shading (1 = same).</p>\n",
           s->truth_grid, s->dci_resolution);
@@ -1060,6 +1087,10 @@ static int run(int argc, char **argv) {
                m->tex.resolution, ch_texray_bytes(m->tr));
     }
   }
+  for (int i = 0; !st && i < s.num_methods; i++)
+    if (s.methods[i].featshade >= 0)
+      st = ch_featshade_init(&s.methods[i].fs, (ch_featshade_method)s.methods[i].featshade, s.methods[i].resolution,
+                             &set, &height, &err);
   if (!st) st = ch_truth_create(&height, &td, &truth, &err);
   if (!st) st = ch_trace_create_truth(truth, &truth_scene, &err);
   if (!st) {
@@ -1099,9 +1130,11 @@ static int run(int argc, char **argv) {
       const method *mt = &s.methods[m];
       ch_image *img = &imgs[m + 1];
       row *r = &rows[nrows];
-      ch_render_shader sh = mt->textured ? ch_texray_shader(mt->tr) : ch_shader_exact_normals(truth);
-      st = ch_render_shaded(mt->scene, mt->exact_normals || mt->textured ? &sh : NULL, truth, &vw->camera, &s.light,
-                            img, &rs, &err);
+      ch_render_shader sh = mt->featshade >= 0 ? ch_featshade_shader(&mt->fs)
+                            : mt->textured      ? ch_texray_shader(mt->tr)
+                                                : ch_shader_exact_normals(truth);
+      st = ch_render_shaded(mt->scene, mt->exact_normals || mt->textured || mt->featshade >= 0 ? &sh : NULL, truth,
+                            &vw->camera, &s.light, img, &rs, &err);
       if (!st) st = ch_metrics_compare(img, &timg, scene_size, &r->m, &err);
       if (!st) {
         r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;

@@ -12,7 +12,8 @@
 #include "cli.h"
 
 static const cli_command *commands[] = {&cli_displace_command, &cli_info_command, &cli_sample_command,
-                                        &cli_dci_command, &cli_magnify_command, &cli_study_command};
+                                        &cli_dci_command, &cli_featmap_command, &cli_magnify_command,
+                                        &cli_study_command};
 enum { NUM_COMMANDS = sizeof commands / sizeof commands[0] };
 
 static void print_overview(FILE *out) {
@@ -55,6 +56,7 @@ static const struct {
     {"info", "--json --fill-height="},
     {"sample", "-o= --output= --res= --supersample= --png= --height-png= --fill-height="},
     {"dci", "-o= --output= --res= --rect= --png= --stats --fill-height="},
+    {"featmap", "-o= --output= --res= --dci-res= --rect= --png= --linear --no-fallback --stats --fill-height="},
     {"magnify", "-o= --output= --rect= --out-res= --method= --curves= --no-aa --exr= --fill-height="},
     {"study", "-o= --output="},
 };

@@ -104,7 +104,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
       best_base = base;
       best_coarsenings = coarsenings;
     }
-    /* A full run's count is exact: SPEC's 5% is enough (a pilot's is
+    /* A full run's count is exact: docs/spec.md §5's 5% is enough (a pilot's is
      * before the cleanup, hence 4% above). */
     if (best_miss <= 0.05 * (double)target) break;
     /* Next base count: after the pilots, the model out = base + c0 + c1

@@ -1,5 +1,5 @@
 /* ch_embed: feature embedding. Cuts a tessellation of the base surface
- * along every wall and crease of h (SPEC §3-4) so that chains of mesh edges
+ * along every wall and crease of h (docs/spec.md §3-4) so that chains of mesh edges
  * follow them, splits the vertices of walls in two (one per side, joined by
  * vertical wall triangles, so the mesh stays closed), displaces, and gives
  * per-corner normals split at creases and walls.

@@ -156,7 +156,7 @@ static double step_distance_at(const ch_label_ctx *lb, int c, const double uv[2]
 /* The level functions the crossing search follows along an edge: t = s / w
  * of a groove (its break lines), |t| (its rim), the signed distance to a
  * step curve (its wall or crease), the difference of two grooves' carves
- * (where one takes over from the other, SPEC §3's CSG: the deeper wins);
+ * (where one takes over from the other, docs/spec.md §3's CSG: the deeper wins);
  * and for the labels' own boundaries, the distance to a step curve (the
  * edge of its radius) and the difference of the distances to two (where
  * the nearest changes). */

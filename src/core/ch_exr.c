@@ -634,6 +634,54 @@ ch_status ch_exr_read_attribute(const char *path, const char *name, char *value,
   return st;
 }
 
+/* A string attribute of the first part, copied into a new buffer. */
+static ch_status read_attribute_alloc(io_state *io, const char *name, char **value, ch_error *err) {
+  *value = NULL;
+  exr_context_t ctx;
+  ch_status st = open_read(io, &ctx, err);
+  if (st != CH_OK) return st;
+  const exr_attribute_t *attr = NULL;
+  io_reset_message(io);
+  exr_result_t rv = exr_get_attribute_by_name(ctx, 0, name, &attr);
+  if (rv != EXR_ERR_SUCCESS || !attr) {
+    st = ch_error_set(err, CH_ERR_INPUT, "%s: no attribute '%s'", io->name, name);
+  } else if (attr->type != EXR_ATTR_STRING || !attr->string) {
+    char shown[64];
+    st = ch_error_set(err, CH_ERR_INPUT, "%s: attribute '%s' is of type '%s', not a string", io->name, name,
+                      printable(attr->type_name, shown, sizeof shown));
+  } else {
+    size_t n = attr->string->length > 0 ? (size_t)attr->string->length : 0;
+    if (!(*value = malloc(n + 1))) {
+      st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory for attribute '%s'", io->name, name);
+    } else {
+      if (n) memcpy(*value, attr->string->str, n);
+      (*value)[n] = '\0';
+    }
+  }
+  exr_finish(&ctx);
+  return st;
+}
+
+ch_status ch_exr_read_attribute_alloc(const char *path, const char *name, char **value, ch_error *err) {
+  io_state io;
+  *value = NULL;
+  ch_status st = open_file(&io, path, err);
+  if (st != CH_OK) return st;
+  st = read_attribute_alloc(&io, name, value, err);
+  close(io.fd);
+  return st;
+}
+
+ch_status ch_exr_read_attribute_memory(const void *data, size_t size, const char *file, const char *name,
+                                       char **value, ch_error *err) {
+  io_state io;
+  io_init(&io, file ? file : "(memory)");
+  static const unsigned char nothing[1] = {0};
+  io.data = data ? data : nothing;
+  io.size = data ? size : 0;
+  return read_attribute_alloc(&io, name, value, err);
+}
+
 /* ------------------------------------------------------------------------ */
 /* Writing                                                                  */
 

@@ -59,6 +59,14 @@ ch_status ch_exr_read_memory(const void *data, size_t size, const char *name,
 ch_status ch_exr_read_attribute(const char *path, const char *name, char *value,
                                 size_t value_size, ch_error *err);
 
+/* The same, of any length: *value is a new NUL-terminated copy (release
+ * with free()), NULL on failure. */
+ch_status ch_exr_read_attribute_alloc(const char *path, const char *name, char **value, ch_error *err);
+
+/* The same from a file held in memory (file is used in messages). */
+ch_status ch_exr_read_attribute_memory(const void *data, size_t size, const char *file, const char *name,
+                                       char **value, ch_error *err);
+
 #ifdef __cplusplus
 }
 #endif
