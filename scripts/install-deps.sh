@@ -8,7 +8,9 @@ pkgs=(build-essential cmake pkg-config
       xvfb xauth libgl1-mesa-dri libgl-dev
       python3
       # the tools the interop test opens chisel's outputs with
-      openimageio-tools imagemagick libmagickcore-6.q16-6-extra blender)
+      openimageio-tools imagemagick libmagickcore-6.q16-6-extra blender
+      # (Blender's glTF importer needs numpy)
+      python3-numpy)
 if [ "${1:-}" = "--fuzz" ]; then
   pkgs+=(clang libomp-dev libclang-rt-14-dev)
 fi

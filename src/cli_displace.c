@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "ch_exr.h"
 #include "ch_mesh.h"
@@ -17,12 +18,15 @@ static const char usage[] =
     "                      [--scheme bilinear|catmark] [--no-snap] [--exr MAPS.exr]\n"
     "                      [--camera ex,ey,ez,ax,ay,az,fov [--warp-dci]]\n"
     "                      [--snap-to exact|recon5|recon3] [--png P.png] [--ply OUT.ply]\n"
-    "                      [--height-png H16.png] [--fill-height H] [--stats] [--json]\n"
+    "                      [--glb OUT.glb] [--height-png H16.png] [--fill-height H] [--stats] [--json]\n"
     "\n"
     "Tessellates the base surface (OpenSubdiv) and displaces it by h = h_step +\n"
-    "h_groove (docs/spec.md §3): P = B + h N. Writes OBJ with vt (the original UVs) and vn.\n"
+    "h_groove (docs/spec.md §3): P = B + h N. Writes OBJ with vt (the original UVs)\n"
+    "and vn, binary PLY or glTF 2.0 binary, by -o's extension.\n"
     "\n"
-    "  -o, --output FILE  the OBJ to write (required; - for standard output)\n"
+    "  -o, --output FILE  the mesh to write (required): .obj, .ply or .glb (glTF 2.0\n"
+    "                     binary: POSITION, NORMAL, TEXCOORD_0, for real-time\n"
+    "                     engines); - for OBJ on standard output\n"
     "  --target-tris N    triangles in the output, within 5% (default 520000)\n"
     "  --res R            resolution of the step curves' diffusion image (default 1024)\n"
     "  --scheme S         base surface: bilinear (default) or catmark (Catmull-Clark)\n"
@@ -49,6 +53,8 @@ static const char usage[] =
     "  --ply FILE         also write binary PLY (- for standard output): one vertex\n"
     "                     per position, so closed where the OBJ is; UVs per face\n"
     "                     corner (texcoord), and per vertex (s t) where unique\n"
+    "  --glb FILE         also write glTF 2.0 binary (vertices split where the UV or\n"
+    "                     the normal differs, as glTF needs)\n"
     "  --height-png FILE  h as a 16-bit grey PNG (0.5 is h = 0; the scale is in\n"
     "                     the PNG and the result line), in warped UV with --camera\n"
     "  --fill-height H    the height of filled shapes drawn without data-\n"
@@ -64,9 +70,25 @@ static const char usage[] =
     "includes what the cut adds.\n";
 
 /* Warnings kept back (one per line) until the input has passed. */
+typedef enum { FORMAT_UNKNOWN, FORMAT_OBJ, FORMAT_PLY, FORMAT_GLB } mesh_format;
+
+/* A mesh format by the path's extension (any case). */
+static mesh_format format_of(const char *path) {
+  const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+  if (!dot || (slash && dot < slash)) return FORMAT_UNKNOWN;
+  static const struct {
+    const char *ext;
+    mesh_format format;
+  } known[] = {{".obj", FORMAT_OBJ}, {".ply", FORMAT_PLY}, {".glb", FORMAT_GLB}};
+  for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
+    if (!strcasecmp(dot, known[i].ext)) return known[i].format;
+  return FORMAT_UNKNOWN;
+}
+
 static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL, *png16 = NULL;
+  const char *glb = NULL;
   long target = 520000, res = 1024;
   int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT, has_camera = 0, warp_dci = 0;
   int json = 0;
@@ -99,6 +121,8 @@ static int run(int argc, char **argv) {
       if (!(exr = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--png")) {
       if (!(png = cli_option_value(cmd, argc, argv, &i))) return 2;
+    } else if (!strcmp(a, "--glb")) {
+      if (!(glb = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--ply")) {
       if (!(ply = cli_option_value(cmd, argc, argv, &i))) return 2;
     } else if (!strcmp(a, "--height-png")) {
@@ -133,6 +157,14 @@ static int run(int argc, char **argv) {
   if (!base) return cli_usage_error(cmd, "missing the base mesh BASE.obj");
   if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
+  /* The format of -o by its extension; --ply and --glb name theirs. */
+  mesh_format out_format = cli_is_stdout(out) ? FORMAT_OBJ : format_of(out);
+  if (out_format == FORMAT_UNKNOWN) {
+    const char *dot = strrchr(out, '.'), *slash = strrchr(out, '/');
+    return cli_usage_error(cmd, "-o %s: %s (.obj, .ply or .glb)", out,
+                           dot && (!slash || dot > slash) ? "unknown mesh format" : "no extension to tell the format");
+  }
+  if (cli_is_stdout(glb)) return cli_refuse_stdout(cmd, "--glb", "a glTF binary");
   if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
   /* Standard output takes one mesh, OBJ or PLY; EXR and PNG need seeks or
    * are not what a pipe expects. */
@@ -148,8 +180,9 @@ static int run(int argc, char **argv) {
                                 {"--exr", exr},
                                 {"--png", png},
                                 {"--ply", cli_is_stdout(ply) ? NULL : ply},
-                                {"--height-png", png16}};
-  int rc = cli_check_files(cmd, in_files, 2, out_files, 5);
+                                {"--height-png", png16},
+                                {"--glb", glb}};
+  int rc = cli_check_files(cmd, in_files, 2, out_files, 6);
   if (rc) return rc;
 
   ch_error err = cli_error();
@@ -176,7 +209,13 @@ static int run(int argc, char **argv) {
   ch_status st = CH_OK;
   if (!cli_is_stdout(out)) {
     cli_progress_stage("writing %s", out);
-    st = ch_mesh_write_obj(out, result, &err);
+    st = out_format == FORMAT_PLY   ? ch_mesh_write_ply(out, result, &err)
+         : out_format == FORMAT_GLB ? ch_mesh_write_glb(out, result, &err)
+                                    : ch_mesh_write_obj(out, result, &err);
+  }
+  if (!st && glb) {
+    cli_progress_stage("writing %s", glb);
+    st = ch_mesh_write_glb(glb, result, &err);
   }
   if (!st && ply && !cli_is_stdout(ply)) {
     cli_progress_stage("writing %s", ply);
@@ -236,10 +275,10 @@ static int run(int argc, char **argv) {
               1e3 * e->seconds_split, 1e3 * e->seconds_cut, 1e3 * e->seconds_thin, 1e3 * e->seconds_normals);
   }
   double total = t->total + t_write;
-  const char *written[5] = {out, ply, exr, png, png16};
+  const char *written[6] = {out, ply, exr, png, png16, glb};
   char what[1024] = "";
   size_t len = 0;
-  for (int i = 0; i < 5; i++)
+  for (int i = 0; i < 6; i++)
     if (written[i])
       len += (size_t)snprintf(what + len, len < sizeof what ? sizeof what - len : 0, "%s%s", len ? ", " : "",
                               cli_is_stdout(written[i]) ? (i == 0 ? "OBJ to standard output" : "PLY to standard output")
@@ -253,7 +292,7 @@ static int run(int argc, char **argv) {
   if (json) {
     cJSON *o = cJSON_CreateObject();
     cJSON *files = cJSON_AddArrayToObject(o, "outputs");
-    for (int i = 0; i < 5; i++)
+    for (int i = 0; i < 6; i++)
       if (written[i]) cJSON_AddItemToArray(files, cJSON_CreateString(written[i]));
     cJSON_AddNumberToObject(o, "triangles", result->num_faces);
     cJSON_AddNumberToObject(o, "vertices", result->num_positions);

@@ -24,10 +24,12 @@ plane=$models/plane.obj
 relief=$models/curves/relief.svg
 "$chisel" sample "$relief" --res 32 --supersample 1 -o "$tmp/h.exr" --height-png "$tmp/h16.png" -q ||
   fail "sample"
-"$chisel" displace "$plane" "$relief" -o "$tmp/r.obj" --ply "$tmp/r.ply" --exr "$tmp/maps.exr" --res 32 \
-  --target-tris 20000 -q || fail "displace relief"
+"$chisel" displace "$plane" "$relief" -o "$tmp/r.obj" --ply "$tmp/r.ply" --glb "$tmp/r.glb" --exr "$tmp/maps.exr" \
+  --res 32 --target-tris 20000 -q || fail "displace relief"
 "$chisel" displace "$models/tablet.obj" "$models/curves/glyphs.svg" -o "$tmp/t.obj" --ply "$tmp/t.ply" \
   --target-tris 40000 -q 2>/dev/null || fail "displace tablet"
+"$chisel" displace "$models/tablet.obj" "$models/curves/glyphs.svg" -o "$tmp/t.glb" --target-tris 40000 -q 2>/dev/null ||
+  fail "displace tablet to glb"
 "$chisel" dci "$models/curves/steps_simple.svg" --res 32 -o "$tmp/dci.exr" -q || fail "dci"
 "$chisel" magnify "$tmp/dci.exr" --rect 0.2,0.2,0.4,0.4 --out-res 16 -o "$tmp/crop.png" --exr "$tmp/crop.exr" -q ||
   fail "magnify"
@@ -100,7 +102,7 @@ want_boundary=$(sed -n 's/^  edges *\([0-9]*\) boundary.*/\1/p' "$tmp/info_r.txt
 s16=$(python3 -c "import sys; sys.path.insert(0, sys.argv[2]); from exr_read import read_exr; print(2 * max(abs(v) for r in read_exr(sys.argv[1])['h'] for v in r))" "$tmp/h.exr" "$tests/tools")
 blender -b --factory-startup --python "$tests/tools/blender_check.py" -- \
   "image:$tmp/h.exr:5:7" "passes:$tmp/maps.exr" "passes:$tmp/dci.exr" \
-  "mesh:$tmp/r.obj" "mesh:$tmp/r.ply" "mesh:$tmp/t.obj" "mesh:$tmp/t.ply" \
+  "mesh:$tmp/r.obj" "mesh:$tmp/r.ply" "mesh:$tmp/t.obj" "mesh:$tmp/t.ply" "mesh:$tmp/r.glb" "mesh:$tmp/t.glb" \
   "displace:$plane:$tmp/h.exr:0.5:$s16:4" "displace:$plane:$tmp/h16.png:0.5:$s16:4" >"$tmp/blender.txt" 2>&1 ||
   fail "blender: $(tail -5 "$tmp/blender.txt")"
 checks=$((checks + 1))
@@ -138,6 +140,13 @@ for name in ("t.obj", "t.ply"):
     assert int(m[5]) == 0 and int(m[7]) == 0, m
 assert meshes["r.obj"][3] == meshes["r.ply"][3]
 assert meshes["t.obj"][3] == meshes["t.ply"][3]
+# glTF binary (-o by extension, --glb): closed where the OBJ is once the
+# vertices glTF splits are merged by distance, with UVs; the merge also
+# drops the faces thinner than 1e-7 (the walls' slivers: under 1%).
+for glb, obj in (("r.glb", "r.obj"), ("t.glb", "t.obj")):
+    g, o = meshes[glb], meshes[obj]
+    assert 0.99 * int(o[3]) <= int(g[3]) <= int(o[3]), (g, o)
+    assert int(g[5]) == int(o[5]) and int(g[7]) == 0 and int(g[9]) == 1, (g, o)
 assert int(meshes["t.obj"][9]) == 1  # the tablet's UV seams: the PLY's UVs are per corner (MeshLab), not for Blender 3.4
 # The Displace route gives back h's range (the EXR's Y and the 16-bit PNG,
 # both with midlevel 0.5 and strength 2 s).

@@ -58,6 +58,23 @@ check cmp -s "$tmp/j1.obj" "$tmp/r.obj"
 run 2 "$chisel" sample "$relief" --res 32 -o "$tmp/a.exr" -j 0
 err_has "-j 0 is outside 1..1024"
 
+# ---- the mesh format by -o's extension: the same bytes as --ply; glTF binary ----
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/e.ply" --glb "$tmp/e2.glb" --target-tris 8000 --res 128 -q
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/e.obj" --ply "$tmp/e2.ply" --target-tris 8000 --res 128 -q
+check cmp -s "$tmp/e.ply" "$tmp/e2.ply"
+run 0 "$chisel" displace "$plane" "$relief" -o "$tmp/E.GLB" --target-tris 8000 --res 128 -q
+check cmp -s "$tmp/E.GLB" "$tmp/e2.glb"
+checks=$((checks + 1))
+[ "$(head -c 4 "$tmp/E.GLB")" = glTF ] || fail "-o E.GLB is not a glTF binary"
+run 2 "$chisel" displace "$plane" "$relief" -o "$tmp/x.fbx" --target-tris 8000
+err_has "-o $tmp/x.fbx: unknown mesh format (.obj, .ply or .glb)"
+err_lines 1
+check test ! -e "$tmp/x.fbx"
+run 2 "$chisel" displace "$plane" "$relief" -o "$tmp/noext" --target-tris 8000
+err_has "no extension to tell the format"
+run 2 "$chisel" displace "$plane" "$relief" -o "$tmp/x.obj" --glb -
+err_has "--glb -: a glTF binary cannot be written to standard output"
+
 # ---- -o -: OBJ and PLY to standard output, the same bytes as files ----
 run 0 "$chisel" displace "$plane" "$relief" -o - --target-tris 8000 --res 128 -q
 cp "$tmp/out" "$tmp/stdout.obj"

@@ -1,7 +1,7 @@
 """What Blender (3.4, headless) makes of chisel's outputs, one line per check.
 
 usage: blender -b --factory-startup --python blender_check.py -- CHECK...
-  mesh:PATH            import an OBJ or PLY; prints
+  mesh:PATH            import an OBJ, PLY or glTF binary (.glb); prints
                        `MESH PATH faces F boundary B nonmanifold N uv U`
                        (B: edges with one face; U: UV layers)
   image:PATH:X:Y       load an image as a user would (Non-Color); prints
@@ -25,6 +25,24 @@ def import_mesh(path):
     before = set(bpy.data.objects)
     if path.lower().endswith(".ply"):
         bpy.ops.import_mesh.ply(filepath=path)
+    elif path.lower().endswith(".glb"):
+        # Blender 3.4's importer still uses np.bool, which numpy 1.24
+        # (Debian 12) removed: alias it back for the import.
+        import numpy
+        if not hasattr(numpy, "bool"):
+            numpy.bool = bool
+        bpy.ops.import_scene.gltf(filepath=path)
+        new = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
+        # glTF stores a vertex per (position, UV, normal); "Merge by
+        # distance" at float precision joins them back, as a user checking
+        # watertightness would. Its faces with no area go with it.
+        import bmesh
+        bm = bmesh.new()
+        bm.from_mesh(new[0].data)
+        bmesh.ops.remove_doubles(bm, verts=bm.verts, dist=1e-7)
+        bm.to_mesh(new[0].data)
+        bm.free()
+        return new[0]
     else:
         bpy.ops.wm.obj_import(filepath=path)
     new = [o for o in bpy.data.objects if o not in before]
