@@ -17,6 +17,7 @@
 #include "ch_exr.h"
 #include "ch_png.h"
 #include "ch_math.h"
+#include "ch_camera.h"
 
 /* mesh/: the base mesh, its readers, validation and writers */
 #include "ch_mesh.h"
@@ -33,6 +34,7 @@
 #include "ch_recon.h"
 #include "ch_height.h"
 #include "ch_warp.h"
+#include "ch_warp_curves.h"
 
 /* shade/: texture-space methods, each built once and evaluated per pixel */
 #include "ch_gtex.h"

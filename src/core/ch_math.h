@@ -28,6 +28,22 @@ static inline void ch_cross3(const double a[3], const double b[3], double out[3]
   out[1] = y;
   out[2] = z;
 }
+/* Scales v to unit length; returns 0 (v unchanged) when its length is 0 or
+ * not finite. */
+static inline int ch_normalize3(double v[3]) {
+  double len = sqrt(ch_dot3(v, v));
+  if (!(len > 0.0) || !isfinite(len)) return 0;
+  v[0] /= len;
+  v[1] /= len;
+  v[2] /= len;
+  return 1;
+}
+/* qsort comparator for doubles in ascending order (NaNs compare equal to
+ * everything: keep them out). */
+static inline int ch_cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
 static inline int ch_finite2(const double a[2]) { return isfinite(a[0]) && isfinite(a[1]); }
 
 #endif
