@@ -1,5 +1,12 @@
 /* ch_diffuse: Laplace's equation with fixed texels, by Galerkin multigrid.
  *
+ * Why one file of about 1,450 lines: it is one algorithm, a multigrid
+ * solver whose parts (smoothers, restriction, prolongation, the Galerkin
+ * levels, the cycle) share one private solver struct and a set of SIMD
+ * row kernels, and are tuned together (the measurements below); cut
+ * apart, each piece would need those internals in a header and none would
+ * be usable alone.
+ *
  * Implements the diffusion of SPEC §3 "Steps" (papers/diffusion-curves-on-
  * surfaces.txt §3.2). The paper runs Jeschke et al. 2009's variable-stencil
  * solver, a fixed number of GPU passes that is not converged; issue 3 wants
