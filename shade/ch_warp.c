@@ -36,12 +36,6 @@ enum { DEFAULT_INTERVALS = 256, MAX_INTERVALS = 65536 };
 /* Focus cells per axis (at most; a cell is a whole number of intervals). */
 enum { FOCUS_CELLS = 64 };
 
-static void sub3(const double a[3], const double b[3], double out[3]) {
-  out[0] = a[0] - b[0];
-  out[1] = a[1] - b[1];
-  out[2] = a[2] - b[2];
-}
-
 /* ---- per-triangle need ---------------------------------------------- */
 
 /* Whether any of the grid's boxes overlaps b. */
@@ -63,7 +57,7 @@ static int grid_any_overlap(const ch_grid *g, const double (*boxes)[4], const do
 static int in_frustum(const ch_camera *cam, const double pos[9], double near) {
   double q[3][3], z[3], poly[4][3];
   for (int k = 0; k < 3; k++) {
-    sub3(pos + 3 * k, cam->eye, q[k]);
+    ch_sub3(pos + 3 * k, cam->eye, q[k]);
     z[k] = ch_dot3(q[k], cam->forward);
   }
   int m = 0;
@@ -97,7 +91,7 @@ static int in_frustum(const ch_camera *cam, const double pos[9], double near) {
 static void step_lengths(const ch_camera *cam, const double p[3], double min_depth, const double du[3],
                          const double dv[3], double out[2]) {
   double d[3];
-  sub3(p, cam->eye, d);
+  ch_sub3(p, cam->eye, d);
   double z = fmax(ch_dot3(d, cam->forward), min_depth);
   double x = ch_dot3(d, cam->right) / z, y = ch_dot3(d, cam->up) / z;
   double sx = 1.0 / (z * cam->half_width), sy = 1.0 / (z * cam->half_height);
@@ -120,13 +114,13 @@ static void analyse_triangle(const ch_camera *cam, const double uv[6], const dou
   *visible = 0;
   *holds = 0;
   double e1[3], e2[3], nrm[3], cen[3], to_eye[3];
-  sub3(pos + 3, pos, e1);
-  sub3(pos + 6, pos, e2);
+  ch_sub3(pos + 3, pos, e1);
+  ch_sub3(pos + 6, pos, e2);
   ch_cross3(e1, e2, nrm);
   double scale = ch_dot3(e1, e1) + ch_dot3(e2, e2);
   if (!(ch_dot3(nrm, nrm) > 1e-28 * scale * scale)) return;
   for (int k = 0; k < 3; k++) cen[k] = (pos[k] + pos[3 + k] + pos[6 + k]) / 3.0;
-  sub3(cam->eye, cen, to_eye);
+  ch_sub3(cam->eye, cen, to_eye);
   if (!(ch_dot3(nrm, to_eye) > 0.0) || !in_frustum(cam, pos, near)) return;
   *visible = 1;
   double box[4], f[6];
@@ -144,7 +138,7 @@ static void analyse_triangle(const ch_camera *cam, const double uv[6], const dou
   const double *pts[4] = {pos, pos + 3, pos + 6, cen};
   for (int i = 0; i < 4; i++) {
     double d[3], len[2];
-    sub3(pts[i], cam->eye, d);
+    ch_sub3(pts[i], cam->eye, d);
     if (!(ch_dot3(d, cam->forward) > 0.0)) continue;
     step_lengths(cam, pts[i], near, du, dv, len);
     need[0] = fmax(need[0], len[0]);
@@ -491,7 +485,7 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
       double g = tri_need[2 * (size_t)t + axis];
       if (!(g > 0.0)) continue;
       const double *c = cage->uv + 6 * (size_t)t;
-      double a = min3(c[axis], c[2 + axis], c[4 + axis]), b = max3(c[axis], c[2 + axis], c[4 + axis]);
+      double a = ch_min3(c[axis], c[2 + axis], c[4 + axis]), b = ch_max3(c[axis], c[2 + axis], c[4 + axis]);
       if (b < 0.0 || a > 1.0) continue;
       int i0 = (int)floor(fmax(a, 0.0) * n), i1 = (int)ceil(fmin(b, 1.0) * n) - 1;
       if (i0 > n - 1) i0 = n - 1;

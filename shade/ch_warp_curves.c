@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_alloc.h"
 #include "ch_warp_internal.h"
 
 /* Curve parameters closer than this are one cut. */
@@ -37,17 +38,6 @@ typedef struct piece_chunk {
   int num, cap;
   int failed;
 } piece_chunk;
-
-static int grow(void **array, int *cap, int need, size_t elem) {
-  if (need <= *cap) return 0;
-  int c = *cap ? *cap : 64;
-  while (c < need) c *= 2;
-  void *p = realloc(*array, (size_t)c * elem);
-  if (!p) return -1;
-  *array = p;
-  *cap = c;
-  return 0;
-}
 
 /* Adds the triangles of the grid cells near the quadratic q: its control box
  * is split in halves (de Casteljau) until it spans at most 2x2 cells, so a
@@ -75,7 +65,7 @@ static int gather_triangles(const ch_grid *g, const double q[3][2], int depth, r
         int t = g->items[k];
         if (sc->seen[t >> 3] & (1u << (t & 7))) continue;
         sc->seen[t >> 3] |= (unsigned char)(1u << (t & 7));
-        if (grow((void **)&sc->tris, &sc->cap_tris, sc->num_tris + 1, sizeof *sc->tris)) return -1;
+        if (ch_alloc_grow((void **)&sc->tris, &sc->cap_tris, sc->num_tris + 1, sizeof *sc->tris, 64)) return -1;
         sc->tris[sc->num_tris++] = t;
       }
     }
@@ -83,7 +73,7 @@ static int gather_triangles(const ch_grid *g, const double q[3][2], int depth, r
 }
 
 static int add_cut(reg_scratch *sc, double t) {
-  if (grow((void **)&sc->cuts, &sc->cap_cuts, sc->num_cuts + 1, sizeof *sc->cuts)) return -1;
+  if (ch_alloc_grow((void **)&sc->cuts, &sc->cap_cuts, sc->num_cuts + 1, sizeof *sc->cuts, 64)) return -1;
   sc->cuts[sc->num_cuts++] = t;
   return 0;
 }
@@ -189,7 +179,7 @@ static int register_segment(const ch_warp *w, const ch_segment *s, reg_scratch *
     double t = sc->cuts[i];
     if (t - last > CUT_MERGE && 1.0 - t > CUT_MERGE) sc->cuts[m++] = last = t;
   }
-  if (grow((void **)&ch->pieces, &ch->cap, ch->num + m + 1, sizeof *ch->pieces)) return -1;
+  if (ch_alloc_grow((void **)&ch->pieces, &ch->cap, ch->num + m + 1, sizeof *ch->pieces, 64)) return -1;
   for (int i = 0; i <= m; i++) {
     double t0 = i > 0 ? sc->cuts[i - 1] : 0.0, t1 = i < m ? sc->cuts[i] : 1.0;
     double q[3][2], mid[2], b[2];

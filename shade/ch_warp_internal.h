@@ -38,16 +38,11 @@ static inline int tri_frame(const double c[6], double f[6]) {
   return 1;
 }
 
-/* (fmin/fmax are calls here: their NaN rules keep them from inlining;
- * cage data is finite.) */
-static inline double min3(double a, double b, double c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
-static inline double max3(double a, double b, double c) { return a > b ? (a > c ? a : c) : (b > c ? b : c); }
-
 static inline void tri_box(const double c[6], double b[4]) {
-  b[0] = min3(c[0], c[2], c[4]);
-  b[1] = min3(c[1], c[3], c[5]);
-  b[2] = max3(c[0], c[2], c[4]);
-  b[3] = max3(c[1], c[3], c[5]);
+  b[0] = ch_min3(c[0], c[2], c[4]);
+  b[1] = ch_min3(c[1], c[3], c[5]);
+  b[2] = ch_max3(c[0], c[2], c[4]);
+  b[3] = ch_max3(c[1], c[3], c[5]);
 }
 
 static inline int boxes_overlap(const double a[4], const double b[4]) {

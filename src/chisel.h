@@ -43,6 +43,7 @@
 /* tess/: the base surface (OpenSubdiv), geometry images, displacement and
  * the feature embedding */
 #include "ch_surface.h"
+#include "ch_tess.h"
 #include "ch_geomimage.h"
 #include "ch_displace.h"
 #include "ch_embed.h"
