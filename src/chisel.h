@@ -21,6 +21,7 @@
 
 /* mesh/: the base mesh, its readers, validation and writers */
 #include "ch_mesh.h"
+#include "ch_mesh_scan.h"
 
 /* shade/: curves and their exact geometry, the DCI, h, the warp */
 #include "ch_curves.h"
