@@ -383,9 +383,9 @@ ch_status ch_warp_identity(const ch_warp_cage *cage, int intervals, ch_warp *out
   ch_status st = check_cage(cage, err);
   if (!st) st = warp_alloc(cage, n, out, err);
   if (st) return st;
-  double t0 = now_seconds();
+  double t0 = ch_progress_seconds();
   st = ch_warp_cage_finish(out, err);
-  out->stats.seconds_grids = now_seconds() - t0;
+  out->stats.seconds_grids = ch_progress_seconds() - t0;
   if (st) ch_warp_free(out);
   return st;
 }
@@ -428,7 +428,7 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   if ((st = warp_alloc(cage, n, out, err))) return st;
 
   /* Need per triangle. */
-  double t0 = now_seconds();
+  double t0 = ch_progress_seconds();
   int nt = cage->num_triangles;
   double *tri_need = malloc((size_t)(nt > 0 ? nt : 1) * 2 * sizeof *tri_need);
   int *holds = malloc((size_t)(nt > 0 ? nt : 1) * sizeof *holds);
@@ -468,7 +468,7 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   }
   out->stats.visible_triangles = nvis;
   out->stats.needy_triangles = nneedy;
-  double t1 = now_seconds();
+  double t1 = ch_progress_seconds();
   out->stats.seconds_need = t1 - t0;
 
   /* Per axis: need per interval, spread, solved. */
@@ -509,11 +509,11 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   out->stats.max_slope[1] = max_slope(out->wv, n);
   out->floor = fl;
   if (nneedy > 0 && (st = build_focus(out, mr, err))) goto done;
-  double t2 = now_seconds();
+  double t2 = ch_progress_seconds();
   out->stats.seconds_functions = t2 - t1;
 
   st = ch_warp_cage_finish(out, err);
-  out->stats.seconds_grids = now_seconds() - t2;
+  out->stats.seconds_grids = ch_progress_seconds() - t2;
 
 done:
   free(tri_need);

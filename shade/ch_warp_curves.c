@@ -207,7 +207,7 @@ enum { CHUNK_SEGMENTS = 64 };
 
 ch_status ch_warp_curves(const ch_warp *w, const ch_curve_set *in, ch_curve_set *out, ch_warp_curve_stats *stats,
                          ch_error *err) {
-  double t0 = now_seconds();
+  double t0 = ch_progress_seconds();
   memset(out, 0, sizeof *out);
   if (stats) memset(stats, 0, sizeof *stats);
   int ns = in->num_segments;
@@ -317,7 +317,7 @@ ch_status ch_warp_curves(const ch_warp *w, const ch_curve_set *in, ch_curve_set 
   memcpy(out->viewbox, in->viewbox, sizeof out->viewbox);
   if (stats) {
     stats->registered_pieces = np;
-    stats->seconds = now_seconds() - t0;
+    stats->seconds = ch_progress_seconds() - t0;
   }
 
 done:

@@ -9,6 +9,7 @@
 
 #include "ch_grid.h"
 #include "ch_math.h"
+#include "ch_progress.h"
 #include "ch_warp.h"
 
 /* The private part of ch_warp (ch_warp.grids): a uniform grid over the
@@ -19,8 +20,6 @@ typedef struct cage_index {
   ch_grid grid[2];
   double *frame[2];
 } cage_index;
-
-static inline double now_seconds(void) { return omp_get_wtime(); }
 
 /* Corner 0 and the inverse edge matrix of the triangle c (u0 v0 u1 v1 u2
  * v2): b1 = f2 du + f3 dv, b2 = f4 du + f5 dv for (du, dv) = q - corner 0.

@@ -309,16 +309,10 @@ extern "C" ch_status ch_surface_create(const ch_mesh *mesh, ch_scheme scheme, ch
   });
   ch_error *saved = tl_err;
   tl_err = err;
-  try {
+  st = guarded(err, "building the base surface", "OpenSubdiv", [&] {
     S = new ch_surface();
-    st = build(mesh, scheme, S, err);
-  } catch (const std::bad_alloc &) {
-    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory building the base surface");
-  } catch (const std::exception &e) {
-    st = ch_error_set(err, CH_ERR_INTERNAL, "OpenSubdiv: %s", e.what());
-  } catch (...) {
-    st = ch_error_set(err, CH_ERR_INTERNAL, "OpenSubdiv: unknown exception");
-  }
+    return build(mesh, scheme, S, err);
+  });
   tl_err = saved;
   tl_far_error = nullptr;
   if (st != CH_OK) {

@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstddef>
+#include <exception>
+#include <new>
 #include <vector>
 
 #include <opensubdiv/bfr/surface.h>
@@ -24,6 +26,22 @@ typedef Surface::PointDescriptor PD;
 constexpr int kMaxRate = 32767;
 /* Output sizes stay far below int overflow of corner indices. */
 constexpr long kMaxTriangles = 1L << 28;
+
+/* The C boundary of an entry point: runs fn (returning a ch_status) and
+ * turns any exception into a status and one line, "out of memory DOING"
+ * or "WHO: what()", so that no exception crosses into C. */
+template <class Fn>
+ch_status guarded(ch_error *err, const char *doing, const char *who, Fn fn) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc &) {
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory %s", doing);
+  } catch (const std::exception &e) {
+    return ch_error_set(err, CH_ERR_INTERNAL, "%s: %s", who, e.what());
+  } catch (...) {
+    return ch_error_set(err, CH_ERR_INTERNAL, "%s: unknown exception", who);
+  }
+}
 
 }  // namespace ch_surface_detail
 

@@ -464,16 +464,8 @@ extern "C" ch_status ch_tess_build(const ch_surface *surface, const ch_tess_desc
   if (!out) return ch_error_set(err, CH_ERR_INTERNAL, "ch_tess_build: out is NULL");
   std::memset(out, 0, sizeof *out);
   if (!surface) return ch_error_set(err, CH_ERR_INTERNAL, "ch_tess_build: surface is NULL");
-  ch_status st;
-  try {
-    st = tess_build(surface, desc, out, err);
-  } catch (const std::bad_alloc &) {
-    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory tessellating the base surface");
-  } catch (const std::exception &e) {
-    st = ch_error_set(err, CH_ERR_INTERNAL, "tessellation: %s", e.what());
-  } catch (...) {
-    st = ch_error_set(err, CH_ERR_INTERNAL, "tessellation: unknown exception");
-  }
+  ch_status st = guarded(err, "tessellating the base surface", "tessellation",
+                         [&] { return tess_build(surface, desc, out, err); });
   if (st != CH_OK) ch_tess_free(out);
   return st;
 }

@@ -1,10 +1,14 @@
 /* core's small shared helpers: ch_math.h (checked against hand-worked
- * values and against qsort's contract) and ch_alloc_grow. */
+ * values and against qsort's contract), ch_alloc_grow and the clock of
+ * ch_progress. */
+#define _POSIX_C_SOURCE 200809L /* nanosleep */
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "ch_alloc.h"
 #include "ch_math.h"
+#include "ch_progress.h"
 #include "ch_test.h"
 
 static void test_math(void) {
@@ -58,8 +62,19 @@ static void test_grow(void) {
   free(p);
 }
 
+/* The clock runs forward with wall time: a 30 ms sleep reads as 30 ms or
+ * more (and, even on a loaded machine, well under 10 s). */
+static void test_clock(void) {
+  double t0 = ch_progress_seconds();
+  struct timespec ts = {0, 30 * 1000 * 1000};
+  nanosleep(&ts, NULL);
+  double t1 = ch_progress_seconds();
+  CHECK_MSG(t1 - t0 >= 0.029 && t1 - t0 < 10.0, "%g s", t1 - t0);
+}
+
 int main(void) {
   RUN(test_math);
   RUN(test_grow);
+  RUN(test_clock);
   TEST_MAIN_END();
 }
