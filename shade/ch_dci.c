@@ -14,12 +14,11 @@
 #include "ch_dci.h"
 
 #include <math.h>
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static double now_seconds(void) { return omp_get_wtime(); }
+#include "ch_progress.h"
 
 void ch_dci_free(ch_dci *d) {
   ch_samples_free(&d->samples);
@@ -130,10 +129,10 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   int R = desc->resolution;
   double rect[4] = {desc->rect[0], desc->rect[1], desc->rect[2], desc->rect[3]};
   if (rect[0] == 0.0 && rect[1] == 0.0 && rect[2] == 0.0 && rect[3] == 0.0) rect[2] = rect[3] = 1.0;
-  double t0 = now_seconds();
+  double t0 = ch_progress_seconds();
   ch_status st = ch_samples_build(set, R, R, rect, CH_DCI_SAMPLE_BAND, &d->samples, err);
   if (st) return st;
-  d->seconds_samples = now_seconds() - t0;
+  d->seconds_samples = ch_progress_seconds() - t0;
   ch_samples *s = &d->samples;
   size_t n = (size_t)R * R;
   int any_blur = 0;
@@ -163,7 +162,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     for (int c = 0; c < colors; c++) v[1 + c] = s->curve[i] >= 0 ? s->color[6 * i + c] : 0.0f;
     if (any_blur) sigma[i] = s->curve[i] >= 0 ? (float)(set->curves[s->curve[i]].blur / texel) : 0.0f;
   }
-  t0 = now_seconds();
+  t0 = ch_progress_seconds();
   ch_diffuse_desc dd = {.tolerance = desc->tolerance};
   st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
   if (!st && any_blur) {
@@ -173,12 +172,12 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     ch_diffuse_desc ds = {.tolerance = fmax(1e-3, desc->tolerance)};
     st = ch_diffuse_solve(R, R, 1, d->fixed, sigma, &ds, NULL, err);
   }
-  d->seconds_diffuse = now_seconds() - t0;
+  d->seconds_diffuse = ch_progress_seconds() - t0;
   if (!st && any_blur) {
-    t0 = now_seconds();
+    t0 = ch_progress_seconds();
     st = reblur(set, desc, d, values, channels, sigma, err);
     if (!st) sigma = NULL; /* now d->blur */
-    d->seconds_blur = now_seconds() - t0;
+    d->seconds_blur = ch_progress_seconds() - t0;
   }
   free(sigma);
   if (st) {

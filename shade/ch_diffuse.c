@@ -1,5 +1,12 @@
 /* ch_diffuse: Laplace's equation with fixed texels, by Galerkin multigrid.
  *
+ * Why one file of about 1,450 lines: it is one algorithm, a multigrid
+ * solver whose parts (smoothers, restriction, prolongation, the Galerkin
+ * levels, the cycle) share one private solver struct and a set of SIMD
+ * row kernels, and are tuned together (the measurements below); cut
+ * apart, each piece would need those internals in a header and none would
+ * be usable alone.
+ *
  * Implements the diffusion of docs/spec.md §3 "Steps" (papers/diffusion-curves-on-
  * surfaces.txt §3.2). The paper runs Jeschke et al. 2009's variable-stencil
  * solver, a fixed number of GPU passes that is not converged; we want a
@@ -74,7 +81,6 @@
  *   of row y, B of row y - 1) with the band-edge B rows after a barrier:
  *   equal to "all A, then all B", so bit-identical for any thread count.
  *   Reductions: per-row partial sums added in row order. */
-#define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include "ch_diffuse.h"
 
 #include <math.h>
@@ -83,7 +89,8 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
+
+#include "ch_progress.h"
 
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
@@ -215,12 +222,6 @@ typedef struct solver {
   size_t scratch_per_thread;
   double *norm_rows; /* per level-1 row: cp squared residuals, cp squared values */
 } solver;
-
-static double now_seconds(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 /* Threads for a pass over w*h nodes: small levels stay on one thread, and
  * every band of rows has at least two rows. */
@@ -1247,7 +1248,7 @@ static void scan_grid(const solver *s, double *rows) {
 
 ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned char *fixed, float *values,
                            const ch_diffuse_desc *desc, ch_diffuse_stats *stats, ch_error *err) {
-  double t0 = now_seconds();
+  double t0 = ch_progress_seconds();
   if (stats) memset(stats, 0, sizeof *stats);
   if (width < 0 || height < 0 || width > (1 << 24) || height > (1 << 24) ||
       (double)width * (double)height > (double)(1 << 30))
@@ -1260,7 +1261,7 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
   if (!(tol > 0.0) || maxit < 0)
     return ch_error_set(err, CH_ERR_INPUT, "diffusion: tolerance %g / max_iterations %d not usable", tol, maxit);
   if (width == 0 || height == 0) {
-    if (stats) stats->seconds = now_seconds() - t0;
+    if (stats) stats->seconds = ch_progress_seconds() - t0;
     return CH_OK;
   }
   if (!fixed || !values) return ch_error_set(err, CH_ERR_INPUT, "diffusion: no mask or no values");
@@ -1299,7 +1300,7 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
   double ntex = (double)w * (double)h;
   if (nfixed == ntex) { /* nothing to solve */
     free(rows);
-    if (stats) stats->seconds = now_seconds() - t0;
+    if (stats) stats->seconds = ch_progress_seconds() - t0;
     return CH_OK;
   }
   if (nfixed == 0.0) {
@@ -1324,7 +1325,7 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
         for (int c = 0; c < C; c++) values[i * C + c] = mean[c];
     if (stats) {
       stats->levels = 1;
-      stats->seconds = now_seconds() - t0;
+      stats->seconds = ch_progress_seconds() - t0;
     }
     return CH_OK;
   }
@@ -1431,6 +1432,6 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
   }
 done:
   free_solver(s);
-  if (stats) stats->seconds = now_seconds() - t0;
+  if (stats) stats->seconds = ch_progress_seconds() - t0;
   return st;
 }

@@ -5,10 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int cmp_double(const void *a, const void *b) {
-  double x = *(const double *)a, y = *(const double *)b;
-  return (x > y) - (x < y);
-}
+#include "ch_math.h"
 
 void ch_grid_free(ch_grid *grid) {
   free(grid->cell_start);
@@ -35,7 +32,7 @@ ch_status ch_grid_build(ch_grid *g, int n, const double (*boxes)[4], ch_error *e
   }
   double cell = 1.0;
   if (valid > 0) {
-    qsort(sizes, (size_t)valid, sizeof *sizes, cmp_double);
+    qsort(sizes, (size_t)valid, sizeof *sizes, ch_cmp_double);
     /* Half the median box: a box covers about 3x3 cells, a cell sees few
      * boxes beyond those that really overlap it. */
     cell = 0.5 * sizes[valid / 2];
@@ -195,8 +192,8 @@ ch_status ch_grid_build_curves(ch_grid *g, const ch_curve_set *set, const double
   }
   double cell = 1.0;
   if (valid > 0) {
-    qsort(sizes, (size_t)valid, sizeof *sizes, cmp_double);
-    qsort(reaches, (size_t)valid, sizeof *reaches, cmp_double);
+    qsort(sizes, (size_t)valid, sizeof *sizes, ch_cmp_double);
+    qsort(reaches, (size_t)valid, sizeof *reaches, ch_cmp_double);
     cell = fmin(0.5 * sizes[valid / 2], fmax(2.0 * reaches[valid / 2], 0.0));
     double extent = fmax(hi[0] - lo[0], hi[1] - lo[1]);
     if (!(cell > 0.0)) cell = 0.5 * sizes[valid / 2];

@@ -1,6 +1,14 @@
 /* Path-based groove textures (ch_gtex.h): the representation of
  * path-based-grooves §4 and its rendering along rays (§5).
  *
+ * Why one file of about 1,600 lines: it is one texture method, and its
+ * build and its shader read the same packed texel layout through the same
+ * loaders (elements, grooves, cells, the profile's value and slope, the
+ * closest point on an element); the build uses them to bound h per cell
+ * as the shader will see it. Cut at build / shader, both halves would need
+ * that layout and those loaders in a shared header, which is what keeps a
+ * GLSL twin easy to follow from one file.
+ *
  * Departures from the paper, and why:
  * - The paper finds the visible facet per element and combines elements by
  *   CSG with priority tags for ends, corners and crossings (§5.3-5.4).

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "ch_bezier.h"
+#include "ch_math.h"
 
 void ch_segtree_free(ch_segtree *tree) {
   free(tree->box);
@@ -39,14 +40,12 @@ static int cmp_key(const void *a, const void *b) {
   return (x->curve > y->curve) - (x->curve < y->curve);
 }
 
-static double min3(double a, double b, double c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
-static double max3(double a, double b, double c) { return a > b ? (a > c ? a : c) : (b > c ? b : c); }
 
 static void segment_box(const ch_segment *s, double b[4]) {
-  b[0] = min3(s->p[0][0], s->p[1][0], s->p[2][0]);
-  b[1] = min3(s->p[0][1], s->p[1][1], s->p[2][1]);
-  b[2] = max3(s->p[0][0], s->p[1][0], s->p[2][0]);
-  b[3] = max3(s->p[0][1], s->p[1][1], s->p[2][1]);
+  b[0] = ch_min3(s->p[0][0], s->p[1][0], s->p[2][0]);
+  b[1] = ch_min3(s->p[0][1], s->p[1][1], s->p[2][1]);
+  b[2] = ch_max3(s->p[0][0], s->p[1][0], s->p[2][0]);
+  b[3] = ch_max3(s->p[0][1], s->p[1][1], s->p[2][1]);
 }
 
 ch_status ch_segtree_build(ch_segtree *t, const ch_curve_set *set, ch_error *err) {

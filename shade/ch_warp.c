@@ -1,4 +1,4 @@
-/* The view-dependent texture warp (diffusion-curves-on-surfaces §3.2).
+/* The view-dependent texture warp W (diffusion-curves-on-surfaces §3.2).
  *
  * As in the paper: the need of each triangle comes from its visibility (in
  * the frustum, not back-facing), its closeness to the observer and whether
@@ -18,155 +18,25 @@
  *   intervals differ by at most max_ratio (smoothness), the slopes are
  *   max(floor, a need) capped at max_slope, and a is the root of
  *   mean slope = 1, a monotone piecewise-linear equation in a.
- * - Our curves are quadratic Beziers, not polylines: a segment is cut at the
- *   exact roots of the quadratic on every triangle edge near it, and a piece's
- *   control points go through its triangle's affine map, so the warped piece
- *   is the exact image (an affine map of a quadratic is the quadratic of the
- *   mapped control points).
  * - The frustum test is conservative: the screen box of the triangle clipped
- *   to the near plane against the square. Where cage triangles overlap in UV
- *   (or fold in warped UV) the lowest-numbered one is used. */
+ *   to the near plane against the square.
+ *
+ * This file holds the need and W (with the mesh's density and arc lengths);
+ * the cage map is ch_warp_cage.c, the curves' registration
+ * ch_warp_curves.c. */
 #include "ch_warp.h"
 
-#include <limits.h>
 #include <math.h>
-#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "ch_grid.h"
-#include "ch_math.h"
+#include "ch_warp_internal.h"
 
-/* Barycentric tolerance of the cage lookup: points on an edge belong to both
- * triangles, the lowest-numbered one is taken. */
-#define INSIDE_TOL 1e-12
-/* Curve parameters closer than this are one cut. */
-#define CUT_MERGE 1e-12
-/* Relative tolerance of the cut point lying on an edge: a spurious cut near
- * a vertex costs one more piece, a missed one a piece in the wrong triangle. */
-#define EDGE_TOL 1e-9
-/* Texel grid of the visible shares. */
-enum { SHARE_RES = 256, DEFAULT_INTERVALS = 256, MAX_INTERVALS = 65536 };
+enum { DEFAULT_INTERVALS = 256, MAX_INTERVALS = 65536 };
 /* Focus cells per axis (at most; a cell is a whole number of intervals). */
 enum { FOCUS_CELLS = 64 };
 
-/* The private part of ch_warp: a uniform grid over the triangles' boxes in
- * UV (0) and in warped UV (1), and per triangle and space its corner 0 and
- * the inverse of its edge matrix (barycentrics in two multiply-adds). */
-typedef struct cage_index {
-  ch_grid grid[2];
-  double *frame[2];
-} cage_index;
-
-static double now_seconds(void) { return omp_get_wtime(); }
-
-static void sub3(const double a[3], const double b[3], double out[3]) {
-  out[0] = a[0] - b[0];
-  out[1] = a[1] - b[1];
-  out[2] = a[2] - b[2];
-}
-
-static int normalize3(double v[3]) {
-  double len = sqrt(ch_dot3(v, v));
-  if (!(len > 0.0)) return 0;
-  v[0] /= len;
-  v[1] /= len;
-  v[2] /= len;
-  return 1;
-}
-
-/* ---- camera ---------------------------------------------------------- */
-
-ch_status ch_camera_init(ch_camera *cam, const double values[7], ch_error *err) {
-  memset(cam, 0, sizeof *cam);
-  for (int i = 0; i < 7; i++)
-    if (!isfinite(values[i]))
-      return ch_error_set(err, CH_ERR_INPUT, "camera: value %d is not a finite number", i + 1);
-  double dir[3] = {values[3] - values[0], values[4] - values[1], values[5] - values[2]};
-  double len = sqrt(ch_dot3(dir, dir));
-  if (!(len >= 1e-12)) return ch_error_set(err, CH_ERR_INPUT, "camera: the eye is on the point looked at");
-  if (!(values[6] >= 0.01 && values[6] <= 179.0))
-    return ch_error_set(err, CH_ERR_INPUT, "camera: field of view %g outside [0.01, 179] degrees", values[6]);
-  memcpy(cam->eye, values, sizeof cam->eye);
-  memcpy(cam->at, values + 3, sizeof cam->at);
-  cam->fov_deg = values[6];
-  for (int k = 0; k < 3; k++) cam->forward[k] = dir[k] / len;
-  double world_up[3] = {0.0, 0.0, 1.0};
-  if (fabs(dir[2]) > 0.999 * len) {
-    world_up[1] = 1.0;
-    world_up[2] = 0.0;
-  }
-  ch_cross3(cam->forward, world_up, cam->right);
-  normalize3(cam->right); /* |forward x up| >= sqrt(1 - 0.999^2) */
-  ch_cross3(cam->right, cam->forward, cam->up);
-  cam->tan_half = tan(0.5 * cam->fov_deg * CH_PI / 180.0);
-  return CH_OK;
-}
-
-int ch_camera_project(const ch_camera *cam, const double p[3], double ndc[2], double *depth) {
-  double d[3];
-  sub3(p, cam->eye, d);
-  double z = ch_dot3(d, cam->forward);
-  if (depth) *depth = z;
-  if (!(z > 0.0)) {
-    ndc[0] = ndc[1] = 0.0;
-    return 0;
-  }
-  double s = 1.0 / (z * cam->tan_half);
-  ndc[0] = ch_dot3(d, cam->right) * s;
-  ndc[1] = ch_dot3(d, cam->up) * s;
-  return 1;
-}
-
 /* ---- per-triangle need ---------------------------------------------- */
-
-/* Corner 0 and the inverse edge matrix of the triangle c (u0 v0 u1 v1 u2
- * v2): b1 = f2 du + f3 dv, b2 = f4 du + f5 dv for (du, dv) = q - corner 0.
- * Returns 0 for a triangle without area (relative to its edges). */
-static int tri_frame(const double c[6], double f[6]) {
-  double e1[2] = {c[2] - c[0], c[3] - c[1]}, e2[2] = {c[4] - c[0], c[5] - c[1]};
-  double det = ch_cross2(e1, e2);
-  if (!(fabs(det) > 1e-14 * (ch_dot2(e1, e1) + ch_dot2(e2, e2)))) return 0;
-  f[0] = c[0];
-  f[1] = c[1];
-  f[2] = e2[1] / det;
-  f[3] = -e2[0] / det;
-  f[4] = -e1[1] / det;
-  f[5] = e1[0] / det;
-  return 1;
-}
-
-/* (fmin/fmax are calls here: their NaN rules keep them from inlining;
- * cage data is finite.) */
-static double min3(double a, double b, double c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
-static double max3(double a, double b, double c) { return a > b ? (a > c ? a : c) : (b > c ? b : c); }
-
-static void tri_box(const double c[6], double b[4]) {
-  b[0] = min3(c[0], c[2], c[4]);
-  b[1] = min3(c[1], c[3], c[5]);
-  b[2] = max3(c[0], c[2], c[4]);
-  b[3] = max3(c[1], c[3], c[5]);
-}
-
-static int boxes_overlap(const double a[4], const double b[4]) {
-  return a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3];
-}
-
-/* The cells of g that box b touches, clamped to the grid (empty when b
- * misses it). Clamped in double first: boxes may be far outside. */
-static void cell_range(const ch_grid *g, const double b[4], int r[4]) {
-  double lim[2] = {g->nx, g->ny};
-  for (int k = 0; k < 4; k++) {
-    double f = floor((b[k] - g->origin[k & 1]) * g->inv_cell);
-    if (!(f > -1.0)) f = -1.0; /* also NaN */
-    if (f > lim[k & 1]) f = lim[k & 1];
-    r[k] = (int)f;
-  }
-  if (r[0] < 0) r[0] = 0;
-  if (r[1] < 0) r[1] = 0;
-  if (r[2] >= g->nx) r[2] = g->nx - 1;
-  if (r[3] >= g->ny) r[3] = g->ny - 1;
-}
 
 /* Whether any of the grid's boxes overlaps b. */
 static int grid_any_overlap(const ch_grid *g, const double (*boxes)[4], const double b[4]) {
@@ -187,7 +57,7 @@ static int grid_any_overlap(const ch_grid *g, const double (*boxes)[4], const do
 static int in_frustum(const ch_camera *cam, const double pos[9], double near) {
   double q[3][3], z[3], poly[4][3];
   for (int k = 0; k < 3; k++) {
-    sub3(pos + 3 * k, cam->eye, q[k]);
+    ch_sub3(pos + 3 * k, cam->eye, q[k]);
     z[k] = ch_dot3(q[k], cam->forward);
   }
   int m = 0;
@@ -204,8 +74,9 @@ static int in_frustum(const ch_camera *cam, const double pos[9], double near) {
   if (m == 0) return 0;
   double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
   for (int k = 0; k < m; k++) {
-    double zz = fmax(ch_dot3(poly[k], cam->forward), near) * cam->tan_half;
-    double x = ch_dot3(poly[k], cam->right) / zz, y = ch_dot3(poly[k], cam->up) / zz;
+    double zz = fmax(ch_dot3(poly[k], cam->forward), near);
+    double x = ch_dot3(poly[k], cam->right) / (zz * cam->half_width);
+    double y = ch_dot3(poly[k], cam->up) / (zz * cam->half_height);
     lo[0] = fmin(lo[0], x);
     hi[0] = fmax(hi[0], x);
     lo[1] = fmin(lo[1], y);
@@ -216,17 +87,18 @@ static int in_frustum(const ch_camera *cam, const double pos[9], double near) {
 
 /* NDC lengths of the 3D steps du, dv taken at p (in front). With d = p - eye,
  * z = d.forward and x = d.right / z: d(ndc_x)/dp = (right - x forward) /
- * (z tan_half), likewise for y. z is kept >= min_depth. */
+ * (z half_width), likewise for y. z is kept >= min_depth. */
 static void step_lengths(const ch_camera *cam, const double p[3], double min_depth, const double du[3],
                          const double dv[3], double out[2]) {
   double d[3];
-  sub3(p, cam->eye, d);
+  ch_sub3(p, cam->eye, d);
   double z = fmax(ch_dot3(d, cam->forward), min_depth);
-  double x = ch_dot3(d, cam->right) / z, y = ch_dot3(d, cam->up) / z, s = 1.0 / (z * cam->tan_half);
+  double x = ch_dot3(d, cam->right) / z, y = ch_dot3(d, cam->up) / z;
+  double sx = 1.0 / (z * cam->half_width), sy = 1.0 / (z * cam->half_height);
   double jx[3], jy[3];
   for (int k = 0; k < 3; k++) {
-    jx[k] = (cam->right[k] - x * cam->forward[k]) * s;
-    jy[k] = (cam->up[k] - y * cam->forward[k]) * s;
+    jx[k] = (cam->right[k] - x * cam->forward[k]) * sx;
+    jy[k] = (cam->up[k] - y * cam->forward[k]) * sy;
   }
   out[0] = hypot(ch_dot3(jx, du), ch_dot3(jy, du));
   out[1] = hypot(ch_dot3(jx, dv), ch_dot3(jy, dv));
@@ -242,13 +114,13 @@ static void analyse_triangle(const ch_camera *cam, const double uv[6], const dou
   *visible = 0;
   *holds = 0;
   double e1[3], e2[3], nrm[3], cen[3], to_eye[3];
-  sub3(pos + 3, pos, e1);
-  sub3(pos + 6, pos, e2);
+  ch_sub3(pos + 3, pos, e1);
+  ch_sub3(pos + 6, pos, e2);
   ch_cross3(e1, e2, nrm);
   double scale = ch_dot3(e1, e1) + ch_dot3(e2, e2);
   if (!(ch_dot3(nrm, nrm) > 1e-28 * scale * scale)) return;
   for (int k = 0; k < 3; k++) cen[k] = (pos[k] + pos[3 + k] + pos[6 + k]) / 3.0;
-  sub3(cam->eye, cen, to_eye);
+  ch_sub3(cam->eye, cen, to_eye);
   if (!(ch_dot3(nrm, to_eye) > 0.0) || !in_frustum(cam, pos, near)) return;
   *visible = 1;
   double box[4], f[6];
@@ -266,7 +138,7 @@ static void analyse_triangle(const ch_camera *cam, const double uv[6], const dou
   const double *pts[4] = {pos, pos + 3, pos + 6, cen};
   for (int i = 0; i < 4; i++) {
     double d[3], len[2];
-    sub3(pts[i], cam->eye, d);
+    ch_sub3(pts[i], cam->eye, d);
     if (!(ch_dot3(d, cam->forward) > 0.0)) continue;
     step_lengths(cam, pts[i], near, du, dv, len);
     need[0] = fmax(need[0], len[0]);
@@ -284,11 +156,6 @@ static double slope_sum(const double *need, int n, double a, double fl, double m
   return s;
 }
 
-static int cmp_double(const void *a, const void *b) {
-  double x = *(const double *)a, y = *(const double *)b;
-  return (x > y) - (x < y);
-}
-
 /* Knots of the function whose slopes are s_i = clamp(a need_i, fl, ms) with
  * mean 1. The sum of the slopes is continuous, nondecreasing and linear
  * between the breaks fl / need_i and ms / need_i: a binary search over the
@@ -303,7 +170,7 @@ static int solve_axis(const double *need, int n, double fl, double ms, double *w
       scratch[m++] = ms / need[i];
     }
   if (m == 0) return 0;
-  qsort(scratch, (size_t)m, sizeof *scratch, cmp_double);
+  qsort(scratch, (size_t)m, sizeof *scratch, ch_cmp_double);
   double target = n;
   if (slope_sum(need, n, scratch[m - 1], fl, ms) < target) return 0;
   /* At scratch[0] every slope is fl < 1: below the target. */
@@ -463,86 +330,6 @@ static ch_status build_focus(ch_warp *w, double mr, ch_error *err) {
   return CH_OK;
 }
 
-/* ---- the cage map ---------------------------------------------------- */
-
-/* The lowest-numbered triangle of space s (0 UV, 1 warped UV) holding q,
- * with q's barycentrics b1, b2 in it; -1 if none. */
-static int locate(const cage_index *ix, int s, const double q[2], double b[2]) {
-  const int *items;
-  int m = ch_grid_query(&ix->grid[s], q[0], q[1], &items);
-  for (int k = 0; k < m; k++) {
-    const double *f = ix->frame[s] + 6 * (size_t)items[k];
-    double du = q[0] - f[0], dv = q[1] - f[1];
-    double b1 = f[2] * du + f[3] * dv, b2 = f[4] * du + f[5] * dv;
-    if (b1 >= -INSIDE_TOL && b2 >= -INSIDE_TOL && 1.0 - b1 - b2 >= -INSIDE_TOL) {
-      b[0] = b1;
-      b[1] = b2;
-      return items[k];
-    }
-  }
-  return -1;
-}
-
-/* The point with barycentrics b in triangle t of space s's counterpart. */
-static void combine(const ch_warp *w, int t, int s, const double b[2], double out[2]) {
-  const double *c = (s ? w->uv : w->wuv) + 6 * (size_t)t;
-  out[0] = c[0] + b[0] * (c[2] - c[0]) + b[1] * (c[4] - c[0]);
-  out[1] = c[1] + b[0] * (c[3] - c[1]) + b[1] * (c[5] - c[1]);
-}
-
-/* Triangle t's affine map from space s to the other, for any q (the map
- * extended beyond the triangle). */
-static void tri_apply(const ch_warp *w, int t, int s, const double q[2], double out[2]) {
-  const cage_index *ix = w->grids;
-  const double *f = ix->frame[s] + 6 * (size_t)t;
-  double du = q[0] - f[0], dv = q[1] - f[1];
-  double b[2] = {f[2] * du + f[3] * dv, f[4] * du + f[5] * dv};
-  combine(w, t, s, b, out);
-}
-
-/* C (s = 0) or C^-1 (s = 1) at q: the triangle's map, else W or W^-1. */
-static int cage_map(const ch_warp *w, int s, const double q[2], double out[2]) {
-  double b[2];
-  int t = locate(w->grids, s, q, b);
-  if (t >= 0) {
-    combine(w, t, s, b, out);
-  } else {
-    for (int k = 0; k < 2; k++) out[k] = s ? ch_warp_axis_inverse(w, k, q[k]) : ch_warp_axis(w, k, q[k]);
-  }
-  return t;
-}
-
-int ch_warp_map(const ch_warp *w, const double uv[2], double out[2]) { return cage_map(w, 0, uv, out); }
-
-int ch_warp_unmap(const ch_warp *w, const double wuv[2], double out[2]) { return cage_map(w, 1, wuv, out); }
-
-double ch_warp_visible_triangle_share(const ch_warp *w, int num_triangles, const int *corner_uv,
-                                      const double *uv) {
-  if (num_triangles <= 0) return 0.0;
-  long count = 0;
-#pragma omp parallel for schedule(static) reduction(+ : count)
-  for (int t = 0; t < num_triangles; t++) {
-    double c[2] = {0.0, 0.0}, b[2];
-    for (int k = 0; k < 3; k++) {
-      const double *p = uv + 2 * (size_t)corner_uv[3 * (size_t)t + k];
-      c[0] += p[0] / 3.0;
-      c[1] += p[1] / 3.0;
-    }
-    int cage = locate(w->grids, 0, c, b);
-    count += cage >= 0 && w->visible[cage];
-  }
-  return (double)count / num_triangles;
-}
-
-static void index_free(cage_index *ix) {
-  if (!ix) return;
-  for (int s = 0; s < 2; s++) {
-    ch_grid_free(&ix->grid[s]);
-    free(ix->frame[s]);
-  }
-  free(ix);
-}
-
 void ch_warp_free(ch_warp *w) {
   free(w->focus);
   free(w->wu);
@@ -550,77 +337,10 @@ void ch_warp_free(ch_warp *w) {
   free(w->uv);
   free(w->wuv);
   free(w->visible);
-  index_free(w->grids);
+  ch_warp_cage_index_free(w->grids);
   memset(w, 0, sizeof *w);
 }
 
-/* Warped corners, both triangle grids and the visible shares. */
-static ch_status finish_cage(ch_warp *w, ch_error *err) {
-  int nt = w->num_triangles;
-  for (size_t i = 0; i < (size_t)nt * 3; i++) {
-    w->wuv[2 * i] = ch_warp_axis(w, 0, w->uv[2 * i]);
-    w->wuv[2 * i + 1] = ch_warp_axis(w, 1, w->uv[2 * i + 1]);
-  }
-  cage_index *ix = calloc(1, sizeof *ix);
-  double(*boxes)[4] = malloc((size_t)(nt > 0 ? nt : 1) * sizeof *boxes);
-  if (!ix || !boxes) {
-    free(ix);
-    free(boxes);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the warp's cage grids");
-  }
-  w->grids = ix;
-  for (int s = 0; s < 2; s++) {
-    const double *c = s ? w->wuv : w->uv;
-    ix->frame[s] = malloc((size_t)(nt > 0 ? nt : 1) * 6 * sizeof(double));
-    if (!ix->frame[s]) {
-      free(boxes);
-      return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the warp's cage grids");
-    }
-#pragma omp parallel for schedule(static)
-    for (int t = 0; t < nt; t++) {
-      double *f = ix->frame[s] + 6 * (size_t)t;
-      if (tri_frame(c + 6 * (size_t)t, f)) {
-        tri_box(c + 6 * (size_t)t, boxes[t]);
-      } else { /* no area: left out of the grid (an empty box) */
-        memset(f, 0, 6 * sizeof *f);
-        boxes[t][0] = boxes[t][1] = 1.0;
-        boxes[t][2] = boxes[t][3] = 0.0;
-      }
-    }
-    ch_status st = ch_grid_build(&ix->grid[s], nt, (const double(*)[4])boxes, err);
-    if (st) {
-      free(boxes);
-      return st;
-    }
-  }
-  free(boxes);
-  int folded = 0;
-  for (int t = 0; t < nt; t++) {
-    const double *a = w->uv + 6 * (size_t)t, *b = w->wuv + 6 * (size_t)t;
-    double da = (a[2] - a[0]) * (a[5] - a[1]) - (a[4] - a[0]) * (a[3] - a[1]);
-    double db = (b[2] - b[0]) * (b[5] - b[1]) - (b[4] - b[0]) * (b[3] - b[1]);
-    double f[6];
-    if (tri_frame(a, f)) folded += !tri_frame(b, f) || (da > 0.0) != (db > 0.0);
-  }
-  w->stats.folded_triangles = folded;
-  /* The shares: texel centres of both squares, looked up in each space. */
-  for (int s = 0; s < 2; s++) {
-    long count = 0;
-#pragma omp parallel for schedule(static) reduction(+ : count)
-    for (int y = 0; y < SHARE_RES; y++)
-      for (int x = 0; x < SHARE_RES; x++) {
-        double q[2] = {(x + 0.5) / SHARE_RES, (y + 0.5) / SHARE_RES}, b[2];
-        int t = locate(ix, s, q, b);
-        if (t >= 0 && w->visible[t]) count++;
-      }
-    double share = (double)count / ((double)SHARE_RES * SHARE_RES);
-    if (s)
-      w->stats.visible_share = share;
-    else
-      w->stats.unwarped_share = share;
-  }
-  return CH_OK;
-}
 
 static ch_status check_cage(const ch_warp_cage *cage, ch_error *err) {
   if (!cage || cage->num_triangles < 0 || (cage->num_triangles > 0 && (!cage->uv || !cage->position)))
@@ -663,9 +383,9 @@ ch_status ch_warp_identity(const ch_warp_cage *cage, int intervals, ch_warp *out
   ch_status st = check_cage(cage, err);
   if (!st) st = warp_alloc(cage, n, out, err);
   if (st) return st;
-  double t0 = now_seconds();
-  st = finish_cage(out, err);
-  out->stats.seconds_grids = now_seconds() - t0;
+  double t0 = ch_progress_seconds();
+  st = ch_warp_cage_finish(out, err);
+  out->stats.seconds_grids = ch_progress_seconds() - t0;
   if (st) ch_warp_free(out);
   return st;
 }
@@ -708,7 +428,7 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   if ((st = warp_alloc(cage, n, out, err))) return st;
 
   /* Need per triangle. */
-  double t0 = now_seconds();
+  double t0 = ch_progress_seconds();
   int nt = cage->num_triangles;
   double *tri_need = malloc((size_t)(nt > 0 ? nt : 1) * 2 * sizeof *tri_need);
   int *holds = malloc((size_t)(nt > 0 ? nt : 1) * sizeof *holds);
@@ -748,7 +468,7 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   }
   out->stats.visible_triangles = nvis;
   out->stats.needy_triangles = nneedy;
-  double t1 = now_seconds();
+  double t1 = ch_progress_seconds();
   out->stats.seconds_need = t1 - t0;
 
   /* Per axis: need per interval, spread, solved. */
@@ -765,7 +485,7 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
       double g = tri_need[2 * (size_t)t + axis];
       if (!(g > 0.0)) continue;
       const double *c = cage->uv + 6 * (size_t)t;
-      double a = min3(c[axis], c[2 + axis], c[4 + axis]), b = max3(c[axis], c[2 + axis], c[4 + axis]);
+      double a = ch_min3(c[axis], c[2 + axis], c[4 + axis]), b = ch_max3(c[axis], c[2 + axis], c[4 + axis]);
       if (b < 0.0 || a > 1.0) continue;
       int i0 = (int)floor(fmax(a, 0.0) * n), i1 = (int)ceil(fmin(b, 1.0) * n) - 1;
       if (i0 > n - 1) i0 = n - 1;
@@ -789,11 +509,11 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   out->stats.max_slope[1] = max_slope(out->wv, n);
   out->floor = fl;
   if (nneedy > 0 && (st = build_focus(out, mr, err))) goto done;
-  double t2 = now_seconds();
+  double t2 = ch_progress_seconds();
   out->stats.seconds_functions = t2 - t1;
 
-  st = finish_cage(out, err);
-  out->stats.seconds_grids = now_seconds() - t2;
+  st = ch_warp_cage_finish(out, err);
+  out->stats.seconds_grids = ch_progress_seconds() - t2;
 
 done:
   free(tri_need);
@@ -896,323 +616,4 @@ double ch_warp_mesh_arc(const ch_warp *w, const double a[2], const double b[2], 
 
 double ch_warp_mesh_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y) {
   return arc_inverse(w, 1, a, b, y);
-}
-
-/* ---- curve registration ---------------------------------------------- */
-
-/* Per-thread scratch: candidate triangles of one segment (each once: a bit
- * per triangle, cleared after the segment) and its cut parameters. */
-typedef struct reg_scratch {
-  unsigned char *seen;
-  int *tris, num_tris, cap_tris;
-  double *cuts;
-  int num_cuts, cap_cuts;
-} reg_scratch;
-
-/* A chunk of consecutive segments' pieces, filled by one thread. */
-typedef struct piece_chunk {
-  ch_segment *pieces;
-  int num, cap;
-  int failed;
-} piece_chunk;
-
-static int grow(void **array, int *cap, int need, size_t elem) {
-  if (need <= *cap) return 0;
-  int c = *cap ? *cap : 64;
-  while (c < need) c *= 2;
-  void *p = realloc(*array, (size_t)c * elem);
-  if (!p) return -1;
-  *array = p;
-  *cap = c;
-  return 0;
-}
-
-/* Adds the triangles of the grid cells near the quadratic q: its control box
- * is split in halves (de Casteljau) until it spans at most 2x2 cells, so a
- * long segment visits the cells along it, not its whole box. */
-static int gather_triangles(const ch_grid *g, const double q[3][2], int depth, reg_scratch *sc) {
-  double box[4] = {fmin(fmin(q[0][0], q[1][0]), q[2][0]), fmin(fmin(q[0][1], q[1][1]), q[2][1]),
-                   fmax(fmax(q[0][0], q[1][0]), q[2][0]), fmax(fmax(q[0][1], q[1][1]), q[2][1])};
-  int r[4];
-  cell_range(g, box, r);
-  if (r[0] > r[2] || r[1] > r[3]) return 0;
-  if ((r[2] - r[0] + 1) * (r[3] - r[1] + 1) > 4 && depth < 16) {
-    double h[2][3][2];
-    for (int k = 0; k < 2; k++) {
-      double m0 = 0.5 * (q[0][k] + q[1][k]), m1 = 0.5 * (q[1][k] + q[2][k]), mid = 0.5 * (m0 + m1);
-      h[0][0][k] = q[0][k], h[0][1][k] = m0, h[0][2][k] = mid;
-      h[1][0][k] = mid, h[1][1][k] = m1, h[1][2][k] = q[2][k];
-    }
-    return gather_triangles(g, (const double(*)[2])h[0], depth + 1, sc) ||
-           gather_triangles(g, (const double(*)[2])h[1], depth + 1, sc);
-  }
-  for (int y = r[1]; y <= r[3]; y++)
-    for (int x = r[0]; x <= r[2]; x++) {
-      int c = y * g->nx + x;
-      for (int k = g->cell_start[c]; k < g->cell_start[c + 1]; k++) {
-        int t = g->items[k];
-        if (sc->seen[t >> 3] & (1u << (t & 7))) continue;
-        sc->seen[t >> 3] |= (unsigned char)(1u << (t & 7));
-        if (grow((void **)&sc->tris, &sc->cap_tris, sc->num_tris + 1, sizeof *sc->tris)) return -1;
-        sc->tris[sc->num_tris++] = t;
-      }
-    }
-  return 0;
-}
-
-static int add_cut(reg_scratch *sc, double t) {
-  if (grow((void **)&sc->cuts, &sc->cap_cuts, sc->num_cuts + 1, sizeof *sc->cuts)) return -1;
-  sc->cuts[sc->num_cuts++] = t;
-  return 0;
-}
-
-/* Roots in (0, 1) of a t^2 + b t + c (the stable form). */
-static int roots01(double a, double b, double c, double r[2]) {
-  int m = 0;
-  if (a == 0.0) {
-    if (b != 0.0) r[m++] = -c / b;
-  } else {
-    double disc = b * b - 4.0 * a * c;
-    if (disc < 0.0) return 0;
-    double q = -0.5 * (b + copysign(sqrt(disc), b));
-    r[m++] = q / a;
-    if (q != 0.0) r[m++] = c / q;
-  }
-  int k = 0;
-  for (int i = 0; i < m; i++)
-    if (r[i] > 0.0 && r[i] < 1.0) r[k++] = r[i];
-  return k;
-}
-
-/* Cuts where segment s crosses edge P -> Q: the roots of the quadratic's
- * offset along the edge normal whose points lie on the edge. */
-static int cut_edge(const ch_segment *s, const double P[2], const double Q[2], reg_scratch *sc) {
-  double e[2] = {Q[0] - P[0], Q[1] - P[1]}, nrm[2] = {-e[1], e[0]};
-  double off[3];
-  for (int k = 0; k < 3; k++) off[k] = nrm[0] * (s->p[k][0] - P[0]) + nrm[1] * (s->p[k][1] - P[1]);
-  /* All control points strictly on one side: the curve (in their hull)
-   * does not reach the edge's line. */
-  if ((off[0] > 0.0 && off[1] > 0.0 && off[2] > 0.0) || (off[0] < 0.0 && off[1] < 0.0 && off[2] < 0.0)) return 0;
-  double r[2];
-  int m = s->is_line ? roots01(0.0, off[2] - off[0], off[0], r)
-                     : roots01(off[0] - 2.0 * off[1] + off[2], 2.0 * (off[1] - off[0]), off[0], r);
-  double ee = ch_dot2(e, e);
-  for (int i = 0; i < m; i++) {
-    double x[2];
-    ch_segment_point(s, r[i], x);
-    double along = ((x[0] - P[0]) * e[0] + (x[1] - P[1]) * e[1]) / ee;
-    if (along >= -EDGE_TOL && along <= 1.0 + EDGE_TOL && add_cut(sc, r[i])) return -1;
-  }
-  return 0;
-}
-
-/* Points of the original segment on [t0, t1] as a quadratic: the blossom
- * values b(t0, t0), b(t0, t1), b(t1, t1); lines keep the midpoint rule. */
-static void sub_segment(const ch_segment *s, double t0, double t1, double q[3][2]) {
-  if (t0 == 0.0) memcpy(q[0], s->p[0], sizeof q[0]);
-  else ch_segment_point(s, t0, q[0]);
-  if (t1 == 1.0) memcpy(q[2], s->p[2], sizeof q[2]);
-  else ch_segment_point(s, t1, q[2]);
-  if (s->is_line) {
-    q[1][0] = 0.5 * (q[0][0] + q[2][0]);
-    q[1][1] = 0.5 * (q[0][1] + q[2][1]);
-  } else {
-    double w0 = (1.0 - t0) * (1.0 - t1), w1 = (1.0 - t0) * t1 + t0 * (1.0 - t1), w2 = t0 * t1;
-    for (int k = 0; k < 2; k++) q[1][k] = w0 * s->p[0][k] + w1 * s->p[1][k] + w2 * s->p[2][k];
-  }
-}
-
-static void map_point(const ch_warp *w, int t, const double q[2], double out[2]) {
-  if (t >= 0) {
-    tri_apply(w, t, 0, q, out);
-  } else {
-    out[0] = ch_warp_axis(w, 0, q[0]);
-    out[1] = ch_warp_axis(w, 1, q[1]);
-  }
-}
-
-static void set_line_midpoint(ch_segment *s) {
-  if (!s->is_line) return;
-  s->p[1][0] = 0.5 * (s->p[0][0] + s->p[2][0]);
-  s->p[1][1] = 0.5 * (s->p[0][1] + s->p[2][1]);
-}
-
-/* Cuts segment s at the cage edges, maps each piece and appends it to ch.
- * Returns the number of pieces, or -1 when out of memory. */
-static int register_segment(const ch_warp *w, const ch_segment *s, reg_scratch *sc, piece_chunk *ch) {
-  const cage_index *ix = w->grids;
-  sc->num_tris = sc->num_cuts = 0;
-  int failed = gather_triangles(&ix->grid[0], (const double(*)[2])s->p, 0, sc);
-  for (int i = 0; i < sc->num_tris; i++) sc->seen[sc->tris[i] >> 3] = 0;
-  if (failed) return -1;
-  double sbox[4];
-  ch_segment_box(s, 0.0, sbox);
-  for (int i = 0; i < sc->num_tris; i++) {
-    const double *c = w->uv + 6 * (size_t)sc->tris[i];
-    double tb[4];
-    tri_box(c, tb);
-    if (!boxes_overlap(tb, sbox)) continue;
-    for (int k = 0; k < 3; k++) {
-      const double *P = c + 2 * k, *Q = c + 2 * ((k + 1) % 3);
-      /* One orientation per edge, so the two triangles sharing it find
-       * the same roots and the duplicates merge exactly. */
-      int swap = P[0] > Q[0] || (P[0] == Q[0] && P[1] > Q[1]);
-      if (cut_edge(s, swap ? Q : P, swap ? P : Q, sc)) return -1;
-    }
-  }
-  if (sc->num_cuts > 1) qsort(sc->cuts, (size_t)sc->num_cuts, sizeof *sc->cuts, cmp_double);
-  int m = 0;
-  double last = 0.0;
-  for (int i = 0; i < sc->num_cuts; i++) {
-    double t = sc->cuts[i];
-    if (t - last > CUT_MERGE && 1.0 - t > CUT_MERGE) sc->cuts[m++] = last = t;
-  }
-  if (grow((void **)&ch->pieces, &ch->cap, ch->num + m + 1, sizeof *ch->pieces)) return -1;
-  for (int i = 0; i <= m; i++) {
-    double t0 = i > 0 ? sc->cuts[i - 1] : 0.0, t1 = i < m ? sc->cuts[i] : 1.0;
-    double q[3][2], mid[2], b[2];
-    sub_segment(s, t0, t1, q);
-    ch_segment_point(s, 0.5 * (t0 + t1), mid);
-    int t = locate(ix, 0, mid, b);
-    ch_segment *out = &ch->pieces[ch->num + i];
-    *out = *s;
-    out->prev = out->next = -1;
-    if (i > 0) /* the joint exactly where the piece before ends */
-      memcpy(out->p[0], ch->pieces[ch->num + i - 1].p[2], sizeof out->p[0]);
-    else
-      map_point(w, t, q[0], out->p[0]);
-    map_point(w, t, q[2], out->p[2]);
-    if (s->is_line)
-      set_line_midpoint(out);
-    else
-      map_point(w, t, q[1], out->p[1]);
-  }
-  ch->num += m + 1;
-  return m + 1;
-}
-
-enum { CHUNK_SEGMENTS = 64 };
-
-ch_status ch_warp_curves(const ch_warp *w, const ch_curve_set *in, ch_curve_set *out, ch_warp_curve_stats *stats,
-                         ch_error *err) {
-  double t0 = now_seconds();
-  memset(out, 0, sizeof *out);
-  if (stats) memset(stats, 0, sizeof *stats);
-  int ns = in->num_segments;
-  int nchunks = (ns + CHUNK_SEGMENTS - 1) / CHUNK_SEGMENTS;
-  piece_chunk *chunks = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *chunks);
-  int *first = malloc((size_t)(ns + 1) * sizeof *first); /* first piece per segment */
-  ch_status st = CH_OK;
-  if (!chunks || !first) {
-    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory warping the curves");
-    goto done;
-  }
-  /* Chunks of consecutive segments, each filled by one thread into its own
-   * buffer and concatenated in order: the same pieces on any thread count. */
-#pragma omp parallel
-  {
-    reg_scratch sc = {0};
-    sc.seen = calloc((size_t)w->num_triangles / 8 + 1, 1);
-#pragma omp for schedule(dynamic, 1)
-    for (int c = 0; c < nchunks; c++) {
-      piece_chunk *ch = &chunks[c];
-      if (!sc.seen) {
-        ch->failed = 1;
-        continue;
-      }
-      int end = (c + 1) * CHUNK_SEGMENTS < ns ? (c + 1) * CHUNK_SEGMENTS : ns;
-      for (int i = c * CHUNK_SEGMENTS; i < end && !ch->failed; i++) {
-        int k = register_segment(w, &in->segments[i], &sc, ch);
-        if (k < 0)
-          ch->failed = 1;
-        else
-          first[i + 1] = k; /* a count for now */
-      }
-    }
-    free(sc.seen);
-    free(sc.tris);
-    free(sc.cuts);
-  }
-  for (int c = 0; c < nchunks; c++)
-    if (chunks[c].failed) {
-      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory warping the curves");
-      goto done;
-    }
-  first[0] = 0;
-  for (int i = 0; i < ns; i++) {
-    if (first[i + 1] > INT_MAX - first[i]) {
-      st = ch_error_set(err, CH_ERR_INPUT, "warping the curves: too many pieces");
-      goto done;
-    }
-    first[i + 1] += first[i];
-  }
-  int np = first[ns];
-  out->segments = malloc((size_t)(np > 0 ? np : 1) * sizeof *out->segments);
-  out->curves = malloc((size_t)(in->num_curves > 0 ? in->num_curves : 1) * sizeof *out->curves);
-  out->subpaths = malloc((size_t)(in->num_subpaths > 0 ? in->num_subpaths : 1) * sizeof *out->subpaths);
-  if (!out->segments || !out->curves || !out->subpaths) {
-    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory warping the curves");
-    goto done;
-  }
-  for (int c = 0, at = 0; c < nchunks; c++) {
-    if (chunks[c].num > 0) memcpy(out->segments + at, chunks[c].pieces, (size_t)chunks[c].num * sizeof *out->segments);
-    at += chunks[c].num;
-  }
-  out->num_segments = np;
-  /* Links: pieces of a segment in a row; its ends to the neighbouring
-   * segments' end pieces, so closed subpaths link round as read. */
-  for (int i = 0; i < ns; i++) {
-    const ch_segment *s = &in->segments[i];
-    for (int j = first[i]; j < first[i + 1]; j++) {
-      out->segments[j].prev = j > first[i] ? j - 1 : s->prev >= 0 ? first[s->prev + 1] - 1 : -1;
-      out->segments[j].next = j + 1 < first[i + 1] ? j + 1 : s->next >= 0 ? first[s->next] : -1;
-    }
-  }
-  /* Joints between segments, where the original ones meet exactly: the
-   * start of a piece is the end of the one before; a subpath that closes
-   * ends on its first point. */
-  for (int pass = 0; pass < 2; pass++)
-    for (int i = 0; i < ns; i++) {
-      const ch_segment *s = &in->segments[i];
-      int p = s->prev;
-      if (p < 0 || (pass == 0) != (p < i)) continue;
-      if (s->p[0][0] != in->segments[p].p[2][0] || s->p[0][1] != in->segments[p].p[2][1]) continue;
-      ch_segment *head = &out->segments[first[i]], *tail = &out->segments[first[p + 1] - 1];
-      if (pass == 0) {
-        memcpy(head->p[0], tail->p[2], sizeof head->p[0]);
-        set_line_midpoint(head);
-      } else {
-        memcpy(tail->p[2], head->p[0], sizeof tail->p[2]);
-        set_line_midpoint(tail);
-      }
-    }
-  out->num_curves = in->num_curves;
-  if (in->num_curves > 0) memcpy(out->curves, in->curves, (size_t)in->num_curves * sizeof *out->curves);
-  for (int c = 0; c < in->num_curves; c++) {
-    ch_curve *cv = &out->curves[c];
-    const ch_curve *src = &in->curves[c];
-    cv->first_segment = first[src->first_segment];
-    cv->num_segments = first[src->first_segment + src->num_segments] - cv->first_segment;
-    ch_curve_update_box(out, c);
-  }
-  out->num_subpaths = in->num_subpaths;
-  for (int i = 0; i < in->num_subpaths; i++) {
-    const ch_subpath *sp = &in->subpaths[i];
-    out->subpaths[i] = *sp;
-    out->subpaths[i].first_segment = first[sp->first_segment];
-    out->subpaths[i].num_segments = first[sp->first_segment + sp->num_segments] - first[sp->first_segment];
-  }
-  memcpy(out->viewbox, in->viewbox, sizeof out->viewbox);
-  if (stats) {
-    stats->registered_pieces = np;
-    stats->seconds = now_seconds() - t0;
-  }
-
-done:
-  if (chunks)
-    for (int c = 0; c < nchunks; c++) free(chunks[c].pieces);
-  free(chunks);
-  free(first);
-  if (st) ch_curves_free(out);
-  return st;
 }

@@ -16,39 +16,20 @@
  *   warped UV is read back through C^-1. C is affine per triangle; where
  *   the cage does not cover a point, C is W itself.
  *
+ * The camera is core's ch_camera; the curves warped through C are
+ * ch_warp_curves.h. W is ch_warp.c, the cage map ch_warp_cage.c.
+ *
  * Everything here is in shade/: the cage arrives as plain arrays (tess/
  * builds it from the base surface), so shade/ keeps depending on core/
  * only. */
 #ifndef CH_WARP_H
 #define CH_WARP_H
+#include "ch_camera.h"
 #include "ch_curves.h"
 #include "ch_error.h"
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-/* A pinhole camera (SPEC §5 --camera): eye, the point looked at, vertical
- * field of view. Up is +z, or +y when the view is along z (|dir.z| >
- * 0.999 |dir|). The frustum is square (horizontal field of view = vertical),
- * since the command line names no image size. */
-typedef struct ch_camera {
-  double eye[3], at[3];
-  double fov_deg;
-  /* derived by ch_camera_init: orthonormal frame, tan(fov / 2) */
-  double forward[3], right[3], up[3];
-  double tan_half;
-} ch_camera;
-
-/* Sets up the camera from the 7 numbers of --camera. CH_ERR_INPUT (message
- * "camera: ...", no file name: the caller prefixes it) for a non-finite
- * value, eye == at (closer than 1e-12), or a field of view outside
- * [0.01, 179] degrees. */
-ch_status ch_camera_init(ch_camera *cam, const double values[7], ch_error *err);
-
-/* Projects p: ndc[0] right, ndc[1] up, in [-1, 1] inside the frustum, and
- * the depth along forward. Returns 1 when depth > 0 (in front), else 0
- * (ndc then undefined). */
-int ch_camera_project(const ch_camera *cam, const double p[3], double ndc[2], double *depth);
 
 /* The cage: triangles of the base surface with per-corner UV and 3D
  * position (corners counter-clockwise in UV, as the base faces are). */
@@ -201,31 +182,10 @@ double ch_warp_arc_inverse(const ch_warp *w, const double a[2], const double b[2
 double ch_warp_mesh_arc(const ch_warp *w, const double a[2], const double b[2], double x);
 double ch_warp_mesh_arc_inverse(const ch_warp *w, const double a[2], const double b[2], double y);
 
-typedef struct ch_warp_curve_stats {
-  int registered_pieces;    /* pieces after cutting at triangle boundaries */
-  double seconds;
-} ch_warp_curve_stats;
-
-/* Registers the curves on the cage and warps them through it: every
- * segment is cut where it crosses a cage triangle's edge (the triangles
- * near it come from the grid over UV, so the cost follows the curves, not
- * curves x triangles), each piece is registered to the triangle holding
- * its middle and its control points are mapped by that triangle's affine
- * map (so a quadratic piece stays exactly the quadratic image of the
- * original, lines stay lines); pieces outside the cage have their control
- * points mapped by W (not cut at the knot lines: no exact image there).
- * Consecutive pieces share their end points exactly (the start of a piece
- * is set to the end of the one before, across segments where the original
- * ones meet exactly; a closed subpath ends on its first point). out is a complete curve set (same
- * curves, attributes, subpaths, closedness; prev/next, counts and boxes
- * recomputed) in warped UV. Widths and blur radii stay in UV units (the
- * consumers scale them by the slopes). stats may be NULL. Parallel over
- * segments; the same bytes on any thread count. CH_ERR_NOMEM
- * (CH_ERR_INPUT past INT_MAX pieces); out zeroed on failure. */
-ch_status ch_warp_curves(const ch_warp *w, const ch_curve_set *in, ch_curve_set *out,
-                         ch_warp_curve_stats *stats, ch_error *err);
-
 #ifdef __cplusplus
 }
 #endif
+/* The curves warped through the cage map: their own module, included
+ * here for the code that reads the warp and its curves together. */
+#include "ch_warp_curves.h"
 #endif

@@ -17,9 +17,11 @@
 #include "ch_exr.h"
 #include "ch_png.h"
 #include "ch_math.h"
+#include "ch_camera.h"
 
 /* mesh/: the base mesh, its readers, validation and writers */
 #include "ch_mesh.h"
+#include "ch_mesh_scan.h"
 
 /* shade/: curves and their exact geometry, the DCI, h, the warp */
 #include "ch_curves.h"
@@ -33,6 +35,7 @@
 #include "ch_recon.h"
 #include "ch_height.h"
 #include "ch_warp.h"
+#include "ch_warp_curves.h"
 
 /* shade/: texture-space methods, each built once and evaluated per pixel */
 #include "ch_gtex.h"
@@ -45,6 +48,7 @@
 /* tess/: the base surface (OpenSubdiv), geometry images, displacement and
  * the feature embedding */
 #include "ch_surface.h"
+#include "ch_tess.h"
 #include "ch_geomimage.h"
 #include "ch_displace.h"
 #include "ch_count.h"

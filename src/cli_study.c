@@ -450,7 +450,7 @@ static ch_status parse_scene(const char *file, const char *text, study *s, ch_er
       /* The camera's own checks (view direction, up), with the view's name. */
       double o[3], d[3];
       ch_error cerr = {0};
-      if (ch_camera_ray(&ov->camera, 0, 0, o, d, &cerr)) {
+      if (ch_render_camera_ray(&ov->camera, 0, 0, o, d, &cerr)) {
         ch_error_set(err, CH_ERR_INPUT, "%s: %s ('%s'): %s", file, where, ov->name, cerr.message);
         goto fail;
       }

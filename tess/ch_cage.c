@@ -4,7 +4,7 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "ch_surface.h"
+#include "ch_tess.h"
 
 ch_status ch_tess_cage(const ch_surface *surface, long min_triangles, ch_tess_cage_arrays *out, ch_error *err) {
   out->num_triangles = 0;

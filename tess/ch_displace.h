@@ -6,6 +6,7 @@
 #include "ch_error.h"
 #include "ch_height.h"
 #include "ch_surface.h"
+#include "ch_tess.h"
 
 #ifdef __cplusplus
 extern "C" {

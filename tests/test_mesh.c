@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "ch_mesh.h"
+#include "ch_mesh_scan.h"
 #include "ch_test.h"
 
 /* ---- helpers ------------------------------------------------------------ */
@@ -420,6 +421,59 @@ static void test_hostile_inputs(void) {
   expect_memory_error("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
                       "vertex nan 1 0\nendloop\nendfacet\nendsolid\n",
                       "stl", "facet 0 (line 6): expected 'vertex x y z'");
+}
+
+/* The scanners on their own (ch_mesh_scan.h): the counts they promise, the
+ * stripped PLY copy, and messages without a file name. */
+static void test_scanners(void) {
+  ch_mesh_scan s;
+  ch_error err = new_error(NULL);
+  const char obj[] = "mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvn 0 0 1\n"
+                     "f 1 2 3\nf -1 -3 -2\n";
+  REQUIRE(ch_mesh_scan_obj(obj, sizeof obj - 1, &s, &err) == CH_OK);
+  CHECK(s.num_vertices == 4 && s.num_texcoords == 1 && s.num_normals == 1);
+  CHECK(s.num_faces == 2 && s.num_corners == 6);
+  CHECK(s.num_mtllib == 1 && s.mtllib_at[0] == 0);
+  ch_mesh_scan_free(&s);
+  CHECK(s.mtllib_at == NULL && s.num_vertices == 0);
+
+  /* face texcoords: kept, and the list stripped from the copy for OpenMesh */
+  const char ply[] = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                     "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+                     "3 2 0 1 6 0.5 0.25 0 0 1 0\n";
+  REQUIRE(ch_mesh_scan_ply(ply, sizeof ply - 1, &s, &err) == CH_OK);
+  CHECK(s.num_vertices == 3 && s.num_faces == 1 && s.num_corners == 3 && !s.binary && s.face_tex);
+  CHECK(s.num_tex == 6 && s.tex[0] == 0.5f && s.tex[1] == 0.25f && s.tex[4] == 1.0f);
+  CHECK(s.num_tex_first == 1 && s.tex_first[0] == 2);
+  const char want[] = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                      "end_header\n0 0 0\n1 0 0\n0 1 0\n3 2 0 1\n";
+  CHECK_MSG(s.stripped_size == sizeof want - 1 && memcmp(s.stripped, want, sizeof want - 1) == 0, "%.*s",
+            (int)s.stripped_size, s.stripped);
+  ch_mesh_scan_free(&s);
+
+  const char off[] = "STNOFF\n3 1 0\n0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n0 1 0 0 0 1 0 1\n3 0 1 2\n";
+  REQUIRE(ch_mesh_scan_off(off, sizeof off - 1, &s, &err) == CH_OK);
+  CHECK(s.num_vertices == 3 && s.num_faces == 1 && s.num_corners == 3);
+  ch_mesh_scan_free(&s);
+
+  const char stl[] = "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+                     "endloop\nendfacet\nendsolid\n";
+  REQUIRE(ch_mesh_scan_stl(stl, sizeof stl - 1, &s, &err) == CH_OK);
+  CHECK(!s.binary && s.triangles == 1);
+  ch_mesh_scan_free(&s);
+  unsigned char bin[84 + 2 * 50] = {0};
+  bin[80] = 2;
+  REQUIRE(ch_mesh_scan_stl((const char *)bin, sizeof bin, &s, &err) == CH_OK);
+  CHECK(s.binary && s.triangles == 2);
+  ch_mesh_scan_free(&s);
+
+  /* the message names the element, not the file (the reader adds that) */
+  const char bad[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
+  CHECK(ch_mesh_scan_obj(bad, sizeof bad - 1, &s, &err) == CH_ERR_INPUT);
+  CHECK_MSG(strcmp(err.message, "face 1 (line 4): position index 4 out of range (1..3)") == 0, "%s", err.message);
+  ch_mesh_scan_free(&s);
 }
 
 /* `mtllib` is neutralised: OpenMesh would open any path it names. */
@@ -910,6 +964,7 @@ int main(void) {
   RUN(test_float_precision);
   RUN(test_read_errors);
   RUN(test_hostile_inputs);
+  RUN(test_scanners);
   RUN(test_mtllib_ignored);
   RUN(test_silence);
   RUN(test_truncations);

@@ -127,7 +127,7 @@ static void test_camera(void) {
   ch_error err = {0};
   const double v[7] = {0, 0, 0, 0, 1, 0, 90};
   REQUIRE(ch_camera_init(&cam, v, &err) == CH_OK);
-  CHECK_NEAR(cam.tan_half, 1.0, 1e-15);
+  CHECK_NEAR(cam.half_height, 1.0, 1e-15);
   /* looking along +y with z up: right is +x */
   CHECK_NEAR(cam.right[0], 1.0, 1e-15);
   CHECK_NEAR(cam.up[2], 1.0, 1e-15);

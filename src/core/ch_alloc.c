@@ -21,3 +21,16 @@ void *ch_alloc_large(size_t count, size_t size, int zero) {
   if (zero) memset(p, 0, bytes);
   return p;
 }
+
+int ch_alloc_grow(void **array, int *cap, int need, size_t elem, int first_cap) {
+  if (need < 0) return -1;
+  if (need <= *cap) return 0;
+  int n = *cap > 0 ? *cap : (first_cap > 0 ? first_cap : 1);
+  while (n < need) n = n > (1 << 29) ? need : 2 * n;
+  if (elem && (size_t)n > SIZE_MAX / elem) return -1;
+  void *p = realloc(*array, (size_t)n * elem);
+  if (!p) return -1;
+  *array = p;
+  *cap = n;
+  return 0;
+}

@@ -1,4 +1,5 @@
-/* ch_alloc: allocation of large per-texel and per-vertex arrays. */
+/* ch_alloc: allocation of large per-texel and per-vertex arrays, and the
+ * growth of arrays built one item at a time. */
 #ifndef CH_ALLOC_H
 #define CH_ALLOC_H
 
@@ -13,6 +14,14 @@ extern "C" {
  * aligned to 2 MiB and offered to the kernel for transparent huge pages:
  * first-touch page faults otherwise cost as much as a pass over the data. */
 void *ch_alloc_large(size_t count, size_t size, int zero);
+
+/* Grows the realloc'ed array *array of *cap elements of elem bytes so that
+ * it holds at least need: capacity first_cap when empty, then doubled (or
+ * need itself past 2^29, so int capacities do not overflow). 0 on success
+ * (*array and *cap updated, the contents kept), -1 when out of memory or
+ * need is negative (*array and *cap untouched, still valid). Not thread
+ * safe for the same array. */
+int ch_alloc_grow(void **array, int *cap, int need, size_t elem, int first_cap);
 
 #ifdef __cplusplus
 }

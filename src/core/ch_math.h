@@ -1,5 +1,6 @@
 /* ch_math: small inline helpers shared by every module (2D/3D vectors as
- * double arrays, clamping), and pi, which strict C11 does not define. */
+ * double arrays, clamping, min/max of three, a qsort comparator), and pi,
+ * which strict C11 does not define. Plain C, usable from C++ shims too. */
 #ifndef CH_MATH_H
 #define CH_MATH_H
 
@@ -10,6 +11,11 @@
 static inline double ch_clamp(double x, double lo, double hi) {
   return x < lo ? lo : x > hi ? hi : x;
 }
+static inline int ch_clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x; }
+/* Smallest and largest of three (comparisons, not fmin/fmax, which are
+ * calls at -O2 for their NaN rules: no NaN may reach these). */
+static inline double ch_min3(double a, double b, double c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
+static inline double ch_max3(double a, double b, double c) { return a > b ? (a > c ? a : c) : (b > c ? b : c); }
 static inline double ch_dot2(const double a[2], const double b[2]) {
   return a[0] * b[0] + a[1] * b[1];
 }
@@ -20,6 +26,12 @@ static inline double ch_cross2(const double a[2], const double b[2]) {
 static inline double ch_dot3(const double a[3], const double b[3]) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
+static inline void ch_sub3(const double a[3], const double b[3], double out[3]) {
+  out[0] = a[0] - b[0];
+  out[1] = a[1] - b[1];
+  out[2] = a[2] - b[2];
+}
+static inline double ch_len3(const double a[3]) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
 static inline void ch_cross3(const double a[3], const double b[3], double out[3]) {
   double x = a[1] * b[2] - a[2] * b[1];
   double y = a[2] * b[0] - a[0] * b[2];
@@ -27,6 +39,22 @@ static inline void ch_cross3(const double a[3], const double b[3], double out[3]
   out[0] = x;
   out[1] = y;
   out[2] = z;
+}
+/* Scales v to unit length; returns 0 (v unchanged) when its length is 0 or
+ * not finite. */
+static inline int ch_normalize3(double v[3]) {
+  double len = sqrt(ch_dot3(v, v));
+  if (!(len > 0.0) || !isfinite(len)) return 0;
+  v[0] /= len;
+  v[1] /= len;
+  v[2] /= len;
+  return 1;
+}
+/* qsort comparator for doubles in ascending order (NaNs compare equal to
+ * everything: keep them out). */
+static inline int ch_cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
 }
 static inline int ch_finite2(const double a[2]) { return isfinite(a[0]) && isfinite(a[1]); }
 

@@ -31,6 +31,10 @@ void ch_progress_reportf(const ch_progress *p, double fraction, const char *fmt,
 #endif
     ;
 
+/* A monotonic wall clock in seconds (any origin), for the time a stage
+ * took in statistics. Thread safe. */
+double ch_progress_seconds(void);
+
 #ifdef __cplusplus
 }
 #endif

@@ -11,11 +11,6 @@
 
 static int is_groove(int c) { return c == CH_VIS_GROOVE_WALL || c == CH_VIS_GROOVE_FLOOR; }
 
-static int cmp_double(const void *a, const void *b) {
-  double x = *(const double *)a, y = *(const double *)b;
-  return (x > y) - (x < y);
-}
-
 /* Separable Gaussian blur (sigma 1.5, 11 taps, edges clamped) of a W x H plane. */
 static void blur(const double *in, double *tmp, double *out, int W, int H) {
   double w[11], sum = 0.0;
@@ -126,7 +121,7 @@ ch_status ch_metrics_compare(const ch_image *m, const ch_image *t, double scene_
   if (both > 0) {
     out->depth_error = depth_sum / both / scene_size;
     out->normal_mean_deg = angle_sum / both;
-    qsort(angles, (size_t)both, sizeof *angles, cmp_double);
+    qsort(angles, (size_t)both, sizeof *angles, ch_cmp_double);
     long k = (long)ceil(0.95 * both) - 1;
     out->normal_p95_deg = angles[k < 0 ? 0 : k];
   }

@@ -11,60 +11,25 @@
 const char *const ch_render_layer_names[CH_RENDER_NUM_LAYERS] = {
     "shade", "shadow", "depth", "N.X", "N.Y", "N.Z", "P.X", "P.Y", "P.Z", "uv.u", "uv.v", "class", "id", "coverage"};
 
-static int normalize3(double v[3]) {
-  double l = sqrt(ch_dot3(v, v));
-  if (!(l > 0.0) || !isfinite(l)) return 0;
-  for (int k = 0; k < 3; k++) v[k] /= l;
-  return 1;
-}
-
-/* The camera frame: forward f, right r, up u (all unit). */
-typedef struct frame {
-  double f[3], r[3], u[3];
-  double half_h, half_w; /* half the view at distance 1 (pinhole) or in world units (ortho) */
-} frame;
-
-static ch_status camera_frame(const ch_render_camera *c, frame *fr, ch_error *err) {
+/* The view of a render camera, set up once (ch_camera, shared with the
+ * warp). */
+static ch_status camera_frame(const ch_render_camera *c, ch_camera *fr, ch_error *err) {
   if (c->width < 1 || c->height < 1 || c->width > CH_IMAGE_MAX_SIDE || c->height > CH_IMAGE_MAX_SIDE)
     return ch_error_set(err, CH_ERR_INPUT, "camera: image size %d x %d out of range", c->width, c->height);
   if (c->supersample < 0 || c->supersample > 16)
     return ch_error_set(err, CH_ERR_INPUT, "camera: supersample %d out of range 1..16", c->supersample);
-  for (int k = 0; k < 3; k++) fr->f[k] = c->target[k] - c->eye[k];
-  if (!normalize3(fr->f)) return ch_error_set(err, CH_ERR_INPUT, "camera: eye and target coincide");
-  double up[3] = {c->up[0], c->up[1], c->up[2]};
-  ch_cross3(fr->f, up, fr->r);
-  if (!normalize3(fr->r)) return ch_error_set(err, CH_ERR_INPUT, "camera: up is parallel to the view direction");
-  ch_cross3(fr->r, fr->f, fr->u);
-  double aspect = (double)c->width / c->height;
-  if (c->ortho_height > 0.0) {
-    fr->half_h = 0.5 * c->ortho_height;
-  } else {
-    if (!(c->fov_deg > 0.0 && c->fov_deg < 179.0))
-      return ch_error_set(err, CH_ERR_INPUT, "camera: field of view %g outside (0, 179) degrees", c->fov_deg);
-    fr->half_h = tan(0.5 * c->fov_deg * CH_PI / 180.0);
-  }
-  fr->half_w = fr->half_h * aspect;
-  return CH_OK;
+  return ch_camera_look(fr, c->eye, c->target, c->up, c->fov_deg, c->ortho_height, (double)c->width / c->height,
+                        err);
 }
 
-static void frame_ray(const ch_render_camera *c, const frame *fr, double px, double py, double o[3], double d[3]) {
-  double sx = (2.0 * px / c->width - 1.0) * fr->half_w, sy = (1.0 - 2.0 * py / c->height) * fr->half_h;
-  if (c->ortho_height > 0.0) {
-    for (int k = 0; k < 3; k++) {
-      o[k] = c->eye[k] + sx * fr->r[k] + sy * fr->u[k];
-      d[k] = fr->f[k];
-    }
-  } else {
-    for (int k = 0; k < 3; k++) {
-      o[k] = c->eye[k];
-      d[k] = fr->f[k] + sx * fr->r[k] + sy * fr->u[k];
-    }
-    normalize3(d);
-  }
+/* Image point (px, py) in pixels, (0, 0) the top-left corner, to NDC. */
+static void frame_ray(const ch_render_camera *c, const ch_camera *fr, double px, double py, double o[3], double d[3]) {
+  ch_camera_ray(fr, 2.0 * px / c->width - 1.0, 1.0 - 2.0 * py / c->height, o, d);
 }
 
-ch_status ch_camera_ray(const ch_render_camera *c, double px, double py, double o[3], double d[3], ch_error *err) {
-  frame fr;
+ch_status ch_render_camera_ray(const ch_render_camera *c, double px, double py, double o[3], double d[3],
+                               ch_error *err) {
+  ch_camera fr;
   ch_status st = camera_frame(c, &fr, err);
   if (st) return st;
   frame_ray(c, &fr, px, py, o, d);
@@ -118,7 +83,7 @@ static void trace_sample(const ch_trace *scene, const ch_render_shader *shader, 
   }
   s->shadow = lit ? 0.0 : 1.0;
   double half[3] = {L[0] - d[0], L[1] - d[1], L[2] - d[2]};
-  normalize3(half);
+  ch_normalize3(half);
   double diff = fmax(0.0, ch_dot3(ns, L)), spec = pow(fmax(0.0, ch_dot3(ns, half)), lt->shininess);
   s->shade = lt->albedo * (lt->ambient + (1.0 - lt->ambient) * diff * lit) + lt->specular * spec * lit;
 }
@@ -146,13 +111,13 @@ ch_status ch_render_shaded(const ch_trace *scene, const ch_render_shader *shader
                            const ch_render_camera *cam, const ch_light *light_in, ch_image *out, ch_render_stats *stats,
                            ch_error *err) {
   memset(out, 0, sizeof *out);
-  frame fr;
+  ch_camera fr;
   ch_status st = camera_frame(cam, &fr, err);
   if (st) return st;
   ch_light lt = light_in ? *light_in : (ch_light){0};
   double L[3] = {lt.direction[0], lt.direction[1], lt.direction[2]};
   if (L[0] == 0.0 && L[1] == 0.0 && L[2] == 0.0) L[0] = -0.35, L[1] = -0.45, L[2] = 0.82;
-  normalize3(L);
+  ch_normalize3(L);
   if (lt.ambient <= 0.0) lt.ambient = 0.15;
   if (lt.albedo <= 0.0) lt.albedo = 0.75;
   if (lt.specular <= 0.0) lt.specular = 0.25;
@@ -192,7 +157,7 @@ ch_status ch_render_shaded(const ch_trace *scene, const ch_render_shader *shader
             double depth = s->depth;
             if (cam->ortho_height > 0.0) {
               double e[3] = {o[0] - cam->eye[0], o[1] - cam->eye[1], o[2] - cam->eye[2]};
-              depth += ch_dot3(e, fr.f);
+              depth += ch_dot3(e, fr.forward);
             }
             acc[CH_RENDER_SHADOW] += s->shadow;
             acc[CH_RENDER_DEPTH] += depth;

@@ -11,6 +11,7 @@
 #ifndef CH_RENDER_H
 #define CH_RENDER_H
 
+#include "ch_camera.h"
 #include "ch_error.h"
 #include "ch_image.h"
 #include "ch_trace.h"
@@ -20,6 +21,9 @@
 extern "C" {
 #endif
 
+/* A view of the study: where the camera is (its geometry becomes a
+ * ch_camera, the same camera the warp uses, with aspect width / height) and
+ * the image it renders. */
 typedef struct ch_render_camera {
   double eye[3], target[3], up[3];
   double fov_deg;      /* vertical field of view (pinhole) */
@@ -109,7 +113,8 @@ ch_render_shader ch_shader_exact_normals(const ch_truth *truth);
 
 /* The primary ray through image point (px, py) in pixels (0,0 the top-left
  * corner of the image): origin and unit direction. Exposed for tests. */
-ch_status ch_camera_ray(const ch_render_camera *camera, double px, double py, double org[3], double dir[3], ch_error *err);
+ch_status ch_render_camera_ray(const ch_render_camera *camera, double px, double py, double org[3], double dir[3],
+                               ch_error *err);
 
 #ifdef __cplusplus
 }

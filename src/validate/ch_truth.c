@@ -126,7 +126,6 @@ nomem:
   return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the truth's step bounds");
 }
 
-static int clampi(int x, int lo, int hi) { return x < lo ? lo : x > hi ? hi : x; }
 
 /* Bounds of h_step over the UV box: the texels any point of it blends
  * (ch_recon_eval's bilinear cell, clamped the same way). */
@@ -136,10 +135,10 @@ static void step_bounds(const ch_truth *T, const double box[4], double *lo, doub
   int W = s->width, H = s->height;
   double gx0 = (box[0] - s->rect[0]) / s->texel[0] - 0.5, gx1 = (box[2] - s->rect[0]) / s->texel[0] - 0.5;
   double gy0 = (s->rect[3] - box[3]) / s->texel[1] - 0.5, gy1 = (s->rect[3] - box[1]) / s->texel[1] - 0.5;
-  int xa = clampi((int)floor(ch_clamp(gx0, 0, W - 1)), 0, W > 1 ? W - 2 : 0);
-  int xb = clampi((int)floor(ch_clamp(gx1, 0, W - 1)) + 1, 0, W - 1);
-  int ya = clampi((int)floor(ch_clamp(gy0, 0, H - 1)), 0, H > 1 ? H - 2 : 0);
-  int yb = clampi((int)floor(ch_clamp(gy1, 0, H - 1)) + 1, 0, H - 1);
+  int xa = ch_clampi((int)floor(ch_clamp(gx0, 0, W - 1)), 0, W > 1 ? W - 2 : 0);
+  int xb = ch_clampi((int)floor(ch_clamp(gx1, 0, W - 1)) + 1, 0, W - 1);
+  int ya = ch_clampi((int)floor(ch_clamp(gy0, 0, H - 1)), 0, H > 1 ? H - 2 : 0);
+  int yb = ch_clampi((int)floor(ch_clamp(gy1, 0, H - 1)) + 1, 0, H - 1);
   int l = 0;
   while (l + 1 < p->levels && ((xb >> l) - (xa >> l) > 1 || (yb >> l) - (ya >> l) > 1)) l++;
   float a = INFINITY, b = -INFINITY;
@@ -701,7 +700,7 @@ int ch_truth_intersect(const ch_truth *T, const double o[3], const double d[3], 
   }
   /* 2D DDA over the cells (Amanatides-Woo). */
   double pu = d[0] != 0.0 ? o[0] + ta * d[0] : o[0], pv = d[1] != 0.0 ? o[1] + ta * d[1] : o[1];
-  int ix = clampi((int)floor(pu * G), i0, i1 - 1), iy = clampi((int)floor(pv * G), j0, j1 - 1);
+  int ix = ch_clampi((int)floor(pu * G), i0, i1 - 1), iy = ch_clampi((int)floor(pv * G), j0, j1 - 1);
   int sx = d[0] > 0.0 ? 1 : -1, sy = d[1] > 0.0 ? 1 : -1;
   double dtx = d[0] != 0.0 ? T->cell / fabs(d[0]) : INFINITY, dty = d[1] != 0.0 ? T->cell / fabs(d[1]) : INFINITY;
   double tx = d[0] > 0.0 ? ((ix + 1) * T->cell - o[0]) / d[0] : d[0] < 0.0 ? (ix * T->cell - o[0]) / d[0] : INFINITY;
