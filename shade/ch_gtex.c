@@ -12,7 +12,7 @@
  * Departures from the paper, and why:
  * - The paper finds the visible facet per element and combines elements by
  *   CSG with priority tags for ends, corners and crossings (§5.3-5.4).
- *   SPEC §3's h is defined by the nearest point of each path (rounded caps,
+ *   docs/spec.md §3's h is defined by the nearest point of each path (rounded caps,
  *   the sector rule at joints) and the carve-by-minimum rule; a union of
  *   per-element profiles equals it only for symmetric profiles that fall
  *   monotonically away from the path. So the CSG here is over the ray's
@@ -251,7 +251,7 @@ static void elem_tangent(const elem *E, double tau, double out[2]) {
   }
 }
 
-/* SPEC §3's side of q for the closest point (tau) on this element: its
+/* docs/spec.md §3's side of q for the closest point (tau) on this element: its
  * tangent inside, the tangent line at an open end, the sector at a joint
  * (as ch_curve_side). */
 static int elem_side(const elem *E, double tau, const double q[2]) {
@@ -371,7 +371,7 @@ static int decides_height(double g, double g_old) {
   return g_old > 0.0 && g > g_old;
 }
 
-/* The CSG rule of SPEC §3 over the grooves of a cell at q, as
+/* The CSG rule of docs/spec.md §3 over the grooves of a cell at q, as
  * ch_groove_field_eval applies it (the nearest element per groove, ties to
  * the first; a tie tolerance for the deciding groove; owner by priority). */
 static double cell_h(const cell *C, const double q[2], point_state *ps) {

@@ -1,6 +1,6 @@
 /* ch_gtex: path-based groove textures (path-based-grooves §4-§5): the
  * grooves of a curve set as two float textures, a G x G grid over the UV
- * square and a data texture, and the surface h_groove of SPEC §3 they
+ * square and a data texture, and the surface h_groove of docs/spec.md §3 they
  * encode, intersected along rays in texture space.
  *
  * Representation (§4.2), all RGBA32F texels (4 floats), as a GPU holds it:
@@ -12,7 +12,7 @@
  *   around the segment, rounded caps included) touches the cell, four
  *   element indices per texel; the elements, three texels each (end
  *   points; control point, curve, flags for quadratic and open ends; the
- *   neighbours' tangents at the joints, for SPEC §3's side rule); the
+ *   neighbours' tangents at the joints, for docs/spec.md §3's side rule); the
  *   grooves, two texels each (width, depth, profile, priority; the curve's
  *   index in the set, its kind, flags for a one-sided profile and raised
  *   or carved values, the mask of the profile's jumps); the cross-sections
@@ -36,12 +36,12 @@
  *   bracketed by its convexity and refined by safeguarded Newton. Between two
  *   events the ray is on one side of h, so the events are the CSG ray
  *   segments of §5.3-5.4 and one point test of h inside each (h evaluated
- *   exactly from the textures: per groove the nearest element and SPEC's
+ *   exactly from the textures: per groove the nearest element and docs/spec.md §3's
  *   side rule, then the CSG rule: carves by minimum over raises) says
  *   whether it is solid. The first solid segment's start is the hit:
  *   masking, crossings, ends, corners and ridges come out of the same rule,
  *   with no per-case priorities (the paper's priority tags are what its
- *   union of per-element profiles needs; SPEC's h is the nearest-point
+ *   union of per-element profiles needs; docs/spec.md §3's h is the nearest-point
  *   profile, which the point test applies directly). data-priority picks
  *   the hit's owner (material), never the height.
  * - Walls: a hit where h jumps across the ray (box, bevel, custom jumps)

@@ -1,4 +1,4 @@
-/* ch_surface: the base surface of SPEC §1 through OpenSubdiv 3.5 (Far
+/* ch_surface: the base surface of docs/spec.md §1 through OpenSubdiv 3.5 (Far
  * topology, Bfr evaluation and tessellation patterns) behind a C API.
  *
  * This file and ch_tess.cpp are the only ones of chisel that include
@@ -12,7 +12,7 @@
  * with their patch points prepared once at creation, so ch_surface_eval
  * only reads. For the bilinear scheme a third set of patch points holds the
  * unit vertex normals, evaluated with the same Surface (hence the same
- * weights as the position) and normalised: SPEC §1's N. */
+ * weights as the position) and normalised: docs/spec.md §1's N. */
 #include "ch_surface.h"
 
 #include <cmath>
@@ -115,7 +115,7 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
   S->corner_uv.assign(mesh->corner_uv, mesh->corner_uv + mesh->num_corners);
   S->uvs.assign(mesh->uvs, mesh->uvs + 2 * (size_t)mesh->num_uvs);
 
-  /* The refiner: vertex boundary interpolation edges-and-corners (SPEC §1),
+  /* The refiner: vertex boundary interpolation edges-and-corners (docs/spec.md §1),
    * face-varying UVs linear everywhere. */
   std::vector<int> verts_per_face(nf);
   for (int f = 0; f < nf; f++) verts_per_face[f] = mesh->face_start[f + 1] - mesh->face_start[f];

@@ -1,5 +1,5 @@
 /* ch_surface: the base surface B, its normal N and its texture coordinates
- * (SPEC §1), evaluated through OpenSubdiv (Far + Bfr). Its watertight
+ * (docs/spec.md §1), evaluated through OpenSubdiv (Far + Bfr). Its watertight
  * tessellation at per-edge rates is ch_tess.h.
  *
  * Parameterisation of a base face (that of Bfr::Parameterization):
@@ -16,7 +16,7 @@
  *   ch_surface_corner_param and ch_surface_edge_param give the (s,t) of
  *   corners and edge points.
  *
- * The surface (SPEC §1):
+ * The surface (docs/spec.md §1):
  * - CH_SCHEME_BILINEAR: a quad is its bilinear patch. An N-gon (triangles
  *   included) is N bilinear patches, sub-face k spanned by corner k, the
  *   midpoint of edge k, the centroid of the corners, the midpoint of edge

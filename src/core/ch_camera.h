@@ -30,7 +30,7 @@ typedef struct ch_camera {
   double half_height, half_width;
 } ch_camera;
 
-/* Sets up the camera of --camera (SPEC §5) from its 7 numbers: eye, the
+/* Sets up the camera of --camera (docs/spec.md §5) from its 7 numbers: eye, the
  * point looked at, vertical field of view in degrees. Up is +z, or +y when
  * the view is along z (|dir.z| > 0.999 |dir|). The frustum is square
  * (aspect 1), since the command line names no image size. CH_ERR_INPUT
