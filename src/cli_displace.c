@@ -281,7 +281,7 @@ static int run(int argc, char **argv) {
                                 {"--png", png},
                                 {"--ply", cli_is_stdout(ply) ? NULL : ply},
                                 {"--height-png", png16}};
-  int rc = cli_check_files(cmd, in_files, 2, out_files, 5);
+  int rc = cli_udim_check_files(cmd, in_files, 2, svg, out_files, 5);
   if (rc) return rc;
 
   ch_error err = cli_error();

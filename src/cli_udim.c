@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "cli.h"
 #include "cli_udim.h"
@@ -228,4 +229,49 @@ int cli_udim_open_steps(const ch_curve_set *set) {
       if (!set->subpaths[c->first_subpath + k].closed) return 1;
   }
   return 0;
+}
+
+int cli_udim_check_files(const char *cmd, const cli_file *inputs, int num_inputs, const char *curves,
+                         const cli_file *outputs, int num_outputs) {
+  /* Which tiles are read is known only once the mesh is read; any file
+   * that would be a tile's (1001 + u + 10 v, u < 10, v < 100, both
+   * spellings) and exists is an input, so no output replaces it. */
+  enum { FIRST = 1001, LAST = 1001 + 9 + 10 * 99, NAME = 64 };
+  typedef struct tile_file {
+    char option[NAME];
+    char path[4096];
+  } tile_file;
+  tile_file *tf = NULL;
+  int n = 0, cap = 0;
+  for (int t = FIRST; curves && t <= LAST; t++)
+    for (int v = 0; v < 2; v++) {
+      char path[4096];
+      struct stat st;
+      if (!cli_udim_curve_path(curves, t, path, sizeof path, v) || stat(path, &st) != 0) continue;
+      if (n == cap) {
+        cap = cap ? 2 * cap : 8;
+        tile_file *g = realloc(tf, (size_t)cap * sizeof *g);
+        if (!g) {
+          free(tf);
+          fprintf(stderr, "chisel: out of memory\n");
+          return 1;
+        }
+        tf = g;
+      }
+      snprintf(tf[n].option, NAME, "the curves of UDIM tile %d", t);
+      snprintf(tf[n].path, sizeof tf[n].path, "%s", path);
+      n++;
+    }
+  cli_file *all = malloc((size_t)(num_inputs + n) * sizeof *all);
+  if (!all) {
+    free(tf);
+    fprintf(stderr, "chisel: out of memory\n");
+    return 1;
+  }
+  for (int i = 0; i < num_inputs; i++) all[i] = inputs[i];
+  for (int i = 0; i < n; i++) all[num_inputs + i] = (cli_file){tf[i].option, tf[i].path};
+  int rc = cli_check_files(cmd, all, num_inputs + n, outputs, num_outputs);
+  free(all);
+  free(tf);
+  return rc;
 }

@@ -9,6 +9,7 @@
 #include "ch_curves.h"
 #include "ch_error.h"
 #include "ch_mesh.h"
+#include "cli.h"
 
 enum { CLI_UDIM_MAX_TILES = 100 };
 
@@ -52,5 +53,14 @@ void cli_udim_from_atlas(ch_mesh *mesh, const cli_udim *u);
 
 /* One curve set of the atlas from each tile's (sets[k] for u->tiles[k]). */
 ch_status cli_udim_merge(const ch_curve_set *sets, const cli_udim *u, ch_curve_set *out, ch_error *err);
+
+/* cli_check_files for `chisel displace`, with every existing file that
+ * would be a UDIM tile's curves for the CURVES argument curves (any tile,
+ * either spelling, see cli_udim_curve_path) counted as an input too: which
+ * tiles the mesh spans is known only after reading it, and no output may
+ * replace a tile's file. Prints one line and returns 2 (1: out of memory)
+ * on a problem; otherwise 0. */
+int cli_udim_check_files(const char *cmd, const cli_file *inputs, int num_inputs, const char *curves,
+                         const cli_file *outputs, int num_outputs);
 
 #endif

@@ -102,6 +102,23 @@ EOF
 cp st/summary.json st.orig
 expect 2 "$chisel" study st/summary.json -o st && one_line_with "st/summary.json: is the input st/summary.json"
 same st/summary.json st.orig
+# UDIM: each tile's curve file is an input too (which ones is known only
+# once the mesh is read: every existing tile file of CURVES counts)
+mkdir udim
+cp "$tests/data/mesh/udim_two_tiles.obj" udim/m.obj
+cp "$models/curves/frame.svg" udim/c.1001.svg
+cp "$models/curves/star.svg" udim/c_1002.svg
+cp udim/c_1002.svg udim/tile.orig
+ln udim/c_1002.svg udim/hard.svg
+expect 2 "$chisel" displace udim/m.obj udim/c.svg -o udim/c_1002.svg "${small[@]}" &&
+  one_line_with "udim/c_1002.svg: is the input udim/c_1002.svg (the curves of UDIM tile 1002)"
+expect 2 "$chisel" displace udim/m.obj 'udim/c.<UDIM>.svg' -o udim/x.obj --ply ./udim/c.1001.svg "${small[@]}" &&
+  one_line_with "(the curves of UDIM tile 1001)"
+expect 2 "$chisel" displace udim/m.obj udim/c.svg -o udim/hard.svg "${small[@]}" &&
+  one_line_with "hard.svg: is the input udim/c_1002.svg"
+same udim/c_1002.svg udim/tile.orig
+checks=$((checks + 1))
+[ ! -e udim/x.obj ] || fail "udim/x.obj written"
 same in.obj in.orig
 same c.svg c.orig
 no_temp .
