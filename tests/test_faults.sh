@@ -58,6 +58,8 @@ cp "$models/curves/steps_simple.svg" steps.svg
 cp "$models/curves/relief.svg" relief.svg
 cp in.obj in.orig
 cp c.svg c.orig
+# (after a section's checks: its failures do not cascade into the next)
+restore() { cp in.orig in.obj && cp c.orig c.svg; }
 small=(--target-tris 4000 --no-snap --res 64)
 
 # ---- outputs that are inputs, or each other, or not plain files ----
@@ -122,6 +124,7 @@ checks=$((checks + 1))
 same in.obj in.orig
 same c.svg c.orig
 no_temp .
+restore
 
 # ---- a full disk, every format ----
 # full_run DIR CMD...: runs CMD with DIR a full file system; listing.txt
@@ -197,6 +200,7 @@ checks=$((checks + 1))
 same in.obj in.orig
 same c.svg c.orig
 no_temp .
+restore
 
 # ---- signals while writing ----
 # The outputs are staged until all are written, so the temporaries live
@@ -239,6 +243,7 @@ checks=$((checks + 1))
 set +m
 same in.obj in.orig
 same c.svg c.orig
+restore
 
 # ---- progress: a line on a terminal once a run has taken 2 s, none otherwise ----
 if command -v script >/dev/null; then
