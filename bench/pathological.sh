@@ -10,7 +10,8 @@
 # usage: bench/pathological.sh [BUILD_DIR] [TIMEOUT_S] [SERIES...]
 #   BUILD_DIR defaults to build; TIMEOUT_S (default 600) stops a run (shown
 #   as "> T s"); SERIES: any of loops crossing path read (default: all).
-#   QUICK=1 runs only the largest size of each series.
+#   QUICK=1 runs only the largest size of each series; LAST=N the N largest
+#   (LAST=2: the issue's sizes and the exponent from the size below).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -37,6 +38,7 @@ echo "|---|---|---|---|---|---|---|---|"
 for s in "${series[@]}"; do
   sizes=($(sizes_of "$s"))
   [ -n "${QUICK:-}" ] && sizes=("${sizes[-1]}")
+  [ -n "${LAST:-}" ] && [ "$LAST" -lt ${#sizes[@]} ] && sizes=("${sizes[@]: -$LAST}")
   prev_n="" prev_t=""
   for n in "${sizes[@]}"; do
     svg=$dir/$(kind_of "$s")_$n.svg

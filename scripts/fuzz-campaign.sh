@@ -10,8 +10,9 @@
 #
 # usage: scripts/fuzz-campaign.sh [RUNS] [TARGET...]
 #   RUNS defaults to 1000000; targets default to all of them.
-#   MAX_LEN (default 8192) bounds inputs and kept files; JOBS is unused on
-#   purpose: one process at a time.
+#   MAX_LEN (default 8192) bounds inputs and kept files; MAX_SECS (default
+#   0: none) caps each target's wall time, so a slow target cannot take the
+#   whole campaign; JOBS is unused on purpose: one process at a time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-1000000}
@@ -20,6 +21,7 @@ targets=("$@")
 all=(fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl fuzz_exr fuzz_dci)
 [ ${#targets[@]} -gt 0 ] || targets=("${all[@]}")
 max_len=${MAX_LEN:-8192}
+max_secs=${MAX_SECS:-0}
 # (configured as scripts/fuzz-smoke.sh does)
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-g -O1" -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
@@ -47,7 +49,7 @@ for t in "${targets[@]}"; do
   mkdir -p "$kept" "$work/corpus"
   start=$(date +%s)
   set +e
-  build-fuzz/fuzz/$t -runs="$runs" -max_len="$max_len" -timeout=30 -rss_limit_mb=4096 -print_final_stats=1 \
+  build-fuzz/fuzz/$t -runs="$runs" -max_total_time="$max_secs" -max_len="$max_len" -timeout=30 -rss_limit_mb=4096 -print_final_stats=1 \
     -artifact_prefix="$work/" "$work/corpus" "$kept" $(seeds_of "$t") >"$work/log.txt" 2>&1
   rc=$?
   set -e

@@ -6,10 +6,12 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
 
 #include "ch_exr.h"
 #include "ch_mesh.h"
 #include "ch_pipeline.h"
+#include "ch_udim.h"
 #include "ch_png.h"
 #include "cli.h"
 
@@ -83,6 +85,56 @@ static mesh_format format_of(const char *path) {
   for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
     if (!strcasecmp(dot, known[i].ext)) return known[i].format;
   return FORMAT_UNKNOWN;
+}
+
+/* cli_check_files with every existing file that would be a UDIM tile's
+ * curves for the CURVES argument (any tile, either spelling, see
+ * ch_udim_curve_path) counted as an input too: which tiles the mesh spans
+ * is known only after reading it, and no output may replace a tile's file.
+ * Prints one line and returns 2 (1: out of memory) on a problem; else 0. */
+static int check_files_with_tiles(const char *cmd, const cli_file *inputs, int num_inputs, const char *curves,
+                         const cli_file *outputs, int num_outputs) {
+  /* Which tiles are read is known only once the mesh is read; any file
+   * that would be a tile's (1001 + u + 10 v, u < 10, v < 100, both
+   * spellings) and exists is an input, so no output replaces it. */
+  enum { FIRST = 1001, LAST = 1001 + 9 + 10 * 99, NAME = 64 };
+  typedef struct tile_file {
+    char option[NAME];
+    char path[4096];
+  } tile_file;
+  tile_file *tf = NULL;
+  int n = 0, cap = 0;
+  for (int t = FIRST; curves && t <= LAST; t++)
+    for (int v = 0; v < 2; v++) {
+      char path[4096];
+      struct stat st;
+      if (!ch_udim_curve_path(curves, t, path, sizeof path, v) || stat(path, &st) != 0) continue;
+      if (n == cap) {
+        cap = cap ? 2 * cap : 8;
+        tile_file *g = realloc(tf, (size_t)cap * sizeof *g);
+        if (!g) {
+          free(tf);
+          fprintf(stderr, "chisel: out of memory\n");
+          return 1;
+        }
+        tf = g;
+      }
+      snprintf(tf[n].option, NAME, "the curves of UDIM tile %d", t);
+      snprintf(tf[n].path, sizeof tf[n].path, "%s", path);
+      n++;
+    }
+  cli_file *all = malloc((size_t)(num_inputs + n) * sizeof *all);
+  if (!all) {
+    free(tf);
+    fprintf(stderr, "chisel: out of memory\n");
+    return 1;
+  }
+  for (int i = 0; i < num_inputs; i++) all[i] = inputs[i];
+  for (int i = 0; i < n; i++) all[num_inputs + i] = (cli_file){tf[i].option, tf[i].path};
+  int rc = cli_check_files(cmd, all, num_inputs + n, outputs, num_outputs);
+  free(all);
+  free(tf);
+  return rc;
 }
 
 static int run(int argc, char **argv) {
@@ -182,7 +234,7 @@ static int run(int argc, char **argv) {
                                 {"--ply", cli_is_stdout(ply) ? NULL : ply},
                                 {"--height-png", png16},
                                 {"--glb", glb}};
-  int rc = cli_check_files(cmd, in_files, 2, out_files, 6);
+  int rc = check_files_with_tiles(cmd, in_files, 2, svg, out_files, 6);
   if (rc) return rc;
 
   ch_error err = cli_error();

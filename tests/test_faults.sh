@@ -58,6 +58,8 @@ cp "$models/curves/steps_simple.svg" steps.svg
 cp "$models/curves/relief.svg" relief.svg
 cp in.obj in.orig
 cp c.svg c.orig
+# (after a section's checks: its failures do not cascade into the next)
+restore() { cp in.orig in.obj && cp c.orig c.svg; }
 small=(--target-tris 4000 --no-snap --res 64)
 
 # ---- outputs that are inputs, or each other, or not plain files ----
@@ -102,9 +104,27 @@ EOF
 cp st/summary.json st.orig
 expect 2 "$chisel" study st/summary.json -o st && one_line_with "st/summary.json: is the input st/summary.json"
 same st/summary.json st.orig
+# UDIM: each tile's curve file is an input too (which ones is known only
+# once the mesh is read: every existing tile file of CURVES counts)
+mkdir udim
+cp "$tests/data/mesh/udim_two_tiles.obj" udim/m.obj
+cp "$models/curves/frame.svg" udim/c.1001.svg
+cp "$models/curves/star.svg" udim/c_1002.svg
+cp udim/c_1002.svg udim/tile.orig
+ln udim/c_1002.svg udim/hard.svg
+expect 2 "$chisel" displace udim/m.obj udim/c.svg -o udim/c_1002.svg "${small[@]}" &&
+  one_line_with "udim/c_1002.svg: is the input udim/c_1002.svg (the curves of UDIM tile 1002)"
+expect 2 "$chisel" displace udim/m.obj 'udim/c.<UDIM>.svg' -o udim/x.obj --ply ./udim/c.1001.svg "${small[@]}" &&
+  one_line_with "(the curves of UDIM tile 1001)"
+expect 2 "$chisel" displace udim/m.obj udim/c.svg -o udim/hard.svg "${small[@]}" &&
+  one_line_with "hard.svg: is the input udim/c_1002.svg"
+same udim/c_1002.svg udim/tile.orig
+checks=$((checks + 1))
+[ ! -e udim/x.obj ] || fail "udim/x.obj written"
 same in.obj in.orig
 same c.svg c.orig
 no_temp .
+restore
 
 # ---- a full disk, every format ----
 # full_run DIR CMD...: runs CMD with DIR a full file system; listing.txt
@@ -180,6 +200,7 @@ checks=$((checks + 1))
 same in.obj in.orig
 same c.svg c.orig
 no_temp .
+restore
 
 # ---- signals while writing ----
 # The outputs are staged until all are written, so the temporaries live
@@ -222,6 +243,7 @@ checks=$((checks + 1))
 set +m
 same in.obj in.orig
 same c.svg c.orig
+restore
 
 # ---- progress: a line on a terminal once a run has taken 2 s, none otherwise ----
 if command -v script >/dev/null; then
