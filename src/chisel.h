@@ -55,12 +55,13 @@
 #include "ch_udim.h"
 #include "ch_pipeline.h"
 
-/* src/validate: the Embree truth, traces, renders and metrics */
+/* src/validate: the Embree truth, traces, renders and metrics, the study's scene file */
 #include "ch_truth.h"
 #include "ch_trace.h"
 #include "ch_render.h"
 #include "ch_metrics.h"
 #include "ch_texray.h"
 #include "ch_featshade.h"
+#include "ch_scene.h"
 
 #endif
