@@ -55,7 +55,8 @@
 #include "ch_udim.h"
 #include "ch_pipeline.h"
 
-/* src/validate: the Embree truth, traces, renders and metrics, the study's scene file */
+/* src/validate: the Embree truth, traces, renders and metrics, the study's
+ * scene file and reports */
 #include "ch_truth.h"
 #include "ch_trace.h"
 #include "ch_render.h"
@@ -63,5 +64,6 @@
 #include "ch_texray.h"
 #include "ch_featshade.h"
 #include "ch_scene.h"
+#include "ch_report.h"
 
 #endif
