@@ -56,7 +56,7 @@
 #include "ch_pipeline.h"
 
 /* src/validate: the Embree truth, traces, renders and metrics, the study's
- * scene file and reports */
+ * scene file, its run and reports */
 #include "ch_truth.h"
 #include "ch_trace.h"
 #include "ch_render.h"
@@ -65,5 +65,6 @@
 #include "ch_featshade.h"
 #include "ch_scene.h"
 #include "ch_report.h"
+#include "ch_study.h"
 
 #endif

@@ -2,7 +2,6 @@
  * (docs/spec.md, docs/cli.md). The scene file format is documented in `usage` below. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,21 +9,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "ch_curves.h"
-#include "ch_featshade.h"
 #include "ch_file.h"
-#include "ch_gtex.h"
-#include "ch_height.h"
-#include "ch_math.h"
-#include "ch_mesh.h"
 #include "ch_metrics.h"
-#include "ch_relief.h"
-#include "ch_render.h"
 #include "ch_report.h"
 #include "ch_scene.h"
+#include "ch_study.h"
 #include "ch_texray.h"
-#include "ch_trace.h"
-#include "ch_truth.h"
 #include "cli.h"
 
 
@@ -106,89 +96,10 @@ static const char usage[] =
     "\n"
     "  -o, --output DIR   the output folder (required)\n";
 
-/* What run() builds per method of the scene. */
-typedef struct method_run {
-  ch_featshade fs;
-  ch_texray *tr;
-  ch_mesh mesh;
-  ch_trace *scene;
-} method_run;
-
-typedef ch_scene study;
-
-typedef struct written {
-  char **paths;
-  int count, cap;
-} written;
-
-static int written_add(written *w, const char *path) {
-  if (w->count == w->cap) {
-    int cap = w->cap ? 2 * w->cap : 32;
-    char **p = realloc(w->paths, (size_t)cap * sizeof *p);
-    if (!p) return 0;
-    w->paths = p;
-    w->cap = cap;
-  }
-  if (!(w->paths[w->count] = strdup(path))) return 0;
-  w->count++;
-  return 1;
-}
-
-static void written_free(written *w, int remove_files) {
-  for (int i = 0; i < w->count; i++) {
-    if (remove_files) remove(w->paths[i]);
-    free(w->paths[i]);
-  }
-  free(w->paths);
-  memset(w, 0, sizeof *w);
-}
-
-
-/* ---- the report's files (ch_report), counted as they are written ---- */
-
-typedef ch_study_row row;
-
-static ch_status counted(ch_status st, const char *path, written *w, ch_error *err) {
-  if (!st && !written_add(w, path)) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory");
-  return st;
-}
-
-static ch_status write_png(const char *path, ch_report_picture what, const ch_image *img, const ch_image *truth,
-                           double scene_size, written *w, ch_error *err) {
-  return counted(ch_report_png(path, what, img, truth, scene_size, err), path, w, err);
-}
-
-static ch_status write_exr(const char *path, const ch_image *img, const char *viewname, const char *methodname,
-                           written *w, ch_error *err) {
-  return counted(ch_report_exr(path, img, viewname, methodname, err), path, w, err);
-}
-
-static ch_status write_montage(const char *path, const ch_image *const *imgs, int n, written *w, ch_error *err) {
-  return counted(ch_report_montage(path, imgs, n, err), path, w, err);
-}
-
-static ch_status write_summaries(const char *dir, const study *s, const row *rows, int nrows, written *w, ch_error *err) {
-  char path[4096];
-  ch_status st = ch_report_summaries(dir, s, rows, nrows, err);
-  snprintf(path, sizeof path, "%s/summary.csv", dir);
-  st = counted(st, path, w, err);
-  snprintf(path, sizeof path, "%s/summary.json", dir);
-  return counted(st, path, w, err);
-}
-
-static ch_status write_index(const char *dir, const study *s, const row *rows, int nrows, const char *command,
-                             const char *scene_path, const char *scene_text, written *w, ch_error *err) {
-  char path[4096];
-  const ch_report_info info = {command, scene_path, scene_text};
-  snprintf(path, sizeof path, "%s/index.html", dir);
-  return counted(ch_report_index(dir, s, rows, nrows, &info, err), path, w, err);
-}
-
-
 /* Every file the study writes into dir (as run() names them), checked
  * against its inputs and each other before any work (cli_check_files);
  * nothing to check while dir does not exist. 0 or the exit status. */
-static int check_outputs(const char *cmd, const char *scene_path, const study *s, const char *dir) {
+static int check_outputs(const char *cmd, const char *scene_path, const ch_scene *s, const char *dir) {
   struct stat sb;
   if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) return 0;
   static const char *const truth_files[] = {"truth.exr", "truth.png", "truth.class.png", "montage.png"};
@@ -226,6 +137,12 @@ static int check_outputs(const char *cmd, const char *scene_path, const study *s
   return rc;
 }
 
+/* The study's progress, one line per stage (ch_progress). */
+static void print_progress(void *user, const char *stage, double fraction) {
+  (void)user, (void)fraction;
+  fprintf(stderr, "study: %s\n", stage);
+}
+
 static int run(int argc, char **argv) {
   const char *cmd = "study";
   const char *scene_path = NULL, *dir = NULL;
@@ -248,14 +165,10 @@ static int run(int argc, char **argv) {
   ch_error err = cli_error();
   char *text = NULL;
   size_t size;
-  study s;
-  ch_curve_set set = {0};
-  ch_height height = {0};
-  ch_truth *truth = NULL;
-  ch_trace *truth_scene = NULL;
-  written w = {0};
-  row *rows = NULL;
-  int nrows = 0, made_dir = 0;
+  ch_scene s;
+  ch_study *study = NULL;
+  ch_study_row *rows = NULL;
+  int nrows = 0, nfiles = 0, made_dir = 0;
   if (ch_file_read_all(scene_path, 16 << 20, &text, &size, &err)) return cli_fail(&err);
   ch_status st = ch_scene_parse(scene_path, text, &s, &err);
   char *scene_text = text; /* kept for the report */
@@ -275,8 +188,6 @@ static int run(int argc, char **argv) {
     clen += (size_t)snprintf(command + clen, sizeof command - clen, plain ? " %s" : " '%s'", a);
   }
   int rc = check_outputs(cmd, scene_path, &s, dir);
-  method_run *mr = rc ? NULL : calloc((size_t)s.num_methods + 1, sizeof *mr);
-  if (!rc && !mr) rc = (fprintf(stderr, "chisel: out of memory\n"), 1);
   if (rc) {
     free(scene_text);
     ch_scene_free(&s);
@@ -284,37 +195,14 @@ static int run(int argc, char **argv) {
   }
   double t_start = omp_get_wtime();
   /* Every input is read and checked before anything is written. */
-  ch_height_desc hd = {.dci_resolution = s.dci_resolution, .step_method = CH_RECON_EXACT};
-  ch_truth_desc td = {.grid = s.truth_grid};
-  st = ch_curves_read_svg(s.curves_path, &set, &err);
-  if (!st) st = ch_height_init(&height, &set, &hd, &err);
+  st = ch_study_create(&s, scene_path, NULL, &study, &err);
   for (int i = 0; !st && i < s.num_methods; i++) {
     const ch_scene_method *m = &s.methods[i];
-    method_run *r = &mr[i];
-    st = ch_mesh_read(m->path, &r->mesh, &err);
-    if (!st) st = ch_trace_create_mesh(&r->mesh, m->path, &r->scene, &err);
-    if (!st && m->textured) {
-      ch_error terr = cli_error();
-      ch_texray_desc tex = m->tex;
-      /* Relief and POM at one resolution read one map: bake it once. */
-      for (int j = 0; j < i && tex.kind != CH_TEXRAY_GROOVES; j++)
-        if (s.methods[j].textured && s.methods[j].tex.kind != CH_TEXRAY_GROOVES &&
-            s.methods[j].tex.resolution == tex.resolution)
-          tex.same_map = mr[j].tr;
-      st = ch_texray_create(&tex, &set, &height, s.curves_path, &r->tr, &terr);
-      if (st) ch_error_set(&err, st, "%s: methods[%d] ('%s'): %s", scene_path, i, m->name, terr.message);
-      else
-        printf("texture method %s: %s at %d, %zu bytes\n", m->name,
-               m->tex.kind == CH_TEXRAY_GROOVES ? "grooves" : m->tex.kind == CH_TEXRAY_RELIEF ? "relief" : "pom",
-               m->tex.resolution, ch_texray_bytes(r->tr));
-    }
+    if (m->textured)
+      printf("texture method %s: %s at %d, %zu bytes\n", m->name,
+             m->tex.kind == CH_TEXRAY_GROOVES ? "grooves" : m->tex.kind == CH_TEXRAY_RELIEF ? "relief" : "pom",
+             m->tex.resolution, ch_study_texture_bytes(study, i));
   }
-  for (int i = 0; !st && i < s.num_methods; i++)
-    if (s.methods[i].featshade >= 0)
-      st = ch_featshade_init(&mr[i].fs, (ch_featshade_method)s.methods[i].featshade, s.methods[i].resolution,
-                             &set, &height, &err);
-  if (!st) st = ch_truth_create(&height, &td, &truth, &err);
-  if (!st) st = ch_trace_create_truth(truth, &truth_scene, &err);
   if (!st) {
     struct stat sb;
     if (stat(dir, &sb) == 0) {
@@ -327,70 +215,11 @@ static int run(int argc, char **argv) {
     if (!st && access(dir, W_OK) != 0)
       st = ch_error_set(&err, CH_ERR_IO, "%s: cannot write into the folder: %s", dir, strerror(errno));
   }
-  rows = calloc((size_t)(s.num_views * s.num_methods + 1), sizeof *rows);
-  if (!st && !rows) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
-  double tb[6];
-  if (!st) ch_trace_bounds(truth_scene, tb);
-  double scene_size = st ? 1.0 : sqrt(1.0 + 1.0 + (tb[5] - tb[2]) * (tb[5] - tb[2]));
-  int progress = isatty(2) && !cli_quiet;
-  char path[4096];
-  for (int v = 0; !st && v < s.num_views; v++) {
-    const ch_scene_view *vw = &s.views[v];
-    ch_image timg = {0};
-    ch_render_stats rs;
-    st = ch_render(truth_scene, truth, &vw->camera, &s.light, &timg, &rs, &err);
-    if (!st && progress)
-      fprintf(stderr, "study: %s: truth, %ld rays in %.2f s\n", vw->name, rs.primary_rays + rs.shadow_rays, rs.seconds);
-    if (!st) snprintf(path, sizeof path, "%s/%s.truth.exr", dir, vw->name), st = write_exr(path, &timg, vw->name, "truth", &w, &err);
-    if (!st) snprintf(path, sizeof path, "%s/%s.truth.png", dir, vw->name), st = write_png(path, CH_REPORT_SHADE, &timg, NULL, scene_size, &w, &err);
-    if (!st)
-      snprintf(path, sizeof path, "%s/%s.truth.class.png", dir, vw->name),
-          st = write_png(path, CH_REPORT_CLASSES, &timg, NULL, scene_size, &w, &err);
-    ch_image *imgs = calloc((size_t)s.num_methods + 1, sizeof *imgs);
-    if (!imgs) st = ch_error_set(&err, CH_ERR_NOMEM, "out of memory");
-    for (int m = 0; !st && m < s.num_methods; m++) {
-      const ch_scene_method *mt = &s.methods[m];
-      const method_run *mrt = &mr[m];
-      ch_image *img = &imgs[m + 1];
-      row *r = &rows[nrows];
-      ch_render_shader sh = mt->featshade >= 0 ? ch_featshade_shader(&mrt->fs)
-                            : mt->textured      ? ch_texray_shader(mrt->tr)
-                                                : ch_shader_exact_normals(truth);
-      st = ch_render_shaded(mrt->scene, mt->exact_normals || mt->textured || mt->featshade >= 0 ? &sh : NULL, truth,
-                            &vw->camera, &s.light, img, &rs, &err);
-      if (!st) st = ch_metrics_compare(img, &timg, scene_size, &r->m, &err);
-      if (!st) {
-        r->view = v, r->method = m, r->rays = rs.primary_rays + rs.shadow_rays, r->seconds = rs.seconds;
-        r->triangles = ch_trace_triangles(mrt->scene);
-        nrows++;
-        if (progress)
-          fprintf(stderr, "study: %s: %s, class mismatch %.3f%%, normal p95 %.2f deg\n", vw->name, mt->name,
-                  r->m.class_mismatch, r->m.normal_p95_deg);
-      }
-      static const struct {
-        const char *suffix;
-        ch_report_picture what;
-      } pics[] = {{"png", CH_REPORT_SHADE}, {"class.png", CH_REPORT_CLASS_DIFF}, {"normal.png", CH_REPORT_NORMAL}, {"depth.png", CH_REPORT_DEPTH}};
-      if (!st) snprintf(path, sizeof path, "%s/%s.%s.exr", dir, vw->name, mt->name), st = write_exr(path, img, vw->name, mt->name, &w, &err);
-      for (int k = 0; !st && k < 4; k++) {
-        snprintf(path, sizeof path, "%s/%s.%s.%s", dir, vw->name, mt->name, pics[k].suffix);
-        st = write_png(path, pics[k].what, img, &timg, scene_size, &w, &err);
-      }
-    }
-    if (!st) {
-      const ch_image *list[64];
-      int nl = 0;
-      list[nl++] = &timg;
-      for (int m = 0; m < s.num_methods && nl < 64; m++) list[nl++] = &imgs[m + 1];
-      snprintf(path, sizeof path, "%s/%s.montage.png", dir, vw->name);
-      st = write_montage(path, list, nl, &w, &err);
-    }
-    for (int m = 0; imgs && m < s.num_methods; m++) ch_image_free(&imgs[m + 1]);
-    free(imgs);
-    ch_image_free(&timg);
-  }
-  if (!st) st = write_summaries(dir, &s, rows, nrows, &w, &err);
-  if (!st) st = write_index(dir, &s, rows, nrows, command, scene_path, scene_text ? scene_text : "", &w, &err);
+  /* A line per render on a terminal (stderr), as the study goes. */
+  const ch_progress progress = {print_progress, NULL};
+  const ch_report_info info = {command, scene_path, scene_text};
+  if (!st)
+    st = ch_study_run(study, dir, &info, isatty(2) && !cli_quiet ? &progress : NULL, &rows, &nrows, &nfiles, &err);
   if (!st) {
     printf("%-12s %-12s %9s %9s %9s %10s %9s %9s %9s %9s %9s %8s\n", "view", "method", "class%", "groove%", "id%",
            "depth", "n_mean", "n_p95", "shade", "ssim", "shadow%", "Mrays/s");
@@ -403,24 +232,14 @@ static int run(int argc, char **argv) {
     }
   }
   if (!st)
-    cli_result("wrote %s/index.html and %d files (%d views x %d methods) in %.1f s", dir, w.count - 1, s.num_views,
+    cli_result("wrote %s/index.html and %d files (%d views x %d methods) in %.1f s", dir, nfiles - 1, s.num_views,
                s.num_methods, omp_get_wtime() - t_start);
   free(scene_text);
-  written_free(&w, 0); /* staged (cli_run): on failure they are removed, previous files kept */
+  /* Staged (cli_run): on failure they are removed, previous files kept. */
   if (st) ch_file_stage_abort(); /* before the folder it made goes */
   if (st && made_dir) rmdir(dir);
   free(rows);
-  ch_trace_destroy(truth_scene);
-  ch_truth_destroy(truth);
-  ch_height_free(&height);
-  ch_curves_free(&set);
-  for (int i = 0; i < s.num_methods; i++) {
-    ch_trace_destroy(mr[i].scene);
-    ch_featshade_free(&mr[i].fs);
-    ch_texray_destroy(mr[i].tr);
-    ch_mesh_free(&mr[i].mesh);
-  }
-  free(mr);
+  ch_study_destroy(study);
   ch_scene_free(&s);
   return st ? cli_fail(&err) : 0;
 }
