@@ -37,3 +37,6 @@ done
 run fuzz_exr tests/data/exr
 run fuzz_dci tests/data/dci
 run fuzz_featmap tests/data/featmap
+# The study's scene file, from the test scenes.
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_scene
+run fuzz_scene tests/data/study

@@ -59,12 +59,16 @@
 #include "ch_udim.h"
 #include "ch_pipeline.h"
 
-/* src/validate: the Embree truth, traces, renders and metrics */
+/* src/validate: the Embree truth, traces, renders and metrics, the study's
+ * scene file, its run and reports */
 #include "ch_truth.h"
 #include "ch_trace.h"
 #include "ch_render.h"
 #include "ch_metrics.h"
 #include "ch_texray.h"
 #include "ch_featshade.h"
+#include "ch_scene.h"
+#include "ch_report.h"
+#include "ch_study.h"
 
 #endif

@@ -25,3 +25,7 @@ endforeach()
 # the Embree-traced truth; relief mapping and POM (shade/ch_relief).
 ch_add_test(NAME test_gtex SOURCES test_gtex.c LIBS chisel_validate OpenMP::OpenMP_C m)
 ch_add_test(NAME test_relief SOURCES test_relief.c LIBS chisel_shade OpenMP::OpenMP_C m)
+# The study's scene file (ch_scene): values parsed, every error naming the key.
+ch_add_test(NAME test_scene SOURCES test_scene.c LIBS chisel_validate OpenMP::OpenMP_C m)
+# The study as a library call (ch_study, ch_report) on the bundled box groove.
+ch_add_test(NAME test_study_lib SOURCES test_study_lib.c LIBS chisel_validate OpenMP::OpenMP_C m)

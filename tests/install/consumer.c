@@ -2,7 +2,8 @@
  * call into each library: a v groove across the unit square (shade), h read
  * back where docs/spec.md §3 gives it in closed form; a one-quad base mesh
  * read from memory (mesh, OpenMesh) and evaluated on its surface (tess,
- * OpenSubdiv); a ray traced onto the true surface (validate, Embree).
+ * OpenSubdiv); a ray traced onto the true surface (validate, Embree); a
+ * study scene parsed (validate, cJSON: a dependency the package finds).
  * Exit 0 only if every value matches. */
 #include <chisel/chisel.h>
 #include <math.h>
@@ -78,6 +79,19 @@ int main(void) {
   ch_truth_destroy(truth);
   ch_height_free(&h);
   ch_curves_free(&set);
+
+  /* A study scene: its curves resolved from the scene file's folder. */
+  ch_scene sc;
+  if (ch_scene_parse("dir/scene.json",
+                     "{\"curves\": \"c.svg\", \"views\": [{\"name\": \"v\", \"eye\": [0, -1, 1], "
+                     "\"target\": [0, 0, 0], \"orbit\": 3}]}",
+                     &sc, &err) != CH_OK) {
+    fprintf(stderr, "%s\n", err.message);
+    return 1;
+  }
+  printf("scene: %s, %d views\n", sc.curves_path, sc.num_views);
+  if (strcmp(sc.curves_path, "dir/c.svg") != 0 || sc.num_views != 3) bad = 1;
+  ch_scene_free(&sc);
   printf("chisel %s\n", ch_version());
   return bad;
 }
