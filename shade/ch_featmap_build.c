@@ -3,6 +3,14 @@
  * rasterisation and its constrained Laplacian smoothing) and
  * normal-maps-discontinuities §4.1-4.2 (the linear variant).
  *
+ * Why one file of about 1,550 lines: the steps below are one build over
+ * one private working state (the lattice's samples, the per-cell pieces,
+ * the edge points and their fit), each step reading what the one before
+ * left there; the evaluation, its cell geometry and the EXR form are
+ * already their own files (ch_featmap_eval.c, ch_featmap_cell.h,
+ * ch_featmap_io.c), and cutting the build further would put that working
+ * state in a header for no caller.
+ *
  * Steps, and where they depart from the papers:
  * 1. Samples at the lattice points: the exact closest point on the curves
  *    within a band of the curves (a grid over the segments), the closest

@@ -3,7 +3,13 @@
  * attributes, and turn every path and basic shape into quadratic segments
  * in UV. Path data follows the SVG 1.1 grammar (implicit repeated commands,
  * numbers without separators, arc flags without separators); arcs use the
- * end-point to centre conversion of SVG 1.1 appendix F.6. */
+ * end-point to centre conversion of SVG 1.1 appendix F.6.
+ *
+ * Why one file of about 1,300 lines: it is one reader of one grammar
+ * (the tree walk, style and attribute inheritance, transforms, path data,
+ * shapes, libxml2's limits and errors), whose parts share the walk's state
+ * and the error messages' element numbering; its only interface is
+ * ch_curves_read_svg*. */
 #include <libxml/globals.h>
 #include <libxml/parser.h>
 #include <libxml/tree.h>
