@@ -209,13 +209,6 @@ static int run(int argc, char **argv) {
   if (!base) return cli_usage_error(cmd, "missing the base mesh BASE.obj");
   if (!svg) return cli_usage_error(cmd, "missing the curve file CURVES.svg");
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
-  /* The format of -o by its extension; --ply and --glb name theirs. */
-  mesh_format out_format = cli_is_stdout(out) ? FORMAT_OBJ : format_of(out);
-  if (out_format == FORMAT_UNKNOWN) {
-    const char *dot = strrchr(out, '.'), *slash = strrchr(out, '/');
-    return cli_usage_error(cmd, "-o %s: %s (.obj, .ply or .glb)", out,
-                           dot && (!slash || dot > slash) ? "unknown mesh format" : "no extension to tell the format");
-  }
   if (cli_is_stdout(glb)) return cli_refuse_stdout(cmd, "--glb", "a glTF binary");
   if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
   /* Standard output takes one mesh, OBJ or PLY; EXR and PNG need seeks or
@@ -236,6 +229,14 @@ static int run(int argc, char **argv) {
                                 {"--glb", glb}};
   int rc = check_files_with_tiles(cmd, in_files, 2, svg, out_files, 6);
   if (rc) return rc;
+  /* The format of -o by its extension (after the checks that an output
+   * is no input, device or folder); --ply and --glb name theirs. */
+  mesh_format out_format = cli_is_stdout(out) ? FORMAT_OBJ : format_of(out);
+  if (out_format == FORMAT_UNKNOWN) {
+    const char *dot = strrchr(out, '.'), *slash = strrchr(out, '/');
+    return cli_usage_error(cmd, "-o %s: %s (.obj, .ply or .glb)", out,
+                           dot && (!slash || dot > slash) ? "unknown mesh format" : "no extension to tell the format");
+  }
 
   ch_error err = cli_error();
   ch_camera camera;
