@@ -301,6 +301,12 @@ extern "C" ch_status ch_surface_create(const ch_mesh *mesh, ch_scheme scheme, ch
                                        ch_error *err) {
   if (out) *out = nullptr;
   if (!out) return ch_error_set(err, CH_ERR_INTERNAL, "ch_surface_create: out is NULL");
+  /* C callers may pass any int: read it as one (loading an enum out of
+   * its range is undefined in C++, and UBSan says so). */
+  int scheme_value = 0;
+  std::memcpy(&scheme_value, &scheme, sizeof scheme < sizeof scheme_value ? sizeof scheme : sizeof scheme_value);
+  if (scheme_value != CH_SCHEME_BILINEAR && scheme_value != CH_SCHEME_CATMARK)
+    return ch_error_set(err, CH_ERR_INPUT, "unknown subdivision scheme %d", scheme_value);
   ch_surface *S = nullptr;
   ch_status st = CH_OK;
   std::call_once(callbacks_once, [] {
