@@ -44,6 +44,13 @@ struct ch_msdf;   /* ch_msdf.h */
 struct ch_warp;   /* ch_warp.h */
 
 enum { CH_FEATMAP_MIN_RES = 4, CH_FEATMAP_MAX_RES = 4096 };
+
+/* The lattice both feature maps and the msdf are built on: resolution in
+ * CH_FEATMAP_MIN_RES..CH_FEATMAP_MAX_RES and rect finite and not empty,
+ * the all-zero rect meaning the UV square; out receives the rect to use.
+ * what names the map in the error ("feature map", "distance field"). */
+ch_status ch_featmap_check_lattice(const char *what, int resolution, const double rect[4], double out[4],
+                                   ch_error *err);
 /* Most exact pieces a fallback cell lists (the nearest ones are kept). */
 enum { CH_FEATMAP_MAX_PIECES = 32 };
 #define CH_FEATMAP_OFFSET_X 1.3e-6

@@ -1030,19 +1030,27 @@ static int cmp_piece_cell(const void *a, const void *b) {
   return (x > y) - (x < y);
 }
 
+ch_status ch_featmap_check_lattice(const char *what, int resolution, const double rect[4], double out[4],
+                                   ch_error *err) {
+  if (resolution < CH_FEATMAP_MIN_RES || resolution > CH_FEATMAP_MAX_RES)
+    return ch_error_set(err, CH_ERR_INPUT, "%s resolution %d outside %d..%d", what, resolution, CH_FEATMAP_MIN_RES,
+                        CH_FEATMAP_MAX_RES);
+  for (int k = 0; k < 4; k++) out[k] = rect[k];
+  if (out[0] == 0.0 && out[1] == 0.0 && out[2] == 0.0 && out[3] == 0.0) out[2] = out[3] = 1.0;
+  for (int k = 0; k < 4; k++)
+    if (!isfinite(out[k])) return ch_error_set(err, CH_ERR_INPUT, "%s rectangle is not finite", what);
+  if (!(out[2] > out[0] && out[3] > out[1]))
+    return ch_error_set(err, CH_ERR_INPUT, "empty %s rectangle %g,%g,%g,%g", what, out[0], out[1], out[2], out[3]);
+  return CH_OK;
+}
+
 ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc, ch_featmap *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   double t0 = omp_get_wtime();
   int R = desc->resolution;
-  if (R < CH_FEATMAP_MIN_RES || R > CH_FEATMAP_MAX_RES)
-    return ch_error_set(err, CH_ERR_INPUT, "feature map resolution %d outside %d..%d", R, CH_FEATMAP_MIN_RES,
-                        CH_FEATMAP_MAX_RES);
-  double rect[4] = {desc->rect[0], desc->rect[1], desc->rect[2], desc->rect[3]};
-  if (rect[0] == 0.0 && rect[1] == 0.0 && rect[2] == 0.0 && rect[3] == 0.0) rect[2] = rect[3] = 1.0;
-  for (int k = 0; k < 4; k++)
-    if (!isfinite(rect[k])) return ch_error_set(err, CH_ERR_INPUT, "feature map rectangle is not finite");
-  if (!(rect[2] > rect[0] && rect[3] > rect[1]))
-    return ch_error_set(err, CH_ERR_INPUT, "empty feature map rectangle %g,%g,%g,%g", rect[0], rect[1], rect[2], rect[3]);
+  double rect[4];
+  ch_status lst = ch_featmap_check_lattice("feature map", R, desc->rect, rect, err);
+  if (lst) return lst;
   unsigned char *use = calloc((size_t)(set->num_curves > 0 ? set->num_curves : 1), 1);
   if (!use) return ch_error_set(err, CH_ERR_NOMEM, "out of memory");
   int nuse = 0;

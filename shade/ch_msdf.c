@@ -280,15 +280,9 @@ ch_status ch_msdf_build(const ch_curve_set *set, const ch_msdf_desc *desc, ch_ms
   memset(m, 0, sizeof *m);
   double t0 = omp_get_wtime();
   int R = desc->resolution;
-  if (R < CH_FEATMAP_MIN_RES || R > CH_FEATMAP_MAX_RES)
-    return ch_error_set(err, CH_ERR_INPUT, "distance field resolution %d outside %d..%d", R, CH_FEATMAP_MIN_RES,
-                        CH_FEATMAP_MAX_RES);
-  double rect[4] = {desc->rect[0], desc->rect[1], desc->rect[2], desc->rect[3]};
-  if (rect[0] == 0.0 && rect[1] == 0.0 && rect[2] == 0.0 && rect[3] == 0.0) rect[2] = rect[3] = 1.0;
-  for (int k = 0; k < 4; k++)
-    if (!isfinite(rect[k])) return ch_error_set(err, CH_ERR_INPUT, "distance field rectangle is not finite");
-  if (!(rect[2] > rect[0] && rect[3] > rect[1]))
-    return ch_error_set(err, CH_ERR_INPUT, "empty distance field rectangle");
+  double rect[4];
+  ch_status lst = ch_featmap_check_lattice("distance field", R, desc->rect, rect, err);
+  if (lst) return lst;
   double du = (rect[2] - rect[0]) / R, dv = (rect[3] - rect[1]) / R, texel = fmax(du, dv);
   double half = 0.0;
   int any = 0;
