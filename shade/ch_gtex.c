@@ -148,6 +148,7 @@ typedef struct groove {
   double brk[CH_GTEX_MAX_PROFILE_POINTS + 3];
   unsigned char jump[CH_GTEX_MAX_PROFILE_POINTS + 3]; /* P jumps there */
   int raises, carves;   /* d P takes positive, negative values */
+  double lowest;        /* the least value of d P (0 included) */
   int asym;             /* P(t) != P(-t): the side matters */
 } groove;
 
@@ -163,18 +164,21 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   const float *ph = texel(g, prof);
   G->ellipse = (int)ph[0] == PROFILE_ELLIPSE;
   G->n = (int)ph[1];
+  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
   for (int i = 0; i < G->n; i++) {
-    const float *pt = texel(g, prof + 1 + i / 2) + 2 * (i % 2);
+    const float *pt = texel(g, prof + 1) + 2 * i; /* two points a texel */
     G->t[i] = pt[0];
     G->h[i] = pt[1];
+    pmin = mn(pmin, G->h[i]), pmax = mx(pmax, G->h[i]);
   }
+  G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
   int nb = 0;
   G->brk[nb++] = -0.5;
   G->brk[nb++] = 0.0;
   G->brk[nb++] = 0.5;
   for (int i = 0; i < G->n; i++) {
     int seen = 0;
-    for (int j = 0; j < nb; j++) seen |= G->brk[j] == G->t[i];
+    for (int j = 0; j < nb && !seen; j++) seen = G->brk[j] == G->t[i];
     if (!seen) G->brk[nb++] = G->t[i];
   }
   G->nb = nb;
@@ -354,6 +358,7 @@ typedef struct cell {
   int gfirst[CH_GTEX_MAX_CELL_ITEMS + 1]; /* elements of groove run r: gfirst[r]..gfirst[r+1]-1 */
   groove g[CH_GTEX_MAX_CELL_ITEMS];
   int mixed;                       /* raised and carved grooves meet here */
+  int raises;                      /* some groove here raises the surface */
 } cell;
 
 typedef struct point_state {
@@ -371,6 +376,30 @@ static int decides_height(double g, double g_old) {
   return g_old > 0.0 && g > g_old;
 }
 
+/* One groove's value d P(s / w) at q from its nearest element in the cell
+ * (ties to the first), with its signed distance, element and parameter; 0
+ * beyond its band. */
+static double groove_value(const cell *C, int r, const double q[2], double *s, int *be, double *best_tau) {
+  const groove *G = &C->g[r];
+  double best = INFINITY;
+  *be = -1;
+  *best_tau = 0.0;
+  double half = 0.5 * G->w, reach2 = half * half;
+  for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
+    /* The box's distance bounds the element's: skip elements beyond the
+     * profile's support or farther than the best so far. */
+    const double *b = C->e[k].box;
+    double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+    double bd2 = dx * dx + dy * dy;
+    if (bd2 >= reach2 || bd2 > best) continue;
+    double tau, d2 = elem_closest(&C->e[k], q, &tau);
+    if (d2 < best) best = d2, *best_tau = tau, *be = k;
+  }
+  if (*be < 0 || !(best < half * half)) return 0.0;
+  *s = sqrt(best) * elem_side(&C->e[*be], *best_tau, q);
+  return G->d * prof_eval(G, *s / G->w);
+}
+
 /* The CSG rule of docs/spec.md §3 over the grooves of a cell at q, as
  * ch_groove_field_eval applies it (the nearest element per groove, ties to
  * the first; a tie tolerance for the deciding groove; owner by priority). */
@@ -378,22 +407,9 @@ static double cell_h(const cell *C, const double q[2], point_state *ps) {
   point_state st = {.min_carve = 0.0, .max_raise = 0.0, .carve_run = -1, .raise_run = -1, .owner_run = -1};
   for (int r = 0; r < C->ng; r++) {
     const groove *G = &C->g[r];
-    double best = INFINITY, best_tau = 0.0;
-    int be = -1;
-    double half = 0.5 * G->w, reach2 = half * half;
-    for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
-      /* The box's distance bounds the element's: skip elements beyond the
-       * profile's support or farther than the best so far. */
-      const double *b = C->e[k].box;
-      double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
-      double bd2 = dx * dx + dy * dy;
-      if (bd2 >= reach2 || bd2 > best) continue;
-      double tau, d2 = elem_closest(&C->e[k], q, &tau);
-      if (d2 < best) best = d2, best_tau = tau, be = k;
-    }
-    if (be < 0 || !(best < half * half)) continue;
-    double s = sqrt(best) * elem_side(&C->e[be], best_tau, q);
-    double gv = G->d * prof_eval(G, s / G->w);
+    double s, best_tau;
+    int be;
+    double gv = groove_value(C, r, q, &s, &be, &best_tau);
     if (gv == 0.0) continue;
     double tie = 1e-12 * fabs(gv);
     if (gv < st.min_carve) {
@@ -485,6 +501,7 @@ static void load_cell(const ch_gtex *g, int ci, cell *C) {
   int raises = 0, carves = 0;
   for (int r = 0; r < C->ng; r++) raises |= C->g[r].raises, carves |= C->g[r].carves;
   C->mixed = raises && carves;
+  C->raises = raises;
 }
 
 static int cell_index(const ch_gtex *g, double u, double v) {
@@ -495,16 +512,27 @@ static int cell_index(const ch_gtex *g, double u, double v) {
   return j * G + i;
 }
 
-double ch_gtex_eval(const ch_gtex *g, double u, double v, ch_gtex_sample *detail) {
+/* ch_gtex_eval with the cell held in C (*loaded: its index, or -1), so a
+ * ray's last cell is not read twice. */
+static double eval_in(const ch_gtex *g, double u, double v, cell *C, int *loaded, ch_gtex_sample *detail) {
   if (detail) memset(detail, 0, sizeof *detail), detail->active = detail->owner = -1;
   if (!(u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0)) return 0.0;
-  cell C;
-  load_cell(g, cell_index(g, u, v), &C);
+  int ci = cell_index(g, u, v);
+  if (*loaded != ci) {
+    load_cell(g, ci, C);
+    *loaded = ci;
+  }
   const double q[2] = {u, v};
   point_state st;
-  double h = cell_h(&C, q, &st);
-  if (detail) fill_sample(&C, &st, h, q, detail);
+  double h = cell_h(C, q, &st);
+  if (detail) fill_sample(C, &st, h, q, detail);
   return h;
+}
+
+double ch_gtex_eval(const ch_gtex *g, double u, double v, ch_gtex_sample *detail) {
+  cell C;
+  int loaded = -1;
+  return eval_in(g, u, v, &C, &loaded, detail);
 }
 
 /* ---- events along a ray in a cell ---- */
@@ -629,6 +657,14 @@ static void events_point(events *E, const ray *R, const double P[2], const doubl
    * side of the normal line there, along T: after = 1 past the end, 0
    * before the start) and within the band: other roots are dropped. */
   double a0 = ox * T[0] + oy * T[1], a1 = R->d[0] * T[0] + R->d[1] * T[1], eps = 1e-9 * (1.0 + w), r[2];
+  /* Every event kept is within the band's radius of the point: where the
+   * ray's stretch stays farther (its nearest point, with a margin far
+   * above rounding), there are none. */
+  if (a > 0.0 && isfinite(E->lo) && isfinite(E->hi)) {
+    double tn = -b / (2.0 * a), far = 0.5 * w + 2.0 * eps;
+    tn = tn < E->lo ? E->lo : tn > E->hi ? E->hi : tn;
+    if (a * tn * tn + b * tn + c > far * far) return;
+  }
 #define POINT_KEEP(t)                                                                                            \
   ((after ? a0 + a1 * (t) >= -eps : a0 + a1 * (t) <= eps) &&                                                     \
    (a * (t) * (t) + b * (t) + c) <= (0.5 * w + eps) * (0.5 * w + eps))
@@ -858,6 +894,29 @@ static int clip_to_box(const events *E, const ray *R, const double box[4], doubl
   return *lo <= *hi;
 }
 
+/* Narrows [lo, hi] to a slab: x0 + x1 t in [a, b]. 0 if empty. */
+static int clip_to_slab(double x0, double x1, double a, double b, double *lo, double *hi) {
+  if (x1 == 0.0) return x0 >= a && x0 <= b && *lo <= *hi;
+  double t0 = (a - x0) / x1, t1 = (b - x0) / x1;
+  *lo = mx(*lo, mn(t0, t1));
+  *hi = mn(*hi, mx(t0, t1));
+  return *lo <= *hi;
+}
+
+/* Narrows [lo, hi] to where the ray is within the band of width w around
+ * a straight element, caps included (across its line and along it, a
+ * rectangle holding the band), with a margin above the events' own
+ * tolerances (events_line, events_point) so that none they keep is cut:
+ * 0 if the ray never is. */
+static int clip_to_band(const ray *R, const elem *el, double w, double *lo, double *hi) {
+  double T[2] = {el->t0[0], el->t0[1]}, N[2] = {-T[1], T[0]};
+  double ox = R->o[0] - el->p[0][0], oy = R->o[1] - el->p[0][1];
+  double L = len2d(el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]);
+  double m = 0.5 * w + 4e-9 * (1.0 + L + w);
+  return clip_to_slab(ox * N[0] + oy * N[1], R->d[0] * N[0] + R->d[1] * N[1], -m, m, lo, hi) &&
+         clip_to_slab(ox * T[0] + oy * T[1], R->d[0] * T[0] + R->d[1] * T[1], -m, L + m, lo, hi);
+}
+
 /* Turns below this (radians) at a joint leave it no region of its own
  * wider than r sin(turn) < 1e-8 UV at the profile's half width: its
  * events are the neighbours' (cubics and arcs split into quadratics
@@ -879,8 +938,15 @@ static void cell_events(events *E, const ray *R, cell *C) {
       double lo, hi;
       if (!clip_to_box(E, R, el->box, reach, &lo, &hi)) continue;
       if (!el->framed) elem_frame(el);
-      E->lo = lo, E->hi = hi;
-      if (el->quad) {
+      /* A straight element's box is loose (a diagonal's is its whole
+       * extent): its facet, break and cap events all lie within its
+       * band, so the ray's stretch there bounds them. */
+      double blo = lo, bhi = hi;
+      int near = el->quad || clip_to_band(R, el, G->w, &blo, &bhi);
+      E->lo = blo, E->hi = bhi;
+      if (!near) {
+        /* nothing of the element's own */
+      } else if (el->quad) {
         events_quad(E, R, el, G, C->mixed);
       } else {
         events_line(E, R, el, G, C->mixed);
@@ -890,13 +956,15 @@ static void cell_events(events *E, const ray *R, cell *C) {
        * flips at its tangent line, which matters to asymmetric profiles. */
       double tg[2];
       elem_tangent(el, 0.0, tg);
-      if (el->open_start || fabs(ch_cross2(el->tin, tg)) > SMOOTH_JOINT || ch_dot2(el->tin, tg) < 0.0)
+      if (near && (el->open_start || fabs(ch_cross2(el->tin, tg)) > SMOOTH_JOINT || ch_dot2(el->tin, tg) < 0.0))
         events_point(E, R, el->p[0], tg, 0, G, C->mixed);
-      if (el->open_end) {
+      if (near && el->open_end) {
         double te[2];
         elem_tangent(el, 1.0, te);
         events_point(E, R, el->p[2], te, 1, G, C->mixed);
       }
+      /* The tangent lines beyond open ends reach past the band. */
+      E->lo = lo, E->hi = hi;
       if (G->asym && el->open_start) events_end_line(E, R, el->p[0], tg);
       if (G->asym && el->open_end) {
         elem_tangent(el, 1.0, tg);
@@ -920,12 +988,32 @@ typedef struct trace {
   int at_top;       /* the walk is at its start, where it entered the
                        slab of h's range from above: no wall there */
   int cells;
+  cell *C;          /* the cell last read, kept for the hit's probes */
+  int loaded;       /* its index, or -1 (the paper's mode edits a cell) */
 } trace;
 
-/* Whether the ray is on or below h at parameter t (the cell's elements). */
-static int solid_at(const trace *T, const cell *C, double t) {
-  double q[2] = {T->R.o[0] + t * T->R.d[0], T->R.o[1] + t * T->R.d[1]};
-  return T->R.o[2] + t * T->R.d[2] <= cell_h(C, q, NULL);
+/* Whether the ray is on or below h at parameter t (the cell's elements).
+ * Where nothing raises, h is the least of 0 and every groove's value, so
+ * the ray's point z is above h as soon as one groove lies below z: the
+ * grooves are tried from *first (the one that decided last time, as the
+ * next test along the ray is usually decided by the same groove), and a
+ * groove whose deepest value is not below z needs no distance. The answer
+ * is z <= cell_h's exactly; only the work differs. */
+static int solid_at(const trace *T, const cell *C, double t, int *first) {
+  double q[2] = {T->R.o[0] + t * T->R.d[0], T->R.o[1] + t * T->R.d[1]}, z = T->R.o[2] + t * T->R.d[2];
+  if (C->raises) return z <= cell_h(C, q, NULL);
+  if (z > 0.0) return 0;
+  for (int i = 0; i < C->ng; i++) {
+    int r = (*first + i) % C->ng;
+    if (!(z > C->g[r].lowest)) continue;
+    double s, tau;
+    int e;
+    if (z > groove_value(C, r, q, &s, &e, &tau)) {
+      *first = r;
+      return 0;
+    }
+  }
+  return 1;
 }
 
 /* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit. */
@@ -939,7 +1027,8 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
   /* Solid just past the entry: the hit is there (most rays meeting the top
    * surface near a groove end here, without events). */
   double tp = ta + 1e-13 * (1.0 + fabs(ta));
-  if (R->o[2] + tp * R->d[2] <= zmax_cell && solid_at(T, C, tp)) {
+  int first = 0;
+  if (R->o[2] + tp * R->d[2] <= zmax_cell && solid_at(T, C, tp, &first)) {
     *hit = ta;
     *maybe_wall = !T->at_top;
     return 1;
@@ -956,7 +1045,7 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
       if (i == E.n && E.dropped) break;
       double next = i < E.n ? E.t[i] : tb, mid = 0.5 * (prev + next);
       /* Above the cell's highest point: nothing to test. */
-      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid)) {
+      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
         *hit = prev;
         *maybe_wall = prev_wall;
         return 1;
@@ -1012,7 +1101,6 @@ static int walk(trace *T, double tnear, double tfar) {
   double ty = d[1] > 0.0 ? ((iy + 1) * cs - o[1]) / d[1] : d[1] < 0.0 ? (iy * cs - o[1]) / d[1] : INFINITY;
   double t = ta;
   T->at_top = d[2] < 0.0 && ta > tnear;
-  cell C;
   /* A bound on the cells a ray can cross (Algorithm 1's loop). */
   for (int steps = 0; steps < 2 * G + 2; steps++) {
     double t_exit = mn(mn(tx, ty), tb);
@@ -1035,10 +1123,11 @@ static int walk(trace *T, double tnear, double tfar) {
           return 1;
         }
       } else {
-        load_cell(g, ci, &C);
+        load_cell(g, ci, T->C);
+        T->loaded = g->paper ? -1 : ci;
         double th;
         int mw;
-        if (cell_hit(T, &C, t, t_exit, cmax, &th, &mw)) {
+        if (cell_hit(T, T->C, t, t_exit, cmax, &th, &mw)) {
           T->t = th, T->ci = ci, T->maybe_wall = mw;
           return 1;
         }
@@ -1062,7 +1151,8 @@ static int walk(trace *T, double tnear, double tfar) {
 }
 
 int ch_gtex_occluded(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar) {
-  trace T = {.g = g};
+  cell C;
+  trace T = {.g = g, .C = &C, .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
@@ -1089,7 +1179,8 @@ static double h_on_ray(const ch_gtex *g, const ray *R, double t, cell *C, int *l
 
 int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar,
                       ch_gtex_hit *hit) {
-  trace T = {.g = g};
+  cell C;
+  trace T = {.g = g, .C = &C, .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
@@ -1103,19 +1194,18 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
   /* A wall where h jumps across the ray at the hit (keeping its size as
    * the probes close in: a slope shrinks). */
   if (T.duv > 0.0 && T.maybe_wall) {
-    cell C;
-    int loaded = -1;
+    int *loaded = &T.loaded;
     point_state sa, sb, s2;
     double qa[2], qb[2], q2[2], dt = 1e-9 / T.duv;
-    double ha = h_on_ray(g, R, t - dt, &C, &loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, &C, &loaded, &sb, qb);
-    double ha2 = h_on_ray(g, R, t - dt / 16, &C, &loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, &C, &loaded, &s2, q2);
+    double ha = h_on_ray(g, R, t - dt, &C, loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, &C, loaded, &sb, qb);
+    double ha2 = h_on_ray(g, R, t - dt / 16, &C, loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, &C, loaded, &s2, q2);
     double jump_eps = 1e-6 * mx(g->zmax - g->zmin, 1e-9);
     if (fabs(hb - ha) > jump_eps && fabs(hb2 - ha2) > 0.5 * fabs(hb - ha)) {
       /* Across the groove of the deeper side, facing the ray. */
       int deeper_b = fabs(hb) >= fabs(ha);
       point_state st;
       double q[2];
-      h_on_ray(g, R, deeper_b ? t + dt : t - dt, &C, &loaded, &st, q);
+      h_on_ray(g, R, deeper_b ? t + dt : t - dt, &C, loaded, &st, q);
       double s = 0.0, tau = 0.0;
       int e = -1, r = active_of(&st, &s, &e, &tau);
       double n2[2] = {-R->d[0] / T.duv, -R->d[1] / T.duv};
@@ -1150,7 +1240,7 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
   }
   /* A facet: the normal of h at the hit. */
   ch_gtex_sample smp;
-  ch_gtex_eval(g, hit->point[0], hit->point[1], &smp);
+  eval_in(g, hit->point[0], hit->point[1], &C, &T.loaded, &smp);
   double l = sqrt(smp.grad[0] * smp.grad[0] + smp.grad[1] * smp.grad[1] + 1.0);
   hit->normal[0] = -smp.grad[0] / l;
   hit->normal[1] = -smp.grad[1] / l;
