@@ -83,6 +83,8 @@ typedef struct elem {
   double rho2;            /* quadratics: the square of the least radius of
                              curvature (within it of the curve every point
                              has one foot) */
+  double dev;             /* how far the curve strays from its chord:
+                             |p0 - 2 p1 + p2| / 4 (0 when straight) */
 } elem;
 
 static void elem_frame(elem *E) {
@@ -119,6 +121,8 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
     E->p[1][1] = 0.5 * (E->p[0][1] + E->p[2][1]);
   }
   elem_box(E);
+  E->dev = E->quad ? 0.25 * len2d(E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0], E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])
+                   : 0.0;
   /* A straight element's frame is cheap; a quadratic's waits until a ray
    * comes within its band. */
   E->framed = 0;
@@ -150,6 +154,8 @@ typedef struct groove {
   int raises, carves;   /* d P takes positive, negative values */
   double lowest;        /* the least value of d P (0 included) */
   int asym;             /* P(t) != P(-t): the side matters */
+  int monotone;         /* carved, symmetric, P <= 0 and not falling as |t|
+                           grows: d P(s / w) grows with |s| (v, u, box) */
 } groove;
 
 static double prof_eval(const groove *G, double t);
@@ -188,6 +194,9 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   G->raises = (flags & 2) != 0;
   G->carves = (flags & 4) != 0;
   for (int k = 0; k < nb; k++) G->jump[k] = (mask >> k) & 1;
+  G->monotone = !G->asym && G->d > 0.0;
+  for (int i = 0; i < G->n && G->monotone; i++)
+    G->monotone = G->h[i] <= 0.0 && (i == 0 || G->t[i] <= 0.0 || (G->t[i] >= G->t[i - 1] && G->h[i] >= G->h[i - 1]));
 }
 
 /* Where h can jump: where P does (a side flip at 0 included); a rim where
@@ -297,6 +306,7 @@ static void paper_line(elem *E, const double ref[2]) {
     E->p[1][k] = c[k];
   }
   E->quad = 0;
+  E->dev = 0.0;
   E->open_start = E->open_end = 1;
   elem_box(E);
   elem_frame(E);
@@ -992,6 +1002,33 @@ typedef struct trace {
   int loaded;       /* its index, or -1 (the paper's mode edits a cell) */
 } trace;
 
+/* Whether groove r's value at q lies below z, from bounds on its distance
+ * alone: each element is within dev of its chord, so the chord's distance
+ * +- dev brackets the element's (a straight element's is exact), and a
+ * monotone profile's value is bracketed by its values there. 1 below, 0
+ * not below, -1 when the bracket cannot tell (within its margin, far
+ * above rounding and Newton's tolerance, of z). */
+static int groove_below(const cell *C, int r, const double q[2], double z) {
+  const groove *G = &C->g[r];
+  double half = 0.5 * G->w, reach2 = half * half, lo = INFINITY, hi = INFINITY;
+  for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
+    const elem *E = &C->e[k];
+    const double *b = E->box;
+    double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+    if (dx * dx + dy * dy >= reach2) continue; /* beyond the band: no value */
+    double tau, dc = sqrt(ch_bezier_closest(E->p, 1, q, &tau));
+    lo = mn(lo, dc - E->dev);
+    hi = mn(hi, dc + E->dev);
+  }
+  lo = lo * (1.0 - 1e-9) - 1e-12;
+  hi = hi * (1.0 + 1e-9) + 1e-12;
+  double vhi = hi < half ? G->d * prof_eval(G, hi / G->w) : 0.0;
+  if (z > vhi) return 1;
+  double vlo = lo < half ? G->d * prof_eval(G, mx(lo, 0.0) / G->w) : 0.0;
+  if (!(z > vlo)) return 0;
+  return -1;
+}
+
 /* Whether the ray is on or below h at parameter t (the cell's elements).
  * Where nothing raises, h is the least of 0 and every groove's value, so
  * the ray's point z is above h as soon as one groove lies below z: the
@@ -1006,6 +1043,16 @@ static int solid_at(const trace *T, const cell *C, double t, int *first) {
   for (int i = 0; i < C->ng; i++) {
     int r = (*first + i) % C->ng;
     if (!(z > C->g[r].lowest)) continue;
+    if (C->g[r].monotone) {
+      int below = groove_below(C, r, q, z);
+      if (below >= 0) {
+        if (below) {
+          *first = r;
+          return 0;
+        }
+        continue;
+      }
+    }
     double s, tau;
     int e;
     if (z > groove_value(C, r, q, &s, &e, &tau)) {
