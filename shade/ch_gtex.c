@@ -61,6 +61,8 @@ enum { PROFILE_POLY = 0, PROFILE_ELLIPSE = 1 };
 enum { EV_CAP = 96, MAX_PASSES = 64 };
 /* Samples along the ray per quadratic element and cell, at most. */
 enum { QUAD_SAMPLES_MAX = 24 };
+/* Grid cells with the same list walked as one stretch, at most. */
+enum { MERGE_MAX = 16 };
 
 /* Comparisons (fmin and fmax are calls at -O2); no NaN reaches them. */
 static inline double mn(double a, double b) { return a < b ? a : b; }
@@ -1063,8 +1065,12 @@ static int solid_at(const trace *T, const cell *C, double t, int *first) {
   return 1;
 }
 
-/* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit. */
-static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, double *hit, int *maybe_wall) {
+/* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit.
+ * cuts: the borders of the grid cells inside [ta, tb] (cells merged for
+ * holding the same list), kept as events of unknown kind, so each cell's
+ * entry is tested as if it were walked alone. */
+static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, const double *cuts, int ncuts,
+                    double *hit, int *maybe_wall) {
   const ray *R = &T->R;
   if (T->g->paper) {
     double tm = 0.5 * (ta + tb), ref[2] = {R->o[0] + tm * R->d[0], R->o[1] + tm * R->d[1]};
@@ -1086,6 +1092,8 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
   for (int pass = 0; pass < MAX_PASSES; pass++) {
     E.lo = lo, E.hi = tb, E.n = 0, E.dropped = 0;
     cell_events(&E, R, C);
+    E.wall_now = 1;
+    for (int k = 0; k < ncuts; k++) ev_add(&E, cuts[k]);
     double prev = lo;
     int prev_wall = lo_wall;
     for (int i = 0; i <= E.n; i++) {
@@ -1105,6 +1113,17 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
     lo_wall = E.wall[E.n - 1];
   }
   return 0;
+}
+
+/* Whether two grid texels list the same elements. */
+static int same_list(const ch_gtex *g, const float *a, const float *b) {
+  int n = (int)a[1];
+  if ((int)b[1] != n) return 0;
+  if (a[0] == b[0]) return 1;
+  const float *la = texel(g, (int)a[0]), *lb = texel(g, (int)b[0]);
+  for (int k = 0; k < n; k++)
+    if (la[k] != lb[k]) return 0;
+  return 1;
 }
 
 /* Walks the cells from tnear to tfar; 1 with T->t, T->ci at the first hit. */
@@ -1172,9 +1191,29 @@ static int walk(trace *T, double tnear, double tfar) {
       } else {
         load_cell(g, ci, T->C);
         T->loaded = g->paper ? -1 : ci;
+        /* The next cells along the ray with the same list hold the same h
+         * (a groove's run on a fine grid): one stretch, one set of events.
+         * Not in the paper's mode, whose tangent lines are per cell. */
+        double t0 = t, cuts[MERGE_MAX];
+        int ncuts = 0;
+        while (!g->paper && ncuts < MERGE_MAX && t_exit < tb && steps + 1 < 2 * G + 2) {
+          int nx = ix, ny = iy;
+          if (tx <= ty) nx += sx;
+          else ny += sy;
+          if (nx < 0 || nx >= G || ny < 0 || ny >= G) break;
+          const float *nt = g->grid + 4 * ((size_t)ny * G + nx);
+          if (!same_list(g, gt, nt)) break;
+          cmax = mx(cmax, nt[3]);
+          if (tx <= ty) ix = nx, t = tx, tx += dtx;
+          else iy = ny, t = ty, ty += dty;
+          cuts[ncuts++] = t;
+          t_exit = mn(mn(tx, ty), tb);
+          steps++;
+          T->cells++;
+        }
         double th;
         int mw;
-        if (cell_hit(T, T->C, t, t_exit, cmax, &th, &mw)) {
+        if (cell_hit(T, T->C, t0, t_exit, cmax, cuts, ncuts, &th, &mw)) {
           T->t = th, T->ci = ci, T->maybe_wall = mw;
           return 1;
         }
