@@ -6,8 +6,9 @@
  * them: primary plus shadow rays; for a texture method a primary ray is
  * the base plane's Embree hit and the method's trace. The machine is
  * shared, so each method's render alternates with the mesh's and the
- * ratio printed is the median of the per-pair ratios. Memory of each
- * method's textures.
+ * ratio printed is the median of the per-pair ratios, and next to it the
+ * method's pixels per second (Mpix/s: output pixels, each 2x2 samples
+ * with their shadow rays). Memory of each method's textures.
  *
  *   bench_gtex CURVES.svg [MESH.obj] [G,G,...] [R,R,...] [K] [REPEATS]
  *
@@ -43,9 +44,9 @@ typedef struct view {
   ch_render_camera cam;
 } view;
 
-/* One render's rate (Mrays/s). */
+/* One render's rate (Mrays/s), and its Mpixels/s in *mpix. */
 static double rate1(const ch_trace *scene, const ch_render_shader *sh, const ch_truth *truth,
-                    const ch_render_camera *cam) {
+                    const ch_render_camera *cam, double *mpix) {
   ch_image img;
   ch_render_stats st;
   ch_error err = {0};
@@ -54,20 +55,22 @@ static double rate1(const ch_trace *scene, const ch_render_shader *sh, const ch_
     exit(1);
   }
   ch_image_free(&img);
+  *mpix = (double)cam->width * cam->height / st.seconds * 1e-6;
   return (st.primary_rays + st.shadow_rays) / st.seconds * 1e-6;
 }
 
 /* Median rate over repeats of one method and view, and (with a mesh) the
  * median ratio to the mesh's rate measured right before each repeat. */
 static double rate(const ch_trace *scene, const ch_render_shader *sh, const ch_truth *truth, const ch_render_camera *cam,
-                   int repeats, const ch_trace *mesh, double *ratio) {
-  double r[16], q[16];
+                   int repeats, const ch_trace *mesh, double *ratio, double *mpix) {
+  double r[16], q[16], px[16], unused;
   for (int k = 0; k < repeats; k++) {
-    double m = mesh ? rate1(mesh, NULL, truth, cam) : 0.0;
-    r[k] = rate1(scene, sh, truth, cam);
+    double m = mesh ? rate1(mesh, NULL, truth, cam, &unused) : 0.0;
+    r[k] = rate1(scene, sh, truth, cam, &px[k]);
     q[k] = m > 0.0 ? r[k] / m : 0.0;
   }
   if (ratio) *ratio = bench_median(q, repeats);
+  if (mpix) *mpix = bench_median(px, repeats);
   return bench_median(r, repeats);
 }
 
@@ -108,7 +111,11 @@ int main(int argc, char **argv) {
   double mesh_rate[3] = {0, 0, 0};
   if (mesh) {
     printf("%-16s %12s", "mesh", "-");
-    for (int v = 0; v < 3; v++) printf(" %10.2f", mesh_rate[v] = rate(mesh, NULL, truth, &views[v].cam, repeats, NULL, NULL));
+    for (int v = 0; v < 3; v++) {
+      double px;
+      printf(" %10.2f", mesh_rate[v] = rate(mesh, NULL, truth, &views[v].cam, repeats, NULL, NULL, &px));
+      printf(" %.3f Mpix/s", px);
+    }
     printf("   (%ld triangles)\n", ch_trace_triangles(mesh));
   }
   for (int pass = 0; pass < 3; pass++) {
@@ -129,9 +136,10 @@ int main(int argc, char **argv) {
       snprintf(name, sizeof name, "%s %d", pass == 0 ? "grooves" : pass == 1 ? "relief" : "pom", d.resolution);
       printf("%-16s %12zu", name, ch_texray_bytes(tr));
       for (int v = 0; v < 3; v++) {
-        double q, r = rate(plane, &sh, truth, &views[v].cam, repeats, mesh, &q);
+        double q, px, r = rate(plane, &sh, truth, &views[v].cam, repeats, mesh, &q, &px);
         printf(" %10.2f", r);
         if (mesh) printf(" (%.2fx)", q);
+        printf(" %.3f Mpix/s", px);
       }
       printf("   build %.2f s\n", build);
       ch_texray_destroy(tr);

@@ -61,6 +61,8 @@ enum { PROFILE_POLY = 0, PROFILE_ELLIPSE = 1 };
 enum { EV_CAP = 96, MAX_PASSES = 64 };
 /* Samples along the ray per quadratic element and cell, at most. */
 enum { QUAD_SAMPLES_MAX = 24 };
+/* Grid cells with the same list walked as one stretch, at most. */
+enum { MERGE_MAX = 16 };
 
 /* Comparisons (fmin and fmax are calls at -O2); no NaN reaches them. */
 static inline double mn(double a, double b) { return a < b ? a : b; }
@@ -83,6 +85,8 @@ typedef struct elem {
   double rho2;            /* quadratics: the square of the least radius of
                              curvature (within it of the curve every point
                              has one foot) */
+  double dev;             /* how far the curve strays from its chord:
+                             |p0 - 2 p1 + p2| / 4 (0 when straight) */
 } elem;
 
 static void elem_frame(elem *E) {
@@ -119,6 +123,8 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
     E->p[1][1] = 0.5 * (E->p[0][1] + E->p[2][1]);
   }
   elem_box(E);
+  E->dev = E->quad ? 0.25 * len2d(E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0], E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])
+                   : 0.0;
   /* A straight element's frame is cheap; a quadratic's waits until a ray
    * comes within its band. */
   E->framed = 0;
@@ -148,7 +154,10 @@ typedef struct groove {
   double brk[CH_GTEX_MAX_PROFILE_POINTS + 3];
   unsigned char jump[CH_GTEX_MAX_PROFILE_POINTS + 3]; /* P jumps there */
   int raises, carves;   /* d P takes positive, negative values */
+  double lowest;        /* the least value of d P (0 included) */
   int asym;             /* P(t) != P(-t): the side matters */
+  int monotone;         /* carved, symmetric, P <= 0 and not falling as |t|
+                           grows: d P(s / w) grows with |s| (v, u, box) */
 } groove;
 
 static double prof_eval(const groove *G, double t);
@@ -163,18 +172,21 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   const float *ph = texel(g, prof);
   G->ellipse = (int)ph[0] == PROFILE_ELLIPSE;
   G->n = (int)ph[1];
+  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
   for (int i = 0; i < G->n; i++) {
-    const float *pt = texel(g, prof + 1 + i / 2) + 2 * (i % 2);
+    const float *pt = texel(g, prof + 1) + 2 * i; /* two points a texel */
     G->t[i] = pt[0];
     G->h[i] = pt[1];
+    pmin = mn(pmin, G->h[i]), pmax = mx(pmax, G->h[i]);
   }
+  G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
   int nb = 0;
   G->brk[nb++] = -0.5;
   G->brk[nb++] = 0.0;
   G->brk[nb++] = 0.5;
   for (int i = 0; i < G->n; i++) {
     int seen = 0;
-    for (int j = 0; j < nb; j++) seen |= G->brk[j] == G->t[i];
+    for (int j = 0; j < nb && !seen; j++) seen = G->brk[j] == G->t[i];
     if (!seen) G->brk[nb++] = G->t[i];
   }
   G->nb = nb;
@@ -184,6 +196,9 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   G->raises = (flags & 2) != 0;
   G->carves = (flags & 4) != 0;
   for (int k = 0; k < nb; k++) G->jump[k] = (mask >> k) & 1;
+  G->monotone = !G->asym && G->d > 0.0;
+  for (int i = 0; i < G->n && G->monotone; i++)
+    G->monotone = G->h[i] <= 0.0 && (i == 0 || G->t[i] <= 0.0 || (G->t[i] >= G->t[i - 1] && G->h[i] >= G->h[i - 1]));
 }
 
 /* Where h can jump: where P does (a side flip at 0 included); a rim where
@@ -293,6 +308,7 @@ static void paper_line(elem *E, const double ref[2]) {
     E->p[1][k] = c[k];
   }
   E->quad = 0;
+  E->dev = 0.0;
   E->open_start = E->open_end = 1;
   elem_box(E);
   elem_frame(E);
@@ -354,6 +370,7 @@ typedef struct cell {
   int gfirst[CH_GTEX_MAX_CELL_ITEMS + 1]; /* elements of groove run r: gfirst[r]..gfirst[r+1]-1 */
   groove g[CH_GTEX_MAX_CELL_ITEMS];
   int mixed;                       /* raised and carved grooves meet here */
+  int raises;                      /* some groove here raises the surface */
 } cell;
 
 typedef struct point_state {
@@ -371,6 +388,30 @@ static int decides_height(double g, double g_old) {
   return g_old > 0.0 && g > g_old;
 }
 
+/* One groove's value d P(s / w) at q from its nearest element in the cell
+ * (ties to the first), with its signed distance, element and parameter; 0
+ * beyond its band. */
+static double groove_value(const cell *C, int r, const double q[2], double *s, int *be, double *best_tau) {
+  const groove *G = &C->g[r];
+  double best = INFINITY;
+  *be = -1;
+  *best_tau = 0.0;
+  double half = 0.5 * G->w, reach2 = half * half;
+  for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
+    /* The box's distance bounds the element's: skip elements beyond the
+     * profile's support or farther than the best so far. */
+    const double *b = C->e[k].box;
+    double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+    double bd2 = dx * dx + dy * dy;
+    if (bd2 >= reach2 || bd2 > best) continue;
+    double tau, d2 = elem_closest(&C->e[k], q, &tau);
+    if (d2 < best) best = d2, *best_tau = tau, *be = k;
+  }
+  if (*be < 0 || !(best < half * half)) return 0.0;
+  *s = sqrt(best) * elem_side(&C->e[*be], *best_tau, q);
+  return G->d * prof_eval(G, *s / G->w);
+}
+
 /* The CSG rule of docs/spec.md §3 over the grooves of a cell at q, as
  * ch_groove_field_eval applies it (the nearest element per groove, ties to
  * the first; a tie tolerance for the deciding groove; owner by priority). */
@@ -378,22 +419,9 @@ static double cell_h(const cell *C, const double q[2], point_state *ps) {
   point_state st = {.min_carve = 0.0, .max_raise = 0.0, .carve_run = -1, .raise_run = -1, .owner_run = -1};
   for (int r = 0; r < C->ng; r++) {
     const groove *G = &C->g[r];
-    double best = INFINITY, best_tau = 0.0;
-    int be = -1;
-    double half = 0.5 * G->w, reach2 = half * half;
-    for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
-      /* The box's distance bounds the element's: skip elements beyond the
-       * profile's support or farther than the best so far. */
-      const double *b = C->e[k].box;
-      double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
-      double bd2 = dx * dx + dy * dy;
-      if (bd2 >= reach2 || bd2 > best) continue;
-      double tau, d2 = elem_closest(&C->e[k], q, &tau);
-      if (d2 < best) best = d2, best_tau = tau, be = k;
-    }
-    if (be < 0 || !(best < half * half)) continue;
-    double s = sqrt(best) * elem_side(&C->e[be], best_tau, q);
-    double gv = G->d * prof_eval(G, s / G->w);
+    double s, best_tau;
+    int be;
+    double gv = groove_value(C, r, q, &s, &be, &best_tau);
     if (gv == 0.0) continue;
     double tie = 1e-12 * fabs(gv);
     if (gv < st.min_carve) {
@@ -485,6 +513,7 @@ static void load_cell(const ch_gtex *g, int ci, cell *C) {
   int raises = 0, carves = 0;
   for (int r = 0; r < C->ng; r++) raises |= C->g[r].raises, carves |= C->g[r].carves;
   C->mixed = raises && carves;
+  C->raises = raises;
 }
 
 static int cell_index(const ch_gtex *g, double u, double v) {
@@ -495,16 +524,27 @@ static int cell_index(const ch_gtex *g, double u, double v) {
   return j * G + i;
 }
 
-double ch_gtex_eval(const ch_gtex *g, double u, double v, ch_gtex_sample *detail) {
+/* ch_gtex_eval with the cell held in C (*loaded: its index, or -1), so a
+ * ray's last cell is not read twice. */
+static double eval_in(const ch_gtex *g, double u, double v, cell *C, int *loaded, ch_gtex_sample *detail) {
   if (detail) memset(detail, 0, sizeof *detail), detail->active = detail->owner = -1;
   if (!(u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0)) return 0.0;
-  cell C;
-  load_cell(g, cell_index(g, u, v), &C);
+  int ci = cell_index(g, u, v);
+  if (*loaded != ci) {
+    load_cell(g, ci, C);
+    *loaded = ci;
+  }
   const double q[2] = {u, v};
   point_state st;
-  double h = cell_h(&C, q, &st);
-  if (detail) fill_sample(&C, &st, h, q, detail);
+  double h = cell_h(C, q, &st);
+  if (detail) fill_sample(C, &st, h, q, detail);
   return h;
+}
+
+double ch_gtex_eval(const ch_gtex *g, double u, double v, ch_gtex_sample *detail) {
+  cell C;
+  int loaded = -1;
+  return eval_in(g, u, v, &C, &loaded, detail);
 }
 
 /* ---- events along a ray in a cell ---- */
@@ -629,6 +669,14 @@ static void events_point(events *E, const ray *R, const double P[2], const doubl
    * side of the normal line there, along T: after = 1 past the end, 0
    * before the start) and within the band: other roots are dropped. */
   double a0 = ox * T[0] + oy * T[1], a1 = R->d[0] * T[0] + R->d[1] * T[1], eps = 1e-9 * (1.0 + w), r[2];
+  /* Every event kept is within the band's radius of the point: where the
+   * ray's stretch stays farther (its nearest point, with a margin far
+   * above rounding), there are none. */
+  if (a > 0.0 && isfinite(E->lo) && isfinite(E->hi)) {
+    double tn = -b / (2.0 * a), far = 0.5 * w + 2.0 * eps;
+    tn = tn < E->lo ? E->lo : tn > E->hi ? E->hi : tn;
+    if (a * tn * tn + b * tn + c > far * far) return;
+  }
 #define POINT_KEEP(t)                                                                                            \
   ((after ? a0 + a1 * (t) >= -eps : a0 + a1 * (t) <= eps) &&                                                     \
    (a * (t) * (t) + b * (t) + c) <= (0.5 * w + eps) * (0.5 * w + eps))
@@ -858,6 +906,29 @@ static int clip_to_box(const events *E, const ray *R, const double box[4], doubl
   return *lo <= *hi;
 }
 
+/* Narrows [lo, hi] to a slab: x0 + x1 t in [a, b]. 0 if empty. */
+static int clip_to_slab(double x0, double x1, double a, double b, double *lo, double *hi) {
+  if (x1 == 0.0) return x0 >= a && x0 <= b && *lo <= *hi;
+  double t0 = (a - x0) / x1, t1 = (b - x0) / x1;
+  *lo = mx(*lo, mn(t0, t1));
+  *hi = mn(*hi, mx(t0, t1));
+  return *lo <= *hi;
+}
+
+/* Narrows [lo, hi] to where the ray is within the band of width w around
+ * a straight element, caps included (across its line and along it, a
+ * rectangle holding the band), with a margin above the events' own
+ * tolerances (events_line, events_point) so that none they keep is cut:
+ * 0 if the ray never is. */
+static int clip_to_band(const ray *R, const elem *el, double w, double *lo, double *hi) {
+  double T[2] = {el->t0[0], el->t0[1]}, N[2] = {-T[1], T[0]};
+  double ox = R->o[0] - el->p[0][0], oy = R->o[1] - el->p[0][1];
+  double L = len2d(el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]);
+  double m = 0.5 * w + 4e-9 * (1.0 + L + w);
+  return clip_to_slab(ox * N[0] + oy * N[1], R->d[0] * N[0] + R->d[1] * N[1], -m, m, lo, hi) &&
+         clip_to_slab(ox * T[0] + oy * T[1], R->d[0] * T[0] + R->d[1] * T[1], -m, L + m, lo, hi);
+}
+
 /* Turns below this (radians) at a joint leave it no region of its own
  * wider than r sin(turn) < 1e-8 UV at the profile's half width: its
  * events are the neighbours' (cubics and arcs split into quadratics
@@ -879,8 +950,15 @@ static void cell_events(events *E, const ray *R, cell *C) {
       double lo, hi;
       if (!clip_to_box(E, R, el->box, reach, &lo, &hi)) continue;
       if (!el->framed) elem_frame(el);
-      E->lo = lo, E->hi = hi;
-      if (el->quad) {
+      /* A straight element's box is loose (a diagonal's is its whole
+       * extent): its facet, break and cap events all lie within its
+       * band, so the ray's stretch there bounds them. */
+      double blo = lo, bhi = hi;
+      int near = el->quad || clip_to_band(R, el, G->w, &blo, &bhi);
+      E->lo = blo, E->hi = bhi;
+      if (!near) {
+        /* nothing of the element's own */
+      } else if (el->quad) {
         events_quad(E, R, el, G, C->mixed);
       } else {
         events_line(E, R, el, G, C->mixed);
@@ -890,13 +968,15 @@ static void cell_events(events *E, const ray *R, cell *C) {
        * flips at its tangent line, which matters to asymmetric profiles. */
       double tg[2];
       elem_tangent(el, 0.0, tg);
-      if (el->open_start || fabs(ch_cross2(el->tin, tg)) > SMOOTH_JOINT || ch_dot2(el->tin, tg) < 0.0)
+      if (near && (el->open_start || fabs(ch_cross2(el->tin, tg)) > SMOOTH_JOINT || ch_dot2(el->tin, tg) < 0.0))
         events_point(E, R, el->p[0], tg, 0, G, C->mixed);
-      if (el->open_end) {
+      if (near && el->open_end) {
         double te[2];
         elem_tangent(el, 1.0, te);
         events_point(E, R, el->p[2], te, 1, G, C->mixed);
       }
+      /* The tangent lines beyond open ends reach past the band. */
+      E->lo = lo, E->hi = hi;
       if (G->asym && el->open_start) events_end_line(E, R, el->p[0], tg);
       if (G->asym && el->open_end) {
         elem_tangent(el, 1.0, tg);
@@ -920,16 +1000,77 @@ typedef struct trace {
   int at_top;       /* the walk is at its start, where it entered the
                        slab of h's range from above: no wall there */
   int cells;
+  cell *C;          /* the cell last read, kept for the hit's probes */
+  int loaded;       /* its index, or -1 (the paper's mode edits a cell) */
 } trace;
 
-/* Whether the ray is on or below h at parameter t (the cell's elements). */
-static int solid_at(const trace *T, const cell *C, double t) {
-  double q[2] = {T->R.o[0] + t * T->R.d[0], T->R.o[1] + t * T->R.d[1]};
-  return T->R.o[2] + t * T->R.d[2] <= cell_h(C, q, NULL);
+/* Whether groove r's value at q lies below z, from bounds on its distance
+ * alone: each element is within dev of its chord, so the chord's distance
+ * +- dev brackets the element's (a straight element's is exact), and a
+ * monotone profile's value is bracketed by its values there. 1 below, 0
+ * not below, -1 when the bracket cannot tell (within its margin, far
+ * above rounding and Newton's tolerance, of z). */
+static int groove_below(const cell *C, int r, const double q[2], double z) {
+  const groove *G = &C->g[r];
+  double half = 0.5 * G->w, reach2 = half * half, lo = INFINITY, hi = INFINITY;
+  for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
+    const elem *E = &C->e[k];
+    const double *b = E->box;
+    double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+    if (dx * dx + dy * dy >= reach2) continue; /* beyond the band: no value */
+    double tau, dc = sqrt(ch_bezier_closest(E->p, 1, q, &tau));
+    lo = mn(lo, dc - E->dev);
+    hi = mn(hi, dc + E->dev);
+  }
+  lo = lo * (1.0 - 1e-9) - 1e-12;
+  hi = hi * (1.0 + 1e-9) + 1e-12;
+  double vhi = hi < half ? G->d * prof_eval(G, hi / G->w) : 0.0;
+  if (z > vhi) return 1;
+  double vlo = lo < half ? G->d * prof_eval(G, mx(lo, 0.0) / G->w) : 0.0;
+  if (!(z > vlo)) return 0;
+  return -1;
 }
 
-/* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit. */
-static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, double *hit, int *maybe_wall) {
+/* Whether the ray is on or below h at parameter t (the cell's elements).
+ * Where nothing raises, h is the least of 0 and every groove's value, so
+ * the ray's point z is above h as soon as one groove lies below z: the
+ * grooves are tried from *first (the one that decided last time, as the
+ * next test along the ray is usually decided by the same groove), and a
+ * groove whose deepest value is not below z needs no distance. The answer
+ * is z <= cell_h's exactly; only the work differs. */
+static int solid_at(const trace *T, const cell *C, double t, int *first) {
+  double q[2] = {T->R.o[0] + t * T->R.d[0], T->R.o[1] + t * T->R.d[1]}, z = T->R.o[2] + t * T->R.d[2];
+  if (C->raises) return z <= cell_h(C, q, NULL);
+  if (z > 0.0) return 0;
+  for (int i = 0; i < C->ng; i++) {
+    int r = (*first + i) % C->ng;
+    if (!(z > C->g[r].lowest)) continue;
+    if (C->g[r].monotone) {
+      int below = groove_below(C, r, q, z);
+      if (below >= 0) {
+        if (below) {
+          *first = r;
+          return 0;
+        }
+        continue;
+      }
+    }
+    double s, tau;
+    int e;
+    if (z > groove_value(C, r, q, &s, &e, &tau)) {
+      *first = r;
+      return 0;
+    }
+  }
+  return 1;
+}
+
+/* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit.
+ * cuts: the borders of the grid cells inside [ta, tb] (cells merged for
+ * holding the same list), kept as events of unknown kind, so each cell's
+ * entry is tested as if it were walked alone. */
+static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, const double *cuts, int ncuts,
+                    double *hit, int *maybe_wall) {
   const ray *R = &T->R;
   if (T->g->paper) {
     double tm = 0.5 * (ta + tb), ref[2] = {R->o[0] + tm * R->d[0], R->o[1] + tm * R->d[1]};
@@ -939,7 +1080,8 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
   /* Solid just past the entry: the hit is there (most rays meeting the top
    * surface near a groove end here, without events). */
   double tp = ta + 1e-13 * (1.0 + fabs(ta));
-  if (R->o[2] + tp * R->d[2] <= zmax_cell && solid_at(T, C, tp)) {
+  int first = 0;
+  if (R->o[2] + tp * R->d[2] <= zmax_cell && solid_at(T, C, tp, &first)) {
     *hit = ta;
     *maybe_wall = !T->at_top;
     return 1;
@@ -950,13 +1092,15 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
   for (int pass = 0; pass < MAX_PASSES; pass++) {
     E.lo = lo, E.hi = tb, E.n = 0, E.dropped = 0;
     cell_events(&E, R, C);
+    E.wall_now = 1;
+    for (int k = 0; k < ncuts; k++) ev_add(&E, cuts[k]);
     double prev = lo;
     int prev_wall = lo_wall;
     for (int i = 0; i <= E.n; i++) {
       if (i == E.n && E.dropped) break;
       double next = i < E.n ? E.t[i] : tb, mid = 0.5 * (prev + next);
       /* Above the cell's highest point: nothing to test. */
-      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid)) {
+      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
         *hit = prev;
         *maybe_wall = prev_wall;
         return 1;
@@ -969,6 +1113,17 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, d
     lo_wall = E.wall[E.n - 1];
   }
   return 0;
+}
+
+/* Whether two grid texels list the same elements. */
+static int same_list(const ch_gtex *g, const float *a, const float *b) {
+  int n = (int)a[1];
+  if ((int)b[1] != n) return 0;
+  if (a[0] == b[0]) return 1;
+  const float *la = texel(g, (int)a[0]), *lb = texel(g, (int)b[0]);
+  for (int k = 0; k < n; k++)
+    if (la[k] != lb[k]) return 0;
+  return 1;
 }
 
 /* Walks the cells from tnear to tfar; 1 with T->t, T->ci at the first hit. */
@@ -1012,7 +1167,6 @@ static int walk(trace *T, double tnear, double tfar) {
   double ty = d[1] > 0.0 ? ((iy + 1) * cs - o[1]) / d[1] : d[1] < 0.0 ? (iy * cs - o[1]) / d[1] : INFINITY;
   double t = ta;
   T->at_top = d[2] < 0.0 && ta > tnear;
-  cell C;
   /* A bound on the cells a ray can cross (Algorithm 1's loop). */
   for (int steps = 0; steps < 2 * G + 2; steps++) {
     double t_exit = mn(mn(tx, ty), tb);
@@ -1035,10 +1189,31 @@ static int walk(trace *T, double tnear, double tfar) {
           return 1;
         }
       } else {
-        load_cell(g, ci, &C);
+        load_cell(g, ci, T->C);
+        T->loaded = g->paper ? -1 : ci;
+        /* The next cells along the ray with the same list hold the same h
+         * (a groove's run on a fine grid): one stretch, one set of events.
+         * Not in the paper's mode, whose tangent lines are per cell. */
+        double t0 = t, cuts[MERGE_MAX];
+        int ncuts = 0;
+        while (!g->paper && ncuts < MERGE_MAX && t_exit < tb && steps + 1 < 2 * G + 2) {
+          int nx = ix, ny = iy;
+          if (tx <= ty) nx += sx;
+          else ny += sy;
+          if (nx < 0 || nx >= G || ny < 0 || ny >= G) break;
+          const float *nt = g->grid + 4 * ((size_t)ny * G + nx);
+          if (!same_list(g, gt, nt)) break;
+          cmax = mx(cmax, nt[3]);
+          if (tx <= ty) ix = nx, t = tx, tx += dtx;
+          else iy = ny, t = ty, ty += dty;
+          cuts[ncuts++] = t;
+          t_exit = mn(mn(tx, ty), tb);
+          steps++;
+          T->cells++;
+        }
         double th;
         int mw;
-        if (cell_hit(T, &C, t, t_exit, cmax, &th, &mw)) {
+        if (cell_hit(T, T->C, t0, t_exit, cmax, cuts, ncuts, &th, &mw)) {
           T->t = th, T->ci = ci, T->maybe_wall = mw;
           return 1;
         }
@@ -1062,7 +1237,8 @@ static int walk(trace *T, double tnear, double tfar) {
 }
 
 int ch_gtex_occluded(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar) {
-  trace T = {.g = g};
+  cell C;
+  trace T = {.g = g, .C = &C, .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
@@ -1089,7 +1265,8 @@ static double h_on_ray(const ch_gtex *g, const ray *R, double t, cell *C, int *l
 
 int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar,
                       ch_gtex_hit *hit) {
-  trace T = {.g = g};
+  cell C;
+  trace T = {.g = g, .C = &C, .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
@@ -1103,19 +1280,18 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
   /* A wall where h jumps across the ray at the hit (keeping its size as
    * the probes close in: a slope shrinks). */
   if (T.duv > 0.0 && T.maybe_wall) {
-    cell C;
-    int loaded = -1;
+    int *loaded = &T.loaded;
     point_state sa, sb, s2;
     double qa[2], qb[2], q2[2], dt = 1e-9 / T.duv;
-    double ha = h_on_ray(g, R, t - dt, &C, &loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, &C, &loaded, &sb, qb);
-    double ha2 = h_on_ray(g, R, t - dt / 16, &C, &loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, &C, &loaded, &s2, q2);
+    double ha = h_on_ray(g, R, t - dt, &C, loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, &C, loaded, &sb, qb);
+    double ha2 = h_on_ray(g, R, t - dt / 16, &C, loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, &C, loaded, &s2, q2);
     double jump_eps = 1e-6 * mx(g->zmax - g->zmin, 1e-9);
     if (fabs(hb - ha) > jump_eps && fabs(hb2 - ha2) > 0.5 * fabs(hb - ha)) {
       /* Across the groove of the deeper side, facing the ray. */
       int deeper_b = fabs(hb) >= fabs(ha);
       point_state st;
       double q[2];
-      h_on_ray(g, R, deeper_b ? t + dt : t - dt, &C, &loaded, &st, q);
+      h_on_ray(g, R, deeper_b ? t + dt : t - dt, &C, loaded, &st, q);
       double s = 0.0, tau = 0.0;
       int e = -1, r = active_of(&st, &s, &e, &tau);
       double n2[2] = {-R->d[0] / T.duv, -R->d[1] / T.duv};
@@ -1150,7 +1326,7 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
   }
   /* A facet: the normal of h at the hit. */
   ch_gtex_sample smp;
-  ch_gtex_eval(g, hit->point[0], hit->point[1], &smp);
+  eval_in(g, hit->point[0], hit->point[1], &C, &T.loaded, &smp);
   double l = sqrt(smp.grad[0] * smp.grad[0] + smp.grad[1] * smp.grad[1] + 1.0);
   hit->normal[0] = -smp.grad[0] / l;
   hit->normal[1] = -smp.grad[1] / l;
