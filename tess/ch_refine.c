@@ -356,8 +356,12 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * triangle's corners miss, and the refinement's hidden-piece check the
    * rest (a third sample more made no difference on the bundled sets). */
   n = n < 2 ? 2 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
-  ch_refine_crossing *list = NULL;
-  int count = 0, cap = 0;
+  /* Crossings gather in a buffer on the stack (most edges have a few; the
+   * search stops at MAX_NODES), and the edge keeps an array of exactly its
+   * count: edges hold the crossings until the cut, and a per-edge array
+   * grown by doubling from a large first capacity took gigabytes. */
+  ch_refine_crossing list[MAX_NODES];
+  int count = 0;
   double x0 = 0.0;
   uint64_t l0 = w->verts[e->a].label;
   int crowded = ch_groove_field_count(&lb->height->grooves, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])) > CROWDED_CELL;
@@ -386,12 +390,6 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
          * ends on, most often the only change left in it (a dozen
          * one-curve evaluations instead of 40 more labels). */
         if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi);
-      }
-      if (grow((void **)&list, &cap, count + 1, sizeof *list)) {
-        free(list);
-        e->cross = NULL;
-        e->ncross = 0;
-        return -1;
       }
       ch_refine_crossing *c = &list[count++];
       double uv[2];
@@ -425,8 +423,13 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
         break;
       }
   }
-  e->cross = list;
-  e->ncross = count;
+  e->cross = NULL;
+  e->ncross = 0;
+  if (count > 0) {
+    if (!(e->cross = malloc((size_t)count * sizeof *e->cross))) return -1;
+    memcpy(e->cross, list, (size_t)count * sizeof *e->cross);
+    e->ncross = count;
+  }
   return 0;
 }
 
