@@ -401,6 +401,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
           memcpy(&o.group[t0], q->group, (size_t)q->ntri * sizeof *o.group);
           memcpy(&o.uv[6 * t0], q->uv, 6 * (size_t)q->ntri * sizeof *o.uv);
         }
+        ch_cut_out_free(&part[c]); /* (not both copies at once) */
       }
       o.npos = o.cap_pos = (int)vbase[nchunks];
       o.ntri = o.cap_tri = (int)tbase[nchunks];
@@ -428,6 +429,15 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     free(pstats);
     if (oom) goto nomem;
   }
+  /* The working mesh is done with: its memory goes before the output's
+   * arrays are made. */
+  free(w.verts);
+  free(w.tris);
+  ch_refine_free_edges(w.edges, w.nedges);
+  free(w.tri_edge);
+  free(fresh);
+  memset(&w, 0, sizeof w);
+  fresh = NULL;
   /* Thinning pays where the target is coarse (measured on the plane's
    * sets: at 130k triangles L1 13-80% lower on the u and box sets, the
    * normals' p95 up to 1.3 degrees; at 520k and 2.1M L1 only 7-17% lower
