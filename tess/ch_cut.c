@@ -69,6 +69,29 @@ static int out_quad(ch_cut_out *o, const int v[4], const double *uv[4], uint64_t
          ch_cut_out_tri(o, v[0], v[2], v[3], uv[0], uv[2], uv[3], group);
 }
 
+/* realloc to n elements of size, keeping *p where that fails. */
+static void shrink_to(void **p, size_t n, size_t size) {
+  if (!*p) return;
+  void *q = realloc(*p, (n ? n : 1) * size);
+  if (q) *p = q;
+}
+
+void ch_cut_out_shrink(ch_cut_out *o) {
+  size_t nv = (size_t)(o->npos - o->first_pos), nt = (size_t)o->ntri;
+  if ((size_t)o->cap_pos > nv) {
+    shrink_to((void **)&o->face, nv, sizeof *o->face);
+    shrink_to((void **)&o->st, 2 * nv, sizeof *o->st);
+    shrink_to((void **)&o->h, nv, sizeof *o->h);
+    o->cap_pos = (int)nv;
+  }
+  if ((size_t)o->cap_tri > nt) {
+    shrink_to((void **)&o->tri, 3 * nt, sizeof *o->tri);
+    shrink_to((void **)&o->group, nt, sizeof *o->group);
+    shrink_to((void **)&o->uv, 6 * nt, sizeof *o->uv);
+    o->cap_tri = (int)nt;
+  }
+}
+
 void ch_cut_out_free(ch_cut_out *o) {
   free(o->pos);
   free(o->face);

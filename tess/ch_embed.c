@@ -348,6 +348,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       int t1 = (c + 1) * CUT_CHUNK < w.ntris ? (c + 1) * CUT_CHUNK : w.ntris;
       for (int t = c * CUT_CHUNK; t < t1 && !oom; t++)
         oom |= ch_cut_triangle(&lb, &w, t, tol, &part[c], &pstats[c]) != 0;
+      ch_cut_out_shrink(&part[c]); /* all parts live until the join: not twice their size */
     }
     /* Joined in chunk order: each part's vertices and triangles land at
      * offsets known from the counts, so the copy runs in parallel into

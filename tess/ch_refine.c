@@ -17,10 +17,13 @@
 #include "ch_thin.h"
 #include "ch_warp.h"
 
+/* Capacity for need elements: by a quarter at a time, not double (the
+ * working mesh is the embedding's largest array and a round adds a few
+ * percent to it; glibc moves large blocks by remapping, not copying). */
 static int grow(void **p, int *cap, int need, size_t size) {
   if (need <= *cap) return 0;
   int n = *cap ? *cap : 1024;
-  while (n < need) n = n > (1 << 29) ? need : 2 * n;
+  while (n < need) n = n > (1 << 29) ? need : n + n / 4 + 1;
   void *q = realloc(*p, (size_t)n * size);
   if (!q) return -1;
   *p = q;
