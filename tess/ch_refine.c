@@ -337,6 +337,32 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
   }
 }
 
+/* Records the change from piece la (at lo) to piece lb_ (at hi) along e,
+ * at the middle of [lo, hi], with h read just inside each piece. */
+static void record_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, double lo,
+                            double hi, uint64_t la, uint64_t lb_, ch_refine_crossing *c) {
+  double uv[2], at[2];
+  c->x = 0.5 * (lo + hi);
+  c->la = la;
+  c->lb = lb_;
+  ch_refine_edge_point(w, e, c->x, at, NULL);
+  ch_refine_edge_point(w, e, lo, uv, NULL);
+  c->ha = ch_label_piece_height(lb, la, uv, at);
+  ch_refine_edge_point(w, e, hi, uv, NULL);
+  c->hb = ch_label_piece_height(lb, lb_, uv, at);
+  c->copy_a = c->copy_b = -1;
+}
+
+/* How far from a vertex on a UV seam the edge's own chart is read (about
+ * the crossings' 1e-14). */
+#define SEAM_X 0x1p-47
+
+/* Whether vertex v's UV (where its label was read) is another chart's
+ * point than uv, the edge's end in its canonical triangle. */
+static int on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
+  return fabs(w->verts[v].uv[0] - uv[0]) > 1e-9 || fabs(w->verts[v].uv[1] - uv[1]) > 1e-9;
+}
+
 /* Every boundary between pieces along e. Labels are sampled about delta
  * apart; from each sample whose label differs from the next, bisection
  * (in the bracket a fast path narrowed) finds a change to about 1e-14 of
@@ -368,6 +394,11 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
   double x0 = 0.0;
   uint64_t l0 = w->verts[e->a].label;
   int crowded = ch_groove_field_count(&lb->height->grooves, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])) > CROWDED_CELL;
+  /* A vertex on a UV seam was labelled in another chart than this edge's:
+   * where h differs across the seam the edge starts (or ends) with a
+   * change at the vertex itself, a wall of no width, which no level
+   * function brackets; bisection took 46 labels to close in on it. */
+  int seam_a = on_seam(w, e->a, pa), seam_b = on_seam(w, e->b, pb);
   /* An edge with MAX_NODES crossings makes every triangle holding it one
    * that cannot be cut: the search stops there (what is found is kept). */
   for (int i = 1; i <= n && count < MAX_NODES; i++) {
@@ -377,6 +408,17 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
       narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi);
+      if (lo == x0 && hi == x1 && hi - lo > 1e-14) { /* no fast path: a change at a seam vertex? */
+        if (x0 == 0.0 && seam_a) {
+          uint64_t chart = edge_label(lb, w, e, SEAM_X);
+          if (chart != l0) { /* the first label on the edge's side differs: the change is at a */
+            hi = SEAM_X;
+            lhi = chart;
+          }
+        } else if (x1 == 1.0 && seam_b && edge_label(lb, w, e, 1.0 - SEAM_X) == l0) {
+          lo = 1.0 - SEAM_X; /* the last label on the edge's side is l0's: the change is at b */
+        }
+      }
       for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
         double mid = 0.5 * (lo + hi);
         uint64_t lm = edge_label(lb, w, e, mid);
@@ -394,18 +436,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
          * one-curve evaluations instead of 40 more labels). */
         if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi);
       }
-      ch_refine_crossing *c = &list[count++];
-      double uv[2];
-      c->x = 0.5 * (lo + hi);
-      c->la = l0;
-      c->lb = lhi;
-      double at[2];
-      ch_refine_edge_point(w, e, c->x, at, NULL);
-      ch_refine_edge_point(w, e, lo, uv, NULL);
-      c->ha = ch_label_piece_height(lb, l0, uv, at);
-      ch_refine_edge_point(w, e, hi, uv, NULL);
-      c->hb = ch_label_piece_height(lb, lhi, uv, at);
-      c->copy_a = c->copy_b = -1;
+      record_crossing(lb, w, e, lo, hi, l0, lhi, &list[count++]);
       x0 = hi;
       l0 = lhi;
     }
