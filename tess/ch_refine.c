@@ -201,6 +201,30 @@ static double level_value(const ch_label_ctx *lb, const ch_refine_mesh *w, const
   return kind == LEVEL_RIM ? fabs(v) : v;
 }
 
+/* The last groove level read at the far end of a crossing search: the
+ * search after a line starts again towards the same sample (x1), so its
+ * value is read once per sample, not once per line. c < 0: empty. */
+typedef struct level_cache {
+  double x, t;
+  int c, segment;
+} level_cache;
+
+/* t = s / w of groove c at x along e (level_value's LEVEL_LINE), through
+ * cache where it holds that point. */
+static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, int c, double x,
+                           int *segment, level_cache *cache) {
+  if (cache->c == c && cache->x == x) {
+    *segment = cache->segment;
+    return cache->t;
+  }
+  double t = level_value(lb, w, e, LEVEL_LINE, c, -1, x, segment);
+  cache->x = x;
+  cache->t = t;
+  cache->c = c;
+  cache->segment = *segment;
+  return t;
+}
+
 /* A level set of a level function f - target along edge e, bracketed by
  * [*a, *b] with f(a) = *fa and f(b) = *fb of opposite signs, by false
  * position (Illinois) until the bracket is below tol, or until the last
@@ -286,14 +310,15 @@ static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
  * - at the edge of a step curve's radius: distance = radius; where the
  *   nearest step curve changes: the two distances equal. */
 static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
-                            uint64_t l1, double x0, double x1, double *lo, double *hi, uint64_t *lhi) {
+                            uint64_t l1, double x0, double x1, double *lo, double *hi, uint64_t *lhi,
+                            level_cache *cache) {
   uint64_t g0 = l0 >> 32, g1 = l1 >> 32, s0 = l0 & 0xffffffffu, s1 = l1 & 0xffffffffu;
   int sa = -1, sb = -1;
   if (s0 == s1 && g0 && (!g1 || (g0 >> 8) == (g1 >> 8))) { /* lines of one groove */
     int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
     const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
     double ta = level_value(lb, w, e, LEVEL_LINE, c, -1, x0, &sa);
-    double tb = level_value(lb, w, e, LEVEL_LINE, c, -1, x1, &sb);
+    double tb = groove_level(lb, w, e, c, x1, &sb, cache);
     if (!g1) k1 = k0 + (tb > ta ? 1 : -1);
     if (k1 != k0 && k1 >= 1 && k1 <= nb - 1) {
       double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
@@ -306,7 +331,7 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
   if (s0 == s1 && (!g0 != !g1)) { /* a rim (the outermost piece of the groove on one side) */
     int c = GROOVE_CURVE(g0 ? g0 : g1);
     double fa = level_value(lb, w, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
-    double fb = level_value(lb, w, e, LEVEL_RIM, c, -1, x1, &sb) - 0.5;
+    double fb = fabs(groove_level(lb, w, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
       narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi);
   } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1) && lb->set->num_curves < 2048) {
@@ -399,6 +424,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * change at the vertex itself, a wall of no width, which no level
    * function brackets; bisection took 46 labels to close in on it. */
   int seam_a = on_seam(w, e->a, pa), seam_b = on_seam(w, e->b, pb);
+  level_cache cache = {0.0, 0.0, -1, -1};
   /* An edge with MAX_NODES crossings makes every triangle holding it one
    * that cannot be cut: the search stops there (what is found is kept). */
   for (int i = 1; i <= n && count < MAX_NODES; i++) {
@@ -407,7 +433,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
     while (l0 != l1 && count < MAX_NODES) {
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
-      narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi);
+      narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi, &cache);
       if (lo == x0 && hi == x1 && hi - lo > 1e-14) { /* no fast path: a change at a seam vertex? */
         if (x0 == 0.0 && seam_a) {
           uint64_t chart = edge_label(lb, w, e, SEAM_X);
@@ -434,7 +460,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
          * times, it tries again between l0 and the label the bracket now
          * ends on, most often the only change left in it (a dozen
          * one-curve evaluations instead of 40 more labels). */
-        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi);
+        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi, &cache);
       }
       record_crossing(lb, w, e, lo, hi, l0, lhi, &list[count++]);
       x0 = hi;
