@@ -7,7 +7,9 @@
 # time is the whole `blender -b` process (start-up included: it is part of
 # what a user or a CI job waits for) and, separately, its script's own
 # import-to-export time. The height map Blender reads (chisel sample at
-# 2048^2, converted to a Y channel) is made beforehand and not timed.
+# 2048^2, converted to a Y channel) is made beforehand and not timed. Then
+# chisel --no-snap at the same count (the naive mesh: what the embedding
+# costs on top, as a ratio) and chisel's peak memory per output triangle.
 #
 # Usage: bench/speed.sh [BUILD_DIR] [BASE.obj CURVES.svg] [SIZES...]
 #   default: build models/tablet.obj models/curves/glyphs.svg 130000 520000 2100000
@@ -30,9 +32,9 @@ if [ $have_blender = 1 ]; then
   read -r strength midlevel < <(python3 bench/blender/height_to_y.py "$dir/h.exr" "$dir/h_y.exr")
 fi
 echo "base $base, curves $svg, $(nproc) threads"
-printf "| %-9s | %-10s | %-9s | %-10s | %-9s | %-9s | %-7s | %s\n" "target" "chisel tris" "chisel s" \
-  "blender tris" "blender s" "(script s)" "ratio" "chisel stages"
-echo "|---|---|---|---|---|---|---|---|"
+printf "| %-9s | %-10s | %-9s | %-10s | %-9s | %-9s | %-7s | %-9s | %-8s | %-9s | %s\n" "target" "chisel tris" "chisel s" \
+  "blender tris" "blender s" "(script s)" "ratio" "no-snap s" "snap / no-snap" "B / tri" "chisel stages"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for n in "${sizes[@]}"; do
   bl_tris=$n bl_s=nan bl_in=nan
   if [ $have_blender = 1 ]; then
@@ -52,9 +54,16 @@ for n in "${sizes[@]}"; do
   ch_s=$(echo "$t1 - $t0" | bc -l)
   ch_tris=$(grep -o 'displace [0-9]* triangles' "$dir/stats.txt" | grep -o '[0-9]*')
   stages=$(grep 'chisel: displace' "$dir/stats.txt" | sed 's/^chisel: displace [0-9]* triangles: //; s/; h in.*//')
+  bytes=$(grep -o '([0-9]* bytes per triangle)' "$dir/stats.txt" | grep -o '[0-9]*')
+  # the naive mesh of the same size, no embedding: what the embedding costs
+  t0=$(now)
+  "$build/chisel" displace "$base" "$svg" -o "$dir/chisel.obj" --target-tris "$bl_tris" --no-snap 2>/dev/null
+  t1=$(now)
+  ns_s=$(echo "$t1 - $t0" | bc -l)
   ratio=nan
   [ "$bl_s" != nan ] && ratio=$(echo "$bl_s / $ch_s" | bc -l)
-  printf "| %-9s | %-11s | %-9.2f | %-12s | %-9s | %-10s | %-7s | %s\n" "$n" "$ch_tris" "$ch_s" "$bl_tris" \
-    "$(printf %.2f "$bl_s")" "$(printf %.2f "$bl_in")" "$(printf %.1fx "$ratio")" "$stages"
+  printf "| %-9s | %-11s | %-9.2f | %-12s | %-9s | %-10s | %-7s | %-9.2f | %-14s | %-9s | %s\n" "$n" "$ch_tris" "$ch_s" "$bl_tris" \
+    "$(printf %.2f "$bl_s")" "$(printf %.2f "$bl_in")" "$(printf %.1fx "$ratio")" "$ns_s" \
+    "$(printf %.1fx "$(echo "$ch_s / $ns_s" | bc -l)")" "$bytes" "$stages"
   rm -f "$dir/chisel.obj"
 done

@@ -44,8 +44,15 @@ static void progress_clear_locked(void) {
 static void progress_draw_locked(void) {
   char head[64], tail[64], stage[256];
   snprintf(head, sizeof head, "chisel %s: ", progress.cmd);
-  if (progress.fraction >= 0.0)
-    snprintf(tail, sizeof tail, " %.0f%% (%.0f s)", 100.0 * fmin(1.0, progress.fraction), seconds_now() - progress.start);
+  if (progress.fraction >= 0.0) {
+    /* a bar of the stage's fraction: where a long stage stands at a glance */
+    char bar[21];
+    int filled = (int)(20.0 * fmin(1.0, progress.fraction));
+    for (int i = 0; i < 20; i++) bar[i] = i < filled ? '#' : '.';
+    bar[20] = '\0';
+    snprintf(tail, sizeof tail, " [%s] %.0f%% (%.0f s)", bar, 100.0 * fmin(1.0, progress.fraction),
+             seconds_now() - progress.start);
+  }
   else
     snprintf(tail, sizeof tail, " (%.0f s)", seconds_now() - progress.start);
   snprintf(stage, sizeof stage, "%s", progress.stage[0] ? progress.stage : "working");

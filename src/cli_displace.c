@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 #include "ch_exr.h"
@@ -297,6 +298,10 @@ static int run(int argc, char **argv) {
   }
   const ch_displace_timings *t = &r.seconds;
   const ch_embed_stats *e = &r.embed;
+  /* The process's peak resident memory (Linux reports it in kB): what the
+   * run needed, reading and writing included. */
+  struct rusage usage;
+  double peak_bytes = getrusage(RUSAGE_SELF, &usage) == 0 ? 1024.0 * (double)usage.ru_maxrss : 0.0;
   if (r.warped && !cli_quiet) {
     const ch_warp_stats *ws = &r.warp;
     fprintf(stderr,
@@ -311,11 +316,13 @@ static int run(int argc, char **argv) {
   if (stats) {
     fprintf(stderr,
             "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, %s %.0f ms "
-            "(%d pass%s; kept: %d base triangles, %s %.0f ms), maps %.0f ms, write %.0f ms; h in [%.4g, %.4g]\n",
+            "(%d pass%s; kept: %d base triangles, %s %.0f ms), maps %.0f ms, write %.0f ms; h in [%.4g, %.4g]; "
+            "peak memory %.0f MB (%.0f bytes per triangle)\n",
             result->num_faces, 1e3 * t->read, 1e3 * t->surface, 1e3 * t->height,
             no_snap ? "tessellate and displace" : "tessellate and embed", 1e3 * t->tessellate, r.passes,
             r.passes > 1 ? "es" : "", r.base_triangles, no_snap ? "displace" : "embed", 1e3 * t->displace,
-            1e3 * t->maps, 1e3 * t_write, r.min_h, r.max_h);
+            1e3 * t->maps, 1e3 * t_write, r.min_h, r.max_h, peak_bytes / 1e6,
+            result->num_faces > 0 ? peak_bytes / result->num_faces : 0.0);
     if (!no_snap)
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
@@ -364,6 +371,8 @@ static int run(int argc, char **argv) {
     cJSON_AddNumberToObject(sec, "tessellate", t->tessellate);
     cJSON_AddNumberToObject(sec, "maps", t->maps);
     cJSON_AddNumberToObject(sec, "write", t_write);
+    cJSON_AddNumberToObject(o, "peak_memory_bytes", peak_bytes);
+    cJSON_AddNumberToObject(o, "peak_bytes_per_triangle", result->num_faces > 0 ? peak_bytes / result->num_faces : 0.0);
     if (r.snapped) {
       cJSON *ej = cJSON_AddObjectToObject(o, "embed");
       cJSON_AddNumberToObject(ej, "refine_rounds", e->refine_rounds);

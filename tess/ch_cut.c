@@ -69,6 +69,29 @@ static int out_quad(ch_cut_out *o, const int v[4], const double *uv[4], uint64_t
          ch_cut_out_tri(o, v[0], v[2], v[3], uv[0], uv[2], uv[3], group);
 }
 
+/* realloc to n elements of size, keeping *p where that fails. */
+static void shrink_to(void **p, size_t n, size_t size) {
+  if (!*p) return;
+  void *q = realloc(*p, (n ? n : 1) * size);
+  if (q) *p = q;
+}
+
+void ch_cut_out_shrink(ch_cut_out *o) {
+  size_t nv = (size_t)(o->npos - o->first_pos), nt = (size_t)o->ntri;
+  if ((size_t)o->cap_pos > nv) {
+    shrink_to((void **)&o->face, nv, sizeof *o->face);
+    shrink_to((void **)&o->st, 2 * nv, sizeof *o->st);
+    shrink_to((void **)&o->h, nv, sizeof *o->h);
+    o->cap_pos = (int)nv;
+  }
+  if ((size_t)o->cap_tri > nt) {
+    shrink_to((void **)&o->tri, 3 * nt, sizeof *o->tri);
+    shrink_to((void **)&o->group, nt, sizeof *o->group);
+    shrink_to((void **)&o->uv, 6 * nt, sizeof *o->uv);
+    o->cap_tri = (int)nt;
+  }
+}
+
 void ch_cut_out_free(ch_cut_out *o) {
   free(o->pos);
   free(o->face);
@@ -402,36 +425,39 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
 
 /* Per-corner normals: the area-weighted mean of the face normals around a
  * vertex among the triangles of the same group (piece, or wall), so they
- * are smooth inside a piece and split at its boundary. */
+ * are smooth inside a piece and split at its boundary.
+ *
+ * In parallel, with the numbering a serial pass over the corners in order
+ * would give: each vertex walks its own corners (in triangle order, from a
+ * counting sort), marks the corner where each of its UVs and normals is
+ * born, and sums its normals in that order; the born corners' ranks (a
+ * prefix sum) are the indices. */
 ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
-  size_t nc = 3 * (size_t)o->ntri;
+  size_t nc = 3 * (size_t)o->ntri, np = (size_t)(o->npos > 0 ? o->npos : 1);
   m->num_positions = o->npos;
   m->positions = o->pos;
   m->num_faces = o->ntri;
   m->num_corners = (int)nc;
   m->face_start = malloc(((size_t)o->ntri + 1) * sizeof *m->face_start);
-  m->corner_position = malloc(nc * sizeof *m->corner_position);
-  m->corner_uv = malloc(nc * sizeof *m->corner_uv);
-  m->corner_normal = malloc(nc * sizeof *m->corner_normal);
-  m->uvs = malloc(2 * nc * sizeof *m->uvs);
-  m->normals = malloc(3 * nc * sizeof *m->normals);
-  int *first_uv = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *first_uv);
-  int *head = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *head);
-  int *next = malloc(nc * sizeof *next);
-  uint64_t *slot_group = malloc(nc * sizeof *slot_group);
-  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !m->uvs || !m->normals ||
-      !first_uv || !head || !next || !slot_group) {
-    free(first_uv);
-    free(head);
-    free(next);
-    free(slot_group);
+  m->corner_position = malloc((nc ? nc : 1) * sizeof *m->corner_position);
+  m->corner_uv = malloc((nc ? nc : 1) * sizeof *m->corner_uv);
+  m->corner_normal = malloc((nc ? nc : 1) * sizeof *m->corner_normal);
+  int *start = malloc((np + 1) * sizeof *start);        /* a vertex's corners in order */
+  int *order = malloc((nc ? nc : 1) * sizeof *order);
+  double *weighted = malloc(3 * (nc ? nc : 1) * sizeof *weighted); /* face normal times corner weight */
+  int *born = malloc((nc ? nc : 1) * sizeof *born); /* per corner: bit 0 a UV, bit 1 a normal born here */
+  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !weighted ||
+      !born) {
+    free(start);
+    free(order);
+    free(weighted);
+    free(born);
     m->positions = NULL;
     ch_mesh_free(m);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
   }
-  for (int i = 0; i < o->npos; i++) first_uv[i] = head[i] = -1;
-  int nuv = 0, nslot = 0;
+#pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++) {
     m->face_start[t] = 3 * t;
     const int *v = &o->tri[3 * (size_t)t];
@@ -448,54 +474,107 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
       const double *q[3] = {p0, p1, p2};
       for (int k = 0; k < 3; k++) {
         const double *a = q[k], *b = q[(k + 1) % 3], *c = q[(k + 2) % 3];
-        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
-        ch_cross3(u, v, x);
-        corner_angle[k] = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, v)) / fl;
+        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
+        ch_cross3(u, w, x);
+        corner_angle[k] = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, w)) / fl;
       }
     }
     for (int k = 0; k < 3; k++) {
       size_t c = 3 * (size_t)t + k;
-      int p = v[k];
-      m->corner_position[c] = p;
-      const double *uv = &o->uv[6 * (size_t)t + 2 * k];
-      int u = first_uv[p];
-      if (u < 0 || m->uvs[2 * (size_t)u] != uv[0] || m->uvs[2 * (size_t)u + 1] != uv[1]) {
-        u = nuv++;
-        m->uvs[2 * (size_t)u] = uv[0];
-        m->uvs[2 * (size_t)u + 1] = uv[1];
-        if (first_uv[p] < 0) first_uv[p] = u;
-      }
-      m->corner_uv[c] = u;
-      int s = head[p];
-      while (s >= 0 && slot_group[s] != o->group[t]) s = next[s];
-      if (s < 0) {
-        s = nslot++;
-        slot_group[s] = o->group[t];
-        next[s] = head[p];
-        head[p] = s;
-        memset(&m->normals[3 * (size_t)s], 0, 3 * sizeof(double));
-      }
-      for (int i = 0; i < 3; i++) m->normals[3 * (size_t)s + i] += fn[i] * corner_angle[k];
-      m->corner_normal[c] = s;
+      m->corner_position[c] = v[k];
+      for (int i = 0; i < 3; i++) weighted[3 * c + i] = fn[i] * corner_angle[k];
     }
   }
   m->face_start[o->ntri] = (int)nc;
-  m->num_uvs = nuv;
-  m->num_normals = nslot;
-  for (int s = 0; s < nslot; s++) {
-    double *n = &m->normals[3 * (size_t)s];
-    double len = sqrt(ch_dot3(n, n));
-    if (len > 0.0) {
-      for (int i = 0; i < 3; i++) n[i] /= len;
-    } else {
-      n[0] = n[1] = 0.0;
-      n[2] = 1.0; /* only zero-area triangles here: any unit vector */
+  /* Corners by vertex, in corner order (a counting sort). */
+  memset(start, 0, (np + 1) * sizeof *start);
+  for (size_t c = 0; c < nc; c++) start[o->tri[c] + 1]++;
+  for (size_t p = 0; p < np; p++) start[p + 1] += start[p];
+  {
+    int *fill = m->corner_uv; /* scratch until the UVs are numbered */
+    memcpy(fill, start, np * sizeof *fill);
+    for (size_t c = 0; c < nc; c++) order[fill[o->tri[c]]++] = (int)c;
+  }
+  /* Per vertex: where its UVs and normals are born (a UV is new unless it
+   * equals the vertex's first; a normal is new for each group), and the
+   * normals' sums, each kept at its born corner. corner_uv and
+   * corner_normal hold the born corner for now. */
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (int p = 0; p < o->npos; p++) {
+    int first = -1;
+    for (int i = start[p]; i < start[p + 1]; i++) {
+      int c = order[i];
+      const double *uv = &o->uv[2 * (size_t)c];
+      born[c] = 0;
+      if (first < 0 || o->uv[2 * (size_t)first] != uv[0] || o->uv[2 * (size_t)first + 1] != uv[1]) {
+        born[c] |= 1;
+        m->corner_uv[c] = c;
+        if (first < 0) first = c;
+      } else {
+        m->corner_uv[c] = first;
+      }
+      uint64_t g = o->group[c / 3];
+      int s = -1;
+      for (int j = start[p]; j < i; j++) {
+        int d = order[j];
+        if ((born[d] & 2) && o->group[d / 3] == g) {
+          s = d;
+          break;
+        }
+      }
+      if (s < 0) {
+        born[c] |= 2;
+        s = c;
+        for (int k = 0; k < 3; k++) weighted[3 * (size_t)c + k] += 0.0; /* the sum starts from +0, as it did serially (-0 + 0 is +0) */
+      } else {
+        for (int k = 0; k < 3; k++) weighted[3 * (size_t)s + k] += weighted[3 * (size_t)c + k];
+      }
+      m->corner_normal[c] = s;
     }
   }
-  free(first_uv);
-  free(head);
-  free(next);
-  free(slot_group);
+  /* Ranks of the born corners: the indices (order then holds the UVs'
+   * ranks, born the normals', -1 where none is born). */
+  int nuv = 0, nslot = 0;
+  for (size_t c = 0; c < nc; c++) {
+    order[c] = (born[c] & 1) ? nuv++ : -1;
+    born[c] = (born[c] & 2) ? nslot++ : -1;
+  }
+  m->uvs = malloc(2 * (size_t)(nuv > 0 ? nuv : 1) * sizeof *m->uvs);
+  m->normals = malloc(3 * (size_t)(nslot > 0 ? nslot : 1) * sizeof *m->normals);
+  if (!m->uvs || !m->normals) {
+    free(start);
+    free(order);
+    free(weighted);
+    free(born);
+    m->positions = NULL;
+    ch_mesh_free(m);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
+  }
+  m->num_uvs = nuv;
+  m->num_normals = nslot;
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < nc; c++) {
+    if (order[c] >= 0) memcpy(&m->uvs[2 * (size_t)order[c]], &o->uv[2 * c], 2 * sizeof *m->uvs);
+    if (born[c] >= 0) {
+      const double *n = &weighted[3 * c];
+      double *out = &m->normals[3 * (size_t)born[c]], len = sqrt(ch_dot3(n, n));
+      if (len > 0.0) {
+        for (int i = 0; i < 3; i++) out[i] = n[i] / len;
+      } else {
+        out[0] = out[1] = 0.0;
+        out[2] = 1.0; /* only zero-area triangles here: any unit vector */
+      }
+    }
+  }
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < nc; c++) {
+    m->corner_uv[c] = order[m->corner_uv[c]];
+    m->corner_normal[c] = born[m->corner_normal[c]];
+  }
+  free(start);
+  free(order);
+  free(weighted);
+  free(born);
   return CH_OK;
 }
 

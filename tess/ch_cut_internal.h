@@ -56,6 +56,10 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err);
 int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, double tol, ch_cut_out *o,
                     ch_embed_stats *stats);
 
+/* Gives back the capacity o's arrays hold beyond their counts (o stays
+ * valid if a reallocation fails). */
+void ch_cut_out_shrink(ch_cut_out *o);
+
 /* Appends a vertex; its index, or -1 when out of memory. */
 int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h);
 

@@ -17,10 +17,13 @@
 #include "ch_thin.h"
 #include "ch_warp.h"
 
+/* Capacity for need elements: by a quarter at a time, not double (the
+ * working mesh is the embedding's largest array and a round adds a few
+ * percent to it; glibc moves large blocks by remapping, not copying). */
 static int grow(void **p, int *cap, int need, size_t size) {
   if (need <= *cap) return 0;
   int n = *cap ? *cap : 1024;
-  while (n < need) n = n > (1 << 29) ? need : 2 * n;
+  while (n < need) n = n > (1 << 29) ? need : n + n / 4 + 1;
   void *q = realloc(*p, (size_t)n * size);
   if (!q) return -1;
   *p = q;
@@ -198,6 +201,30 @@ static double level_value(const ch_label_ctx *lb, const ch_refine_mesh *w, const
   return kind == LEVEL_RIM ? fabs(v) : v;
 }
 
+/* The last groove level read at the far end of a crossing search: the
+ * search after a line starts again towards the same sample (x1), so its
+ * value is read once per sample, not once per line. c < 0: empty. */
+typedef struct level_cache {
+  double x, t;
+  int c, segment;
+} level_cache;
+
+/* t = s / w of groove c at x along e (level_value's LEVEL_LINE), through
+ * cache where it holds that point. */
+static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, int c, double x,
+                           int *segment, level_cache *cache) {
+  if (cache->c == c && cache->x == x) {
+    *segment = cache->segment;
+    return cache->t;
+  }
+  double t = level_value(lb, w, e, LEVEL_LINE, c, -1, x, segment);
+  cache->x = x;
+  cache->t = t;
+  cache->c = c;
+  cache->segment = *segment;
+  return t;
+}
+
 /* A level set of a level function f - target along edge e, bracketed by
  * [*a, *b] with f(a) = *fa and f(b) = *fb of opposite signs, by false
  * position (Illinois) until the bracket is below tol, or until the last
@@ -283,14 +310,15 @@ static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
  * - at the edge of a step curve's radius: distance = radius; where the
  *   nearest step curve changes: the two distances equal. */
 static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
-                            uint64_t l1, double x0, double x1, double *lo, double *hi, uint64_t *lhi) {
+                            uint64_t l1, double x0, double x1, double *lo, double *hi, uint64_t *lhi,
+                            level_cache *cache) {
   uint64_t g0 = l0 >> 32, g1 = l1 >> 32, s0 = l0 & 0xffffffffu, s1 = l1 & 0xffffffffu;
   int sa = -1, sb = -1;
   if (s0 == s1 && g0 && (!g1 || (g0 >> 8) == (g1 >> 8))) { /* lines of one groove */
     int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
     const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
     double ta = level_value(lb, w, e, LEVEL_LINE, c, -1, x0, &sa);
-    double tb = level_value(lb, w, e, LEVEL_LINE, c, -1, x1, &sb);
+    double tb = groove_level(lb, w, e, c, x1, &sb, cache);
     if (!g1) k1 = k0 + (tb > ta ? 1 : -1);
     if (k1 != k0 && k1 >= 1 && k1 <= nb - 1) {
       double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
@@ -303,7 +331,7 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
   if (s0 == s1 && (!g0 != !g1)) { /* a rim (the outermost piece of the groove on one side) */
     int c = GROOVE_CURVE(g0 ? g0 : g1);
     double fa = level_value(lb, w, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
-    double fb = level_value(lb, w, e, LEVEL_RIM, c, -1, x1, &sb) - 0.5;
+    double fb = fabs(groove_level(lb, w, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
       narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi);
   } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1) && lb->set->num_curves < 2048) {
@@ -334,6 +362,32 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
   }
 }
 
+/* Records the change from piece la (at lo) to piece lb_ (at hi) along e,
+ * at the middle of [lo, hi], with h read just inside each piece. */
+static void record_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, double lo,
+                            double hi, uint64_t la, uint64_t lb_, ch_refine_crossing *c) {
+  double uv[2], at[2];
+  c->x = 0.5 * (lo + hi);
+  c->la = la;
+  c->lb = lb_;
+  ch_refine_edge_point(w, e, c->x, at, NULL);
+  ch_refine_edge_point(w, e, lo, uv, NULL);
+  c->ha = ch_label_piece_height(lb, la, uv, at);
+  ch_refine_edge_point(w, e, hi, uv, NULL);
+  c->hb = ch_label_piece_height(lb, lb_, uv, at);
+  c->copy_a = c->copy_b = -1;
+}
+
+/* How far from a vertex on a UV seam the edge's own chart is read (about
+ * the crossings' 1e-14). */
+#define SEAM_X 0x1p-47
+
+/* Whether vertex v's UV (where its label was read) is another chart's
+ * point than uv, the edge's end in its canonical triangle. */
+static int on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
+  return fabs(w->verts[v].uv[0] - uv[0]) > 1e-9 || fabs(w->verts[v].uv[1] - uv[1]) > 1e-9;
+}
+
 /* Every boundary between pieces along e. Labels are sampled about delta
  * apart; from each sample whose label differs from the next, bisection
  * (in the bracket a fast path narrowed) finds a change to about 1e-14 of
@@ -356,11 +410,21 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * triangle's corners miss, and the refinement's hidden-piece check the
    * rest (a third sample more made no difference on the bundled sets). */
   n = n < 2 ? 2 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
-  ch_refine_crossing *list = NULL;
-  int count = 0, cap = 0;
+  /* Crossings gather in a buffer on the stack (most edges have a few; the
+   * search stops at MAX_NODES), and the edge keeps an array of exactly its
+   * count: edges hold the crossings until the cut, and a per-edge array
+   * grown by doubling from a large first capacity took gigabytes. */
+  ch_refine_crossing list[MAX_NODES];
+  int count = 0;
   double x0 = 0.0;
   uint64_t l0 = w->verts[e->a].label;
   int crowded = ch_groove_field_count(&lb->height->grooves, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])) > CROWDED_CELL;
+  /* A vertex on a UV seam was labelled in another chart than this edge's:
+   * where h differs across the seam the edge starts (or ends) with a
+   * change at the vertex itself, a wall of no width, which no level
+   * function brackets; bisection took 46 labels to close in on it. */
+  int seam_a = on_seam(w, e->a, pa), seam_b = on_seam(w, e->b, pb);
+  level_cache cache = {0.0, 0.0, -1, -1};
   /* An edge with MAX_NODES crossings makes every triangle holding it one
    * that cannot be cut: the search stops there (what is found is kept). */
   for (int i = 1; i <= n && count < MAX_NODES; i++) {
@@ -369,7 +433,18 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
     while (l0 != l1 && count < MAX_NODES) {
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
-      narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi);
+      narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi, &cache);
+      if (lo == x0 && hi == x1 && hi - lo > 1e-14) { /* no fast path: a change at a seam vertex? */
+        if (x0 == 0.0 && seam_a) {
+          uint64_t chart = edge_label(lb, w, e, SEAM_X);
+          if (chart != l0) { /* the first label on the edge's side differs: the change is at a */
+            hi = SEAM_X;
+            lhi = chart;
+          }
+        } else if (x1 == 1.0 && seam_b && edge_label(lb, w, e, 1.0 - SEAM_X) == l0) {
+          lo = 1.0 - SEAM_X; /* the last label on the edge's side is l0's: the change is at b */
+        }
+      }
       for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
         double mid = 0.5 * (lo + hi);
         uint64_t lm = edge_label(lb, w, e, mid);
@@ -385,26 +460,9 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
          * times, it tries again between l0 and the label the bracket now
          * ends on, most often the only change left in it (a dozen
          * one-curve evaluations instead of 40 more labels). */
-        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi);
+        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi, &cache);
       }
-      if (grow((void **)&list, &cap, count + 1, sizeof *list)) {
-        free(list);
-        e->cross = NULL;
-        e->ncross = 0;
-        return -1;
-      }
-      ch_refine_crossing *c = &list[count++];
-      double uv[2];
-      c->x = 0.5 * (lo + hi);
-      c->la = l0;
-      c->lb = lhi;
-      double at[2];
-      ch_refine_edge_point(w, e, c->x, at, NULL);
-      ch_refine_edge_point(w, e, lo, uv, NULL);
-      c->ha = ch_label_piece_height(lb, l0, uv, at);
-      ch_refine_edge_point(w, e, hi, uv, NULL);
-      c->hb = ch_label_piece_height(lb, lhi, uv, at);
-      c->copy_a = c->copy_b = -1;
+      record_crossing(lb, w, e, lo, hi, l0, lhi, &list[count++]);
       x0 = hi;
       l0 = lhi;
     }
@@ -425,8 +483,13 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
         break;
       }
   }
-  e->cross = list;
-  e->ncross = count;
+  e->cross = NULL;
+  e->ncross = 0;
+  if (count > 0) {
+    if (!(e->cross = malloc((size_t)count * sizeof *e->cross))) return -1;
+    memcpy(e->cross, list, (size_t)count * sizeof *e->cross);
+    e->ncross = count;
+  }
   return 0;
 }
 
