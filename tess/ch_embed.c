@@ -509,6 +509,12 @@ typedef struct target_runs {
   ch_mesh cur, best;
   ch_embed_stats cur_stats, best_stats;
   embed_kept kept; /* the last pilot's cut */
+  /* The closest run is dropped when another starts (two meshes at once
+   * were a third of the peak memory where the first full run missed):
+   * the last run is the closest whenever the search lands, and where it
+   * does not, the closest is run again from its request. */
+  ch_count_request best_request;
+  int best_dropped;
   ch_error *err;
 } target_runs;
 
@@ -530,6 +536,9 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     r->best_tess = r->cur_tess;
     r->best = r->cur;
     r->best_stats = r->cur_stats;
+    r->best_request = *rq;
+    r->best_request.kind = CH_COUNT_FULL;
+    r->best_dropped = 0;
     memset(&r->cur_tess, 0, sizeof r->cur_tess);
     memset(&r->cur, 0, sizeof r->cur);
     return CH_OK;
@@ -543,6 +552,13 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     return st;
   }
   target_drop_current(r);
+  if (r->best.num_faces > 0) {
+    ch_tess_free(&r->best_tess);
+    ch_mesh_free(&r->best);
+    memset(&r->best_tess, 0, sizeof r->best_tess);
+    memset(&r->best, 0, sizeof r->best);
+    r->best_dropped = 1;
+  }
   ch_tess_desc td = {.target_triangles = rq->base, .warp = r->d.warp};
   if ((st = ch_tess_build(r->surface, &td, &r->cur_tess, r->err))) return st;
   if (!(r->pilot.reference_edge > 0.0)) {
@@ -608,6 +624,15 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
                       .has_u = has_u};
   ch_count_result res;
   st = ch_count_search(&cd, target_run, &r, &res);
+  if (!st && r.best_dropped) { /* a later run missed more: the closest again */
+    ch_count_reply again;
+    if (!(st = target_run(&r, &r.best_request, &again))) {
+      ch_count_request keep = r.best_request;
+      keep.kind = CH_COUNT_KEEP;
+      st = target_run(&r, &keep, &again);
+      res.runs++;
+    }
+  }
   target_drop_current(&r);
   if (passes) *passes = res.runs;
   if (st) {
