@@ -11,7 +11,8 @@
 #   BUILD_DIR defaults to build; TIMEOUT_S (default 600) stops a run (shown
 #   as "> T s"); SERIES: any of loops crossing path read (default: all).
 #   QUICK=1 runs only the largest size of each series; LAST=N the N largest
-#   (LAST=2: the issue's sizes and the exponent from the size below).
+#   (LAST=2: the largest size and the exponent from the size below);
+#   SIZES="1000 3000" replaces the sizes of every series given.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -37,6 +38,7 @@ printf "| %-9s | %8s | %9s | %9s | %8s | %9s | %8s | %s\n" series curves wall_s 
 echo "|---|---|---|---|---|---|---|---|"
 for s in "${series[@]}"; do
   sizes=($(sizes_of "$s"))
+  [ -n "${SIZES:-}" ] && sizes=($SIZES)
   [ -n "${QUICK:-}" ] && sizes=("${sizes[-1]}")
   [ -n "${LAST:-}" ] && [ "$LAST" -lt ${#sizes[@]} ] && sizes=("${sizes[@]: -$LAST}")
   prev_n="" prev_t=""

@@ -30,6 +30,10 @@ void ch_label_free(ch_label_ctx *lb) {
   ch_grid_free(&lb->step_grid);
   ch_grid_free(&lb->groove_grid);
   ch_segtree_free(&lb->tree);
+  free(lb->step_hint);
+  free(lb->step_list);
+  free(lb->step_list_start);
+  free(lb->step_has_list);
   free(lb->corner_seg);
   free(lb->corner_start);
   free(lb->end_item);
@@ -232,6 +236,258 @@ static ch_status find_open_ends(ch_label_ctx *lb, ch_error *err) {
   return CH_OK;
 }
 
+/* A tree walk from the root over many small curves, with only the radius
+ * as its first bound, opens every node whose box reaches within the
+ * radius: over 10,000 small loops at a coarse mesh's radius (up to a
+ * fifth of the square) most of the labeller's time. The step hints give each walk a first
+ * bound near the answer: per cell of a grid over the step segments (about
+ * one segment per cell), the segment nearest the cell's centre. */
+enum { STEP_HINT_MAX_RES = 1024 };
+/* A cell's candidate list is kept up to STEP_LIST_MAX segments, gathered
+ * from at most STEP_LIST_RINGS cells around it (else the walk serves). */
+enum { STEP_LIST_MAX = 96, STEP_LIST_RINGS = 4, STEP_LIST_GATHER = 1024 };
+
+/* The squared distance from q to box b (0 inside). */
+static double box_d2(const double b[4], const double q[2]) {
+  double dx = q[0] < b[0] ? b[0] - q[0] : q[0] > b[2] ? q[0] - b[2] : 0.0;
+  double dy = q[1] < b[1] ? b[1] - q[1] : q[1] > b[3] ? q[1] - b[3] : 0.0;
+  return dx * dx + dy * dy;
+}
+
+static int compare_ints(const void *pa, const void *pb) {
+  int a = *(const int *)pa, b = *(const int *)pb;
+  return (a > b) - (a < b);
+}
+
+/* The cell range [r0, r1] x [r2, r3] of the hint grid that box b overlaps. */
+static void hint_cells(const ch_label_ctx *lb, const double b[4], int r[4]) {
+  double f[4] = {floor((b[0] - lb->step_origin[0]) / lb->step_cell[0]),
+                 floor((b[2] - lb->step_origin[0]) / lb->step_cell[0]),
+                 floor((b[1] - lb->step_origin[1]) / lb->step_cell[1]),
+                 floor((b[3] - lb->step_origin[1]) / lb->step_cell[1])};
+  for (int i = 0; i < 4; i++) r[i] = !(f[i] >= 0.0) ? 0 : f[i] >= lb->step_res ? lb->step_res - 1 : (int)f[i];
+}
+
+/* Cell c's candidates (ascending, each once) into out (room for
+ * STEP_LIST_GATHER): every step segment whose box lies within the hint's
+ * distance from the centre plus a whole diagonal. For a point q of the
+ * cell the nearest step segment is at most its hint's distance from q,
+ * which is at most the hint's from the centre plus half the diagonal; so
+ * its box is within that of q, and so within this of the centre. -1 when
+ * the list would pass STEP_LIST_MAX or its rings STEP_LIST_RINGS. */
+static int gather_step_list(const ch_label_ctx *lb, const int *bucket_start, const int *bucket, int c, int *out) {
+  const ch_segment *h = lb->step_hint[c] >= 0 ? &lb->set->segments[lb->step_hint[c]] : NULL;
+  if (!h) return -1;
+  int res = lb->step_res, cx = c % res, cy = c / res;
+  double centre[2] = {lb->step_origin[0] + (cx + 0.5) * lb->step_cell[0],
+                      lb->step_origin[1] + (cy + 0.5) * lb->step_cell[1]};
+  double t, dc = sqrt(ch_bezier_closest(h->p, h->is_line, centre, &t));
+  double reach = (dc + hypot(lb->step_cell[0], lb->step_cell[1])) * (1.0 + 1e-7) + lb->step_slack;
+  double b[4] = {centre[0] - reach, centre[1] - reach, centre[0] + reach, centre[1] + reach};
+  int r[4];
+  hint_cells(lb, b, r);
+  if (r[1] - cx > STEP_LIST_RINGS || cx - r[0] > STEP_LIST_RINGS || r[3] - cy > STEP_LIST_RINGS ||
+      cy - r[2] > STEP_LIST_RINGS)
+    return -1;
+  int n = 0;
+  for (int y = r[2]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[1]; x++)
+      for (int k = bucket_start[y * res + x]; k < bucket_start[y * res + x + 1]; k++) {
+        double sb[4];
+        ch_segment_box(&lb->set->segments[bucket[k]], 0.0, sb);
+        if (box_d2(sb, centre) > reach * reach) continue;
+        if (n == STEP_LIST_GATHER) return -1;
+        out[n++] = bucket[k];
+      }
+  qsort(out, (size_t)n, sizeof *out, compare_ints);
+  int m = 0;
+  for (int i = 0; i < n; i++)
+    if (m == 0 || out[i] != out[m - 1]) out[m++] = out[i];
+  return m <= STEP_LIST_MAX ? m : -1;
+}
+
+/* The candidate lists of the hint cells (lb->step_list_start, step_list;
+ * a cell without one has start == end and the flag in step_has_list 0). */
+static ch_status build_step_lists(ch_label_ctx *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int res = lb->step_res;
+  size_t ncells = (size_t)res * res;
+  /* the step segments bucketed by the cells their boxes overlap */
+  int *bucket_start = calloc(ncells + 1, sizeof *bucket_start);
+  int *count = calloc(ncells + 1, sizeof *count);
+  lb->step_list_start = calloc(ncells + 1, sizeof *lb->step_list_start);
+  if (!bucket_start || !count || !lb->step_list_start) {
+    free(bucket_start);
+    free(count);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step lists");
+  }
+  size_t total = 0;
+  for (int s = 0; s < set->num_segments; s++) { /* the entries, before a loop over them */
+    if (set->curves[set->segments[s].curve].kind != CH_CURVE_STEP) continue;
+    double b[4];
+    int r[4];
+    ch_segment_box(&set->segments[s], 0.0, b);
+    hint_cells(lb, b, r);
+    total += (size_t)(r[1] - r[0] + 1) * (size_t)(r[3] - r[2] + 1);
+  }
+  if (total > (size_t)1 << 26) { /* a few huge boxes over a fine grid: the walk serves */
+    free(bucket_start);
+    free(count);
+    return CH_OK;
+  }
+  for (int pass = 0; pass < 2; pass++) {
+    for (int s = 0; s < set->num_segments; s++) {
+      if (set->curves[set->segments[s].curve].kind != CH_CURVE_STEP) continue;
+      double b[4];
+      int r[4];
+      ch_segment_box(&set->segments[s], 0.0, b);
+      hint_cells(lb, b, r);
+      for (int y = r[2]; y <= r[3]; y++)
+        for (int x = r[0]; x <= r[1]; x++) {
+          if (pass == 0) {
+            bucket_start[y * res + x + 1]++;
+          } else {
+            lb->step_list[count[y * res + x]++] = s;
+          }
+        }
+    }
+    if (pass == 0) {
+      for (size_t c = 0; c < ncells; c++) bucket_start[c + 1] += bucket_start[c];
+      memcpy(count, bucket_start, ncells * sizeof *count);
+      lb->step_list = malloc((total > 0 ? total : 1) * sizeof *lb->step_list); /* the buckets, for now */
+      if (!lb->step_list) {
+        free(bucket_start);
+        free(count);
+        return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step lists");
+      }
+    }
+  }
+  int *bucket = lb->step_list;
+  lb->step_list = NULL;
+  /* each cell's list: counted, then filled (each cell its own range, so
+   * the lists are the same on any number of threads) */
+  int failed = 0;
+  for (int pass = 0; pass < 2 && !failed; pass++) {
+#pragma omp parallel
+    {
+      int *buf = malloc(STEP_LIST_GATHER * sizeof *buf);
+      if (!buf) {
+#pragma omp atomic write
+        failed = 1;
+      }
+#pragma omp for schedule(dynamic, 64)
+      for (long c = 0; c < (long)ncells; c++) {
+        if (!buf) continue;
+        int m = gather_step_list(lb, bucket_start, bucket, (int)c, buf);
+        if (pass == 0)
+          count[c] = m;
+        else if (m > 0)
+          memcpy(lb->step_list + lb->step_list_start[c], buf, (size_t)m * sizeof *buf);
+      }
+      free(buf);
+    }
+    if (pass == 0 && !failed) {
+      size_t sum = 0;
+      for (size_t c = 0; c < ncells; c++) {
+        lb->step_list_start[c] = (int)sum;
+        sum += count[c] > 0 ? (size_t)count[c] : 0;
+      }
+      lb->step_list_start[ncells] = (int)sum;
+      if (sum > (size_t)1 << 24) { /* over 64 MB: the walk serves */
+        free(lb->step_list_start);
+        lb->step_list_start = NULL;
+        break;
+      }
+      lb->step_has_list = malloc(ncells);
+      lb->step_list = malloc((sum > 0 ? sum : 1) * sizeof *lb->step_list);
+      if (!lb->step_has_list || !lb->step_list) failed = 1;
+      for (size_t c = 0; !failed && c < ncells; c++) lb->step_has_list[c] = count[c] >= 0;
+    }
+  }
+  free(bucket_start);
+  free(bucket);
+  free(count);
+  if (failed) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step lists");
+  return CH_OK;
+}
+
+static ch_status build_step_hints(ch_label_ctx *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+  int n = lb->tree.num_step_leaves;
+  for (int s = 0; s < set->num_segments; s++) {
+    if (set->curves[set->segments[s].curve].kind != CH_CURVE_STEP) continue;
+    double b[4];
+    ch_segment_box(&set->segments[s], 0.0, b);
+    lo[0] = fmin(lo[0], b[0]), lo[1] = fmin(lo[1], b[1]);
+    hi[0] = fmax(hi[0], b[2]), hi[1] = fmax(hi[1], b[3]);
+  }
+  if (!(n > 0 && lo[0] <= hi[0] && lo[1] <= hi[1] && isfinite(lo[0] + lo[1] + hi[0] + hi[1]))) return CH_OK;
+  int res = (int)fmin(STEP_HINT_MAX_RES, fmax(1.0, ceil(sqrt((double)n))));
+  lb->step_res = res;
+  lb->step_origin[0] = lo[0], lb->step_origin[1] = lo[1];
+  lb->step_cell[0] = fmax(hi[0] - lo[0], 1e-300) / res;
+  lb->step_cell[1] = fmax(hi[1] - lo[1], 1e-300) / res;
+  /* rounding's worth of the coordinates, for the lists' reach */
+  lb->step_slack = 1e-12 * (1.0 + fmax(fmax(fabs(lo[0]), fabs(lo[1])), fmax(fabs(hi[0]), fabs(hi[1]))));
+  lb->step_hint = malloc((size_t)res * res * sizeof *lb->step_hint);
+  if (!lb->step_hint) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step hints");
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int c = 0; c < res * res; c++) {
+    double q[2] = {lo[0] + (c % res + 0.5) * lb->step_cell[0], lo[1] + (c / res + 0.5) * lb->step_cell[1]}, d2, t;
+    lb->step_hint[c] = ch_segtree_closest(&lb->tree, set, 0, n, q, INFINITY, &d2, &t);
+  }
+  return build_step_lists(lb, err);
+}
+
+/* The nearest step segment to q within the radius (squared distance and
+ * parameter in *d2 and *t), the lowest index of equals, or -1: the answer
+ * of the tree over the step leaves. From q's cell's list where it has
+ * one; else the tree, bounded by the distance of q's hint (the walk then
+ * keeps the segments at most that far, the hint among them, and the
+ * lowest index of the nearest wins as before). */
+static int nearest_step(const ch_label_ctx *lb, const double q[2], double *d2, double *t) {
+  double bound = lb->radius * lb->radius;
+  if (lb->step_hint) {
+    double fx = floor((q[0] - lb->step_origin[0]) / lb->step_cell[0]);
+    double fy = floor((q[1] - lb->step_origin[1]) / lb->step_cell[1]);
+    int x = !(fx >= 0.0) ? 0 : fx >= lb->step_res ? lb->step_res - 1 : (int)fx;
+    int y = !(fy >= 0.0) ? 0 : fy >= lb->step_res ? lb->step_res - 1 : (int)fy;
+    size_t c = (size_t)y * lb->step_res + x;
+    if (lb->step_has_list && lb->step_has_list[c] && fx == x && fy == y) {
+      /* q is in its cell: the list holds every segment that can be nearest */
+      const double slack = 1.0 + 1e-9; /* as the tree's: keeps every candidate that could tie */
+      double best_t = 0.0;
+      int best_seg = -1;
+      for (int i = lb->step_list_start[c]; i < lb->step_list_start[c + 1]; i++) {
+        int s = lb->step_list[i];
+        const ch_segment *sg = &lb->set->segments[s];
+        double sb[4];
+        ch_segment_box(sg, 0.0, sb);
+        if (box_d2(sb, q) > bound * slack) continue;
+        double ts, d = ch_bezier_closest(sg->p, sg->is_line, q, &ts);
+        if (d < bound) { /* ascending: the first of equals stays */
+          bound = d;
+          best_t = ts;
+          best_seg = s;
+        }
+      }
+      if (best_seg >= 0) {
+        *d2 = bound;
+        *t = best_t;
+      }
+      return best_seg;
+    }
+    int h = lb->step_hint[c];
+    if (h >= 0) {
+      const ch_segment *sg = &lb->set->segments[h];
+      double th, dh = ch_bezier_closest(sg->p, sg->is_line, q, &th);
+      if (dh < bound) bound = nextafter(dh, INFINITY); /* keeps dh itself: the walk finds h again */
+    }
+  }
+  return ch_segtree_closest(&lb->tree, lb->set, 0, lb->tree.num_step_leaves, q, bound, d2, t);
+}
+
 ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp *warp, double radius,
                         double curve_tolerance, double angle, double object_scale, double mean_edge, double reach,
                         ch_error *err) {
@@ -360,6 +616,7 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
   ch_status st = ch_grid_build(&lb->step_grid, set->num_segments, (const double(*)[4])lb->step_boxes, err);
   if (!st) st = ch_grid_build(&lb->groove_grid, set->num_segments, (const double(*)[4])ch_groove_field_boxes(&height->grooves), err);
   if (!st) st = ch_segtree_build(&lb->tree, set, err);
+  if (!st && lb->has_steps) st = build_step_hints(lb, err);
   if (!st) st = find_step_corners(lb, err);
   if (!st) st = find_open_ends(lb, err);
   if (st) {
@@ -453,12 +710,9 @@ uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]) {
   uint64_t s = 0;
   if (lb->has_steps) {
     /* The nearest step segment within the radius (the lowest index of
-     * equals): through the tree, whose cost follows the curves near uv,
-     * not all those within the radius (a grid cell of a coarse mesh's
-     * radius over 10,000 small loops holds thousands). */
+     * equals), from uv's step cell. */
     double best, best_t = 0.0;
-    int best_seg =
-        ch_segtree_closest(&lb->tree, set, 0, lb->tree.num_step_leaves, uv, lb->radius * lb->radius, &best, &best_t);
+    int best_seg = nearest_step(lb, uv, &best, &best_t);
     if (best_seg >= 0) {
       int curve = set->segments[best_seg].curve;
       int left = ch_curve_side(set, best_seg, best_t, uv) > 0;

@@ -35,6 +35,16 @@ typedef struct ch_label_ctx {
   double (*step_boxes)[4];
   ch_grid groove_grid; /* groove segments, boxes grown by half their width */
   ch_segtree tree;     /* every segment: a curve's closest, the nearest step curve */
+  /* Per cell of a step_res^2 grid over the step segments' bounding box
+   * (from step_origin, cells step_cell wide): the step segment nearest the
+   * cell's centre, the first bound of a nearest-step walk (NULL: none). */
+  int *step_hint;
+  int step_res;
+  double step_origin[2], step_cell[2], step_slack;
+  /* Per hint cell (where step_has_list[cell]): the step segments that can
+   * be nearest to a point of the cell, ascending, from step_list_start. */
+  int *step_list, *step_list_start;
+  unsigned char *step_has_list;
   /* Sharp corners of step curves (joints turning by more than 30 degrees,
    * coarse_at_step_corner): the segments leaving them, bucketed by the
    * corner's cell of a corner_res^2 grid over the unit square (clamped). */

@@ -19,8 +19,8 @@ gen path 20000 "$tmp/path.svg"
 gen bigpath 700000 "$tmp/big.svg"
 for case in loops crossing path; do
   checks=$((checks + 1))
-  if ! "$chisel" displace "$root/models/plane.obj" "$tmp/$case.svg" -o "$tmp/$case.obj" --target-tris 20000 \
-    2>"$tmp/err.txt"; then
+  if ! OMP_NUM_THREADS=2 "$chisel" displace "$root/models/plane.obj" "$tmp/$case.svg" -o "$tmp/$case.obj" \
+    --target-tris 20000 2>"$tmp/err.txt"; then
     fail "$case: $(cat "$tmp/err.txt")"
     continue
   fi
@@ -31,6 +31,16 @@ for case in loops crossing path; do
   grep -q "edges *[0-9]* boundary, 0 non-manifold; 0 non-manifold vertices" "$tmp/info.txt" ||
     fail "$case: not manifold: $(grep edges "$tmp/info.txt")"
 done
+# The nearest step curve of a label (the many loops' case: the step
+# hints' first bounds, then the tree) is the same on any thread: the bytes
+# of 1 and 2 threads agree.
+checks=$((checks + 1))
+if OMP_NUM_THREADS=1 "$chisel" displace "$root/models/plane.obj" "$tmp/loops.svg" -o "$tmp/loops1.obj" \
+  --target-tris 20000 2>"$tmp/err.txt"; then
+  cmp -s "$tmp/loops.obj" "$tmp/loops1.obj" || fail "loops: 1 and 2 threads differ"
+else
+  fail "loops, one thread: $(cat "$tmp/err.txt")"
+fi
 # more than libxml2's 10 MB in one attribute, within chisel's 256 MB
 checks=$((checks + 1))
 [ "$(stat -c %s "$tmp/big.svg")" -gt 10485760 ] || fail "big.svg is not over 10 MB"
