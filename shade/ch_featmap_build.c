@@ -151,8 +151,45 @@ static void set_sample(const ch_curve_set *set, ch_featmap *m, size_t k, const d
   }
 }
 
+/* The segments near the lattice, kept from the samples to the checks:
+ * each encoded segment's box grown by the band, a grid over those boxes,
+ * and which lattice points got an exact sample. */
+typedef struct sample_index {
+  double band;
+  double (*boxes)[4];
+  ch_grid grid;
+  uint8_t *exact;
+} sample_index;
+
+static void sample_index_free(sample_index *ix) {
+  ch_grid_free(&ix->grid);
+  free(ix->boxes);
+  free(ix->exact);
+  memset(ix, 0, sizeof *ix);
+}
+
+/* The exact distance from UV point q to the nearest encoded curve, or NaN
+ * beyond the band. */
+static double index_distance(const ch_curve_set *set, const sample_index *ix, const double q[2]) {
+  const int *items;
+  int cnt = ch_grid_query(&ix->grid, q[0], q[1], &items);
+  double best = INFINITY;
+  for (int a = 0; a < cnt; a++) {
+    const double *b = ix->boxes[items[a]];
+    if (q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
+    const ch_segment *s = &set->segments[items[a]];
+    double t, d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
+    if (d2 < best) best = d2;
+  }
+  return sqrt(best) <= ix->band ? sqrt(best) : NAN;
+}
+
+/* Fills every lattice point's sample. cover[k] is set where a groove other
+ * than the nearest curve reaches the point (distance under its half width),
+ * the only points where the grooves' CSG can pick another curve than the
+ * nearest: the overlap check evaluates the groove field there alone. */
 static ch_status build_samples(const ch_curve_set *set, const unsigned char *use, const lattice *L, ch_featmap *m,
-                               float *centre, ch_error *err) {
+                               sample_index *ix, uint8_t *cover, ch_error *err) {
   int R1 = L->R1;
   size_t n = (size_t)R1 * R1;
   double texel = fmax(L->du, L->dv), half = 0.0;
@@ -161,12 +198,18 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
   /* Exact within the widest groove's half width plus two cells: where
    * profiles are read and where cells hold curves. */
   double band = ch_clamp(half / texel + 2.0, 3.0, 64.0) * texel;
-  double(*boxes)[4] = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *boxes);
+  /* Grooves wider than the band (the clamp) may reach a point from
+   * segments the band leaves out: every point is then checked. */
+  int cover_all = !(band > half);
+  memset(ix, 0, sizeof *ix);
+  ix->band = band;
+  ix->boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *ix->boxes);
+  ix->exact = ch_alloc_large(n, 1, 0);
+  double(*boxes)[4] = ix->boxes;
+  uint8_t *exact = ix->exact;
   int32_t *seg = ch_alloc_large(n, sizeof *seg, 0);
   float *segt = ch_alloc_large(n, sizeof *segt, 0);
-  uint8_t *exact = ch_alloc_large(n, 1, 0);
   ch_edt_rec *rec = ch_alloc_large(n, sizeof *rec, 0);
-  ch_grid grid = {0};
   ch_status st = CH_OK;
   if (!boxes || !seg || !segt || !exact || !rec) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature samples", R1, R1);
@@ -181,7 +224,7 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
       ch_segment_box(s, band, boxes[i]);
     }
   }
-  if ((st = ch_grid_build(&grid, set->num_segments, (const double(*)[4])boxes, err))) goto done;
+  if ((st = ch_grid_build(&ix->grid, set->num_segments, (const double(*)[4])boxes, err))) goto done;
 #pragma omp parallel for schedule(dynamic, 4)
   for (int y = 0; y < R1; y++)
     for (int x = 0; x < R1; x++) {
@@ -189,17 +232,25 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
       double q[2];
       lattice_uv(L, x, y, q);
       const int *items;
-      int cnt = ch_grid_query(&grid, q[0], q[1], &items);
+      int cnt = ch_grid_query(&ix->grid, q[0], q[1], &items);
       double best = INFINITY, bt = 0.0;
-      int bs = -1;
+      int bs = -1, cov0 = -1, cov1 = -1; /* the first two grooves reaching q */
       for (int a = 0; a < cnt; a++) {
         const double *b = boxes[items[a]];
         if (q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
         const ch_segment *s = &set->segments[items[a]];
         double t, d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
         if (d2 < best) best = d2, bt = t, bs = items[a];
+        const ch_curve *cv = &set->curves[s->curve];
+        double hw = 0.5 * cv->width; /* as the groove field's support test */
+        if (cv->kind == CH_CURVE_GROOVE && d2 < hw * hw && s->curve != cov0) {
+          if (cov0 < 0) cov0 = s->curve;
+          else cov1 = s->curve;
+        }
       }
       exact[k] = bs >= 0 && sqrt(best) <= band;
+      int near_curve = bs >= 0 ? set->segments[bs].curve : -1;
+      cover[k] = (uint8_t)(cover_all || cov1 >= 0 || (cov0 >= 0 && cov0 != near_curve));
       seg[k] = exact[k] ? bs : -1;
       segt[k] = (float)bt;
       rec[k].seed = exact[k] ? (int32_t)k : -1;
@@ -213,28 +264,6 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
         rec[k].d2 = (float)((xy[0] - x) * (xy[0] - x) + (xy[1] - y) * (xy[1] - y));
         set_sample(set, m, k, q, bs, bt);
       }
-    }
-  /* The exact distance at the centres of cells with an exact corner (the
-   * representation's own error is checked there). */
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < L->R; y++)
-    for (int x = 0; x < L->R; x++) {
-      size_t k = (size_t)y * R1 + x;
-      centre[(size_t)y * L->R + x] = NAN;
-      if (!exact[k]) continue;
-      double q[2];
-      lattice_uv(L, x + 0.5, y + 0.5, q);
-      const int *items;
-      int cnt = ch_grid_query(&grid, q[0], q[1], &items);
-      double best = INFINITY;
-      for (int a = 0; a < cnt; a++) {
-        const double *b = boxes[items[a]];
-        if (q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
-        const ch_segment *s = &set->segments[items[a]];
-        double t, d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
-        if (d2 < best) best = d2;
-      }
-      if (sqrt(best) <= band) centre[(size_t)y * L->R + x] = (float)sqrt(best);
     }
   ch_edt_propagate(rec, exact, R1, R1);
   /* Beyond the band: the seed's exact closest point, measured in UV. */
@@ -262,11 +291,8 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
       set_sample(set, m, k, q, bs, bt);
     }
 done:
-  ch_grid_free(&grid);
-  free(boxes);
   free(seg);
   free(segt);
-  free(exact);
   free(rec);
   return st;
 }
@@ -1022,6 +1048,18 @@ done:
 
 /* ---- the build ---- */
 
+/* A used crossing on edge slot 2 c + (W edge). */
+typedef struct edge_use {
+  size_t slot, event;
+  double pos;
+} edge_use;
+
+static int cmp_edge_use(const void *a, const void *b) {
+  const edge_use *x = a, *y = b;
+  if (x->slot != y->slot) return (x->slot > y->slot) - (x->slot < y->slot);
+  return (x->event > y->event) - (x->event < y->event);
+}
+
 static int cmp_piece_cell(const void *a, const void *b) {
   const piece *x = *(piece *const *)a, *y = *(piece *const *)b;
   if (x->cell != y->cell) return (x->cell > y->cell) - (x->cell < y->cell);
@@ -1100,7 +1138,8 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   vec_event ev = {0};
   vec_piece pc = {0};
   piece **order = NULL;
-  float *centre = NULL;
+  sample_index ix = {0};
+  uint8_t *cover = NULL;
   /* Cells are cut in the maps' space: under a warp, along the curves
    * warped through the cage (ch_warp_curves: exact images of the pieces). */
   ch_curve_set warped = {0};
@@ -1126,12 +1165,12 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
 
   /* 1. samples */
   double t1 = omp_get_wtime();
-  centre = ch_alloc_large((size_t)R * R, sizeof *centre, 0);
-  if (!centre) {
+  cover = ch_alloc_large(n, 1, 0);
+  if (!cover) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature maps", R, R);
     goto fail;
   }
-  if ((st = build_samples(set, use, &L, m, centre, err))) goto fail;
+  if ((st = build_samples(set, use, &L, m, &ix, cover, err))) goto fail;
   m->stats.seconds_samples = omp_get_wtime() - t1;
 
   /* 2-3. pieces, configurations, edge points */
@@ -1209,13 +1248,16 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
     m->seg_curve[2 * c + 1] = curve_of[1];
     a = b;
   }
-  /* Edge points: the crossings of kept pieces, centre of mass. */
+  /* Edge points: the crossings of kept pieces, centre of mass. The used
+   * crossings are sorted by edge slot (then by their order, so every sum
+   * adds in the same order): a pass over those few, not over every slot. */
   {
-    double *acc = calloc(5 * 2 * n, sizeof *acc); /* per edge slot: count, pos, cos 2a, sin 2a */
-    if (!acc) {
+    edge_use *eu = malloc((ev.n > 0 ? ev.n : 1) * sizeof *eu);
+    if (!eu) {
       st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for edge points");
       goto fail;
     }
+    size_t nu = 0;
     for (size_t k = 0; k < ev.n; k++) {
       const event *e = &ev.v[k];
       if (!e->used) continue;
@@ -1224,33 +1266,37 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
       int ci = e->axis == 0 ? (int)floor(e->xy[1]) : e->k, cj = e->axis == 0 ? e->k : (int)floor(e->xy[0]);
       /* vertical edges exist for rows 0..R-1, horizontal ones for columns 0..R-1 */
       if (ci < 0 || cj < 0 || ci > R || cj > R || (e->axis == 0 ? ci == R : cj == R)) continue;
-      size_t c = (size_t)ci * R1 + cj, slot = 2 * c + (e->axis == 0);
-      double pos = event_pos(e, ci, cj);
-      acc[5 * slot] += 1.0;
-      acc[5 * slot + 1] += pos;
-      acc[5 * slot + 2] += cos(2.0 * e->angle);
-      acc[5 * slot + 3] += sin(2.0 * e->angle);
+      size_t c = (size_t)ci * R1 + cj;
+      eu[nu++] = (edge_use){2 * c + (e->axis == 0), k, event_pos(e, ci, cj)};
     }
-    for (size_t c = 0; c < n; c++)
-      for (int w = 0; w < 2; w++) {
-        const double *a = &acc[5 * (2 * c + w)];
-        if (a[0] == 0.0) continue;
-        double pos = ch_clamp(a[1] / a[0], 1e-9, 1.0 - 1e-9);
-        double ang = 0.5 * atan2(a[3], a[2]);
-        m->edge[4 * c + 2 * w] = (float)pos;
-        m->edge[4 * c + 2 * w + 1] = (float)ang;
-        m->config[c] |= w ? CH_FM_POINT_W : CH_FM_POINT_S;
-        m->stats.points++;
-        if (a[0] > 1.0) {
-          m->stats.crossings_merged += (long)a[0] - 1;
-          /* both cells sharing the edge */
-          int ci = (int)(c / R1), cj = (int)(c % R1);
-          if (ci < R && cj < R) m->config[c] |= CH_FM_LOST_MERGED;
-          if (w == 0 && ci > 0 && cj < R) m->config[c - R1] |= CH_FM_LOST_MERGED;
-          if (w == 1 && cj > 0 && ci < R) m->config[c - 1] |= CH_FM_LOST_MERGED;
-        }
+    qsort(eu, nu, sizeof *eu, cmp_edge_use);
+    for (size_t a = 0; a < nu;) {
+      size_t slot = eu[a].slot, c = slot / 2;
+      int w = (int)(slot % 2);
+      double acc[4] = {0.0, 0.0, 0.0, 0.0}; /* count, pos, cos 2a, sin 2a */
+      for (; a < nu && eu[a].slot == slot; a++) {
+        double angle = ev.v[eu[a].event].angle;
+        acc[0] += 1.0;
+        acc[1] += eu[a].pos;
+        acc[2] += cos(2.0 * angle);
+        acc[3] += sin(2.0 * angle);
       }
-    free(acc);
+      double pos = ch_clamp(acc[1] / acc[0], 1e-9, 1.0 - 1e-9);
+      double ang = 0.5 * atan2(acc[3], acc[2]);
+      m->edge[4 * c + 2 * w] = (float)pos;
+      m->edge[4 * c + 2 * w + 1] = (float)ang;
+      m->config[c] |= w ? CH_FM_POINT_W : CH_FM_POINT_S;
+      m->stats.points++;
+      if (acc[0] > 1.0) {
+        m->stats.crossings_merged += (long)acc[0] - 1;
+        /* both cells sharing the edge */
+        int ci = (int)(c / R1), cj = (int)(c % R1);
+        if (ci < R && cj < R) m->config[c] |= CH_FM_LOST_MERGED;
+        if (w == 0 && ci > 0 && cj < R) m->config[c - R1] |= CH_FM_LOST_MERGED;
+        if (w == 1 && cj > 0 && ci < R) m->config[c - 1] |= CH_FM_LOST_MERGED;
+      }
+    }
+    free(eu);
   }
   m->stats.seconds_cells = omp_get_wtime() - t1;
 
@@ -1333,7 +1379,8 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
       for (int x = 0; x < R1; x++) {
         size_t k = (size_t)y * R1 + x;
         active[k] = -1;
-        if (!(fabs(m->dist[k]) < half)) continue;
+        /* elsewhere the field's curve is the nearest one or none */
+        if (!(fabs(m->dist[k]) < half) || !cover[k]) continue;
         double q[2];
         ch_groove_sample gs;
         lattice_uv(&L, x, y, q);
@@ -1415,7 +1462,7 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
           }
         /* The representation's own error at the centre (before fallback
          * lists exist, ch_featmap_eval uses the partition). */
-        float dc = centre[(size_t)ci * R + cj];
+        if (m->config[c] & CH_FM_LOST_ANY || !ix.exact[c]) continue;
         /* only where a profile reads the distance: within the nearest
          * corner's groove band */
         int qn = 0;
@@ -1423,10 +1470,12 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
           if (fabs(m->dist[cs[q]]) < fabs(m->dist[cs[qn]])) qn = q;
         const ch_featmap_curve *cq = &m->curves[m->curve[cs[qn]]];
         double bandc = cq->kind == CH_CURVE_GROOVE ? 0.5 * cq->width + 0.5 * cell_uv : 0.0;
-        if (!(m->config[c] & CH_FM_LOST_ANY) && dc == dc && dc < bandc) {
-          double uv[2];
+        if (!(bandc > 0.0)) continue;
+        double uv[2];
+        lattice_uv(&L, cj + 0.5, ci + 0.5, uv);
+        float dc = (float)index_distance(set, &ix, uv);
+        if (dc == dc && dc < bandc) {
           ch_featmap_sample fs;
-          lattice_uv(&L, cj + 0.5, ci + 0.5, uv);
           ch_featmap_eval(m, m->linear ? CH_FEATMAP_LINEAR : CH_FEATMAP_FEATNORM, uv[0], uv[1], &fs);
           if (fabs(fs.distance - dc) > CH_FEATMAP_TIGHT_DISTANCE * cell_uv) m->config[c] |= CH_FM_LOST_TIGHT;
         }
@@ -1557,7 +1606,8 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   free(pc.v);
   free(order);
   free(use);
-  free(centre);
+  free(cover);
+  sample_index_free(&ix);
   ch_curves_free(&warped);
   return CH_OK;
 fail:
@@ -1565,7 +1615,8 @@ fail:
   free(pc.v);
   free(order);
   free(use);
-  free(centre);
+  free(cover);
+  sample_index_free(&ix);
   ch_curves_free(&warped);
   ch_featmap_free(m);
   return st;
