@@ -3,7 +3,7 @@
  * rasterisation and its constrained Laplacian smoothing) and
  * normal-maps-discontinuities §4.1-4.2 (the linear variant).
  *
- * Why one file of about 1,550 lines: the steps below are one build over
+ * Why one file of about 1,700 lines: the steps below are one build over
  * one private working state (the lattice's samples, the per-cell pieces,
  * the edge points and their fit), each step reading what the one before
  * left there; the evaluation, its cell geometry and the EXR form are
@@ -19,6 +19,8 @@
  *    each segment's distance over its bounding box; same result in band.
  * 2. Every curve is cut at the lattice lines (the papers' scan conversion):
  *    a piece per cell, from the edge it enters by to the edge it leaves by.
+ *    Steps 2-3 read no sample: they run on one thread while the other
+ *    propagates the samples (a sequential sweep).
  * 3. Per cell the through-pieces, longest first, go through the
  *    transformation table (configuration, new pair) -> configuration: a
  *    pair already present is merged, a third pair is dropped (§4, Fig. 6).
