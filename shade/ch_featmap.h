@@ -122,6 +122,8 @@ typedef struct ch_featmap_stats {
   long pieces_dropped, crossings_merged;
   long invalid, fitted, straightened; /* signatures invalid as crossed; refitted; straightened */
   long fallback_cells, fallback_entries, fallback_overflow;
+  /* wall seconds per step; the cells' steps run beside the samples'
+   * propagation, within seconds_samples */
   double seconds_samples, seconds_cells, seconds_fit, seconds_check, seconds_smooth, seconds_fallback, seconds_normal,
       seconds_total;
 } ch_featmap_stats;

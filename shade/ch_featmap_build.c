@@ -3,7 +3,7 @@
  * rasterisation and its constrained Laplacian smoothing) and
  * normal-maps-discontinuities §4.1-4.2 (the linear variant).
  *
- * Why one file of about 1,550 lines: the steps below are one build over
+ * Why one file of about 1,700 lines: the steps below are one build over
  * one private working state (the lattice's samples, the per-cell pieces,
  * the edge points and their fit), each step reading what the one before
  * left there; the evaluation, its cell geometry and the EXR form are
@@ -19,6 +19,8 @@
  *    each segment's distance over its bounding box; same result in band.
  * 2. Every curve is cut at the lattice lines (the papers' scan conversion):
  *    a piece per cell, from the edge it enters by to the edge it leaves by.
+ *    Steps 2-3 read no sample: they run on one thread while the other
+ *    propagates the samples (a sequential sweep).
  * 3. Per cell the through-pieces, longest first, go through the
  *    transformation table (configuration, new pair) -> configuration: a
  *    pair already present is merged, a third pair is dropped (§4, Fig. 6).
@@ -151,8 +153,55 @@ static void set_sample(const ch_curve_set *set, ch_featmap *m, size_t k, const d
   }
 }
 
-static ch_status build_samples(const ch_curve_set *set, const unsigned char *use, const lattice *L, ch_featmap *m,
-                               float *centre, ch_error *err) {
+/* The segments near the lattice, kept from the samples to the checks:
+ * each encoded segment's box grown by the band, a grid over those boxes,
+ * and which lattice points got an exact sample. */
+typedef struct sample_index {
+  double band;
+  double (*boxes)[4];
+  ch_grid grid;
+  uint8_t *exact;
+  /* until the samples are done: per exact point its closest segment and
+   * parameter, and the seeds propagated from them */
+  int32_t *seg;
+  float *segt;
+  ch_edt_rec *rec;
+} sample_index;
+
+static void sample_index_free(sample_index *ix) {
+  ch_grid_free(&ix->grid);
+  free(ix->boxes);
+  free(ix->exact);
+  free(ix->seg);
+  free(ix->segt);
+  free(ix->rec);
+  memset(ix, 0, sizeof *ix);
+}
+
+/* The exact distance from UV point q to the nearest encoded curve, or NaN
+ * beyond the band. */
+static double index_distance(const ch_curve_set *set, const sample_index *ix, const double q[2]) {
+  const int *items;
+  int cnt = ch_grid_query(&ix->grid, q[0], q[1], &items);
+  double best = INFINITY;
+  for (int a = 0; a < cnt; a++) {
+    const double *b = ix->boxes[items[a]];
+    if (q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
+    const ch_segment *s = &set->segments[items[a]];
+    double t, d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
+    if (d2 < best) best = d2;
+  }
+  return sqrt(best) <= ix->band ? sqrt(best) : NAN;
+}
+
+/* Samples in three steps: the exact ones within the band (samples_exact),
+ * their seeds propagated (ch_edt_propagate on ix->rec), the rest from the
+ * seeds (samples_rest). cover[k] is set where a groove other
+ * than the nearest curve reaches the point (distance under its half width),
+ * the only points where the grooves' CSG can pick another curve than the
+ * nearest: the overlap check evaluates the groove field there alone. */
+static ch_status samples_exact(const ch_curve_set *set, const unsigned char *use, const lattice *L, ch_featmap *m,
+                               sample_index *ix, uint8_t *cover, ch_error *err) {
   int R1 = L->R1;
   size_t n = (size_t)R1 * R1;
   double texel = fmax(L->du, L->dv), half = 0.0;
@@ -161,17 +210,20 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
   /* Exact within the widest groove's half width plus two cells: where
    * profiles are read and where cells hold curves. */
   double band = ch_clamp(half / texel + 2.0, 3.0, 64.0) * texel;
-  double(*boxes)[4] = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *boxes);
-  int32_t *seg = ch_alloc_large(n, sizeof *seg, 0);
-  float *segt = ch_alloc_large(n, sizeof *segt, 0);
-  uint8_t *exact = ch_alloc_large(n, 1, 0);
-  ch_edt_rec *rec = ch_alloc_large(n, sizeof *rec, 0);
-  ch_grid grid = {0};
-  ch_status st = CH_OK;
-  if (!boxes || !seg || !segt || !exact || !rec) {
-    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature samples", R1, R1);
-    goto done;
-  }
+  /* Grooves wider than the band (the clamp) may reach a point from
+   * segments the band leaves out: every point is then checked. */
+  int cover_all = !(band > half);
+  memset(ix, 0, sizeof *ix);
+  ix->band = band;
+  ix->boxes = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *ix->boxes);
+  ix->exact = ch_alloc_large(n, 1, 0);
+  double(*boxes)[4] = ix->boxes;
+  uint8_t *exact = ix->exact;
+  int32_t *seg = ix->seg = ch_alloc_large(n, sizeof *seg, 0);
+  float *segt = ix->segt = ch_alloc_large(n, sizeof *segt, 0);
+  ch_edt_rec *rec = ix->rec = ch_alloc_large(n, sizeof *rec, 0);
+  if (!boxes || !seg || !segt || !exact || !rec)
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature samples", R1, R1);
   for (int i = 0; i < set->num_segments; i++) {
     const ch_segment *s = &set->segments[i];
     if (!use[s->curve]) {
@@ -181,7 +233,8 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
       ch_segment_box(s, band, boxes[i]);
     }
   }
-  if ((st = ch_grid_build(&grid, set->num_segments, (const double(*)[4])boxes, err))) goto done;
+  ch_status st = ch_grid_build(&ix->grid, set->num_segments, (const double(*)[4])boxes, err);
+  if (st) return st;
 #pragma omp parallel for schedule(dynamic, 4)
   for (int y = 0; y < R1; y++)
     for (int x = 0; x < R1; x++) {
@@ -189,17 +242,25 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
       double q[2];
       lattice_uv(L, x, y, q);
       const int *items;
-      int cnt = ch_grid_query(&grid, q[0], q[1], &items);
+      int cnt = ch_grid_query(&ix->grid, q[0], q[1], &items);
       double best = INFINITY, bt = 0.0;
-      int bs = -1;
+      int bs = -1, cov0 = -1, cov1 = -1; /* the first two grooves reaching q */
       for (int a = 0; a < cnt; a++) {
         const double *b = boxes[items[a]];
         if (q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
         const ch_segment *s = &set->segments[items[a]];
         double t, d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
         if (d2 < best) best = d2, bt = t, bs = items[a];
+        const ch_curve *cv = &set->curves[s->curve];
+        double hw = 0.5 * cv->width; /* as the groove field's support test */
+        if (cv->kind == CH_CURVE_GROOVE && d2 < hw * hw && s->curve != cov0) {
+          if (cov0 < 0) cov0 = s->curve;
+          else cov1 = s->curve;
+        }
       }
       exact[k] = bs >= 0 && sqrt(best) <= band;
+      int near_curve = bs >= 0 ? set->segments[bs].curve : -1;
+      cover[k] = (uint8_t)(cover_all || cov1 >= 0 || (cov0 >= 0 && cov0 != near_curve));
       seg[k] = exact[k] ? bs : -1;
       segt[k] = (float)bt;
       rec[k].seed = exact[k] ? (int32_t)k : -1;
@@ -214,30 +275,17 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
         set_sample(set, m, k, q, bs, bt);
       }
     }
-  /* The exact distance at the centres of cells with an exact corner (the
-   * representation's own error is checked there). */
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < L->R; y++)
-    for (int x = 0; x < L->R; x++) {
-      size_t k = (size_t)y * R1 + x;
-      centre[(size_t)y * L->R + x] = NAN;
-      if (!exact[k]) continue;
-      double q[2];
-      lattice_uv(L, x + 0.5, y + 0.5, q);
-      const int *items;
-      int cnt = ch_grid_query(&grid, q[0], q[1], &items);
-      double best = INFINITY;
-      for (int a = 0; a < cnt; a++) {
-        const double *b = boxes[items[a]];
-        if (q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
-        const ch_segment *s = &set->segments[items[a]];
-        double t, d2 = ch_bezier_closest(s->p, s->is_line, q, &t);
-        if (d2 < best) best = d2;
-      }
-      if (sqrt(best) <= band) centre[(size_t)y * L->R + x] = (float)sqrt(best);
-    }
-  ch_edt_propagate(rec, exact, R1, R1);
-  /* Beyond the band: the seed's exact closest point, measured in UV. */
+  return CH_OK;
+}
+
+/* Beyond the band: the seed's exact closest point, measured in UV. */
+static void samples_rest(const ch_curve_set *set, const unsigned char *use, const lattice *L, ch_featmap *m,
+                         sample_index *ix) {
+  int R1 = L->R1;
+  const uint8_t *exact = ix->exact;
+  const int32_t *seg = ix->seg;
+  const float *segt = ix->segt;
+  const ch_edt_rec *rec = ix->rec;
 #pragma omp parallel for schedule(dynamic, 16)
   for (int y = 0; y < R1; y++)
     for (int x = 0; x < R1; x++) {
@@ -261,14 +309,10 @@ static ch_status build_samples(const ch_curve_set *set, const unsigned char *use
       }
       set_sample(set, m, k, q, bs, bt);
     }
-done:
-  ch_grid_free(&grid);
-  free(boxes);
-  free(seg);
-  free(segt);
-  free(exact);
-  free(rec);
-  return st;
+  free(ix->seg);
+  free(ix->segt);
+  free(ix->rec);
+  ix->seg = NULL, ix->segt = NULL, ix->rec = NULL;
 }
 
 /* ---- 2. crossings and pieces ---- */
@@ -687,6 +731,13 @@ static int fit_cell_angles(ch_featmap *m, int R, int ci, int cj) {
 
 /* ---- 5. smoothing ---- */
 
+/* Whether sample k is smoothed (see smooth_gradient). */
+static int smoothed(const ch_featmap *m, size_t k, double texel, int everywhere) {
+  const ch_featmap_curve *c = &m->curves[m->curve[k]];
+  double band = (c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : 0.0) + 1.5 * texel, d = fabs(m->dist[k]);
+  return everywhere || (d > band && d <= band + 8.0 * texel);
+}
+
 /* The papers' constrained Laplacian smoothing (feature-curves §4, 10
  * iterations): each sample moves half-way to the mean of its 4-neighbours
  * that no discontinuity separates from it (an edge with a point), then is
@@ -700,28 +751,43 @@ static ch_status smooth_gradient(ch_featmap *m, const lattice *L, int iterations
   int R = L->R, R1 = R + 1;
   size_t n = (size_t)R1 * R1;
   double texel = fmax(L->du, L->dv);
-  size_t count = 0;
-  for (size_t k = 0; k < n; k++) {
-    const ch_featmap_curve *c = &m->curves[m->curve[k]];
-    double band = (c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : 0.0) + 1.5 * texel, d = fabs(m->dist[k]);
-    count += everywhere || (d > band && d <= band + 8.0 * texel);
+  /* The samples to smooth, in index order: counted per row, then listed. */
+  size_t *row = malloc(((size_t)R1 + 1) * sizeof *row);
+  if (!row) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the gradient smoothing");
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < R1; y++) {
+    size_t cnt = 0;
+    for (size_t k = (size_t)y * R1; k < (size_t)(y + 1) * R1; k++) cnt += (size_t)smoothed(m, k, texel, everywhere);
+    row[y + 1] = cnt;
   }
+  row[0] = 0;
+  for (int y = 0; y < R1; y++) row[y + 1] += row[y];
+  size_t count = row[R1];
   int32_t *list = ch_alloc_large(count > 0 ? count : 1, sizeof *list, 0);
-  float *next = ch_alloc_large(2 * (count > 0 ? count : 1), sizeof *next, 0);
-  if (!list || !next) {
+  /* Jacobi steps from one copy of the gradients into the other and back:
+   * one pass and one wait per step. */
+  float *other = iterations > 0 ? ch_alloc_large(2 * n, sizeof *other, 0) : NULL;
+  if (!list || (iterations > 0 && !other)) {
+    free(row);
     free(list);
-    free(next);
+    free(other);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the gradient smoothing");
   }
-  count = 0;
-  for (size_t k = 0; k < n; k++) {
-    const ch_featmap_curve *c = &m->curves[m->curve[k]];
-    double band = (c->kind == CH_CURVE_GROOVE ? 0.5 * c->width : 0.0) + 1.5 * texel, d = fabs(m->dist[k]);
-    if (everywhere || (d > band && d <= band + 8.0 * texel)) list[count++] = (int32_t)k;
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < R1; y++) {
+    size_t at = row[y];
+    for (size_t k = (size_t)y * R1; k < (size_t)(y + 1) * R1; k++)
+      if (smoothed(m, k, texel, everywhere)) list[at++] = (int32_t)k;
+    if (other) memcpy(other + 2 * (size_t)y * R1, m->grad + 2 * (size_t)y * R1, 2 * (size_t)R1 * sizeof *other);
   }
-  float *g = m->grad;
+  free(row);
+  float *bufs[2] = {m->grad, other};
+  const uint32_t *config = m->config;
+#pragma omp parallel if (count > (1 << 16))
   for (int it = 0; it < iterations; it++) {
-#pragma omp parallel for schedule(static) if (count > (1 << 16))
+    const float *g = bufs[it % 2];
+    float *next = bufs[(it + 1) % 2];
+#pragma omp for schedule(static)
     for (long a = 0; a < (long)count; a++) {
       size_t k = (size_t)list[a];
       int x = (int)(k % R1), y = (int)(k / R1);
@@ -729,10 +795,10 @@ static ch_status smooth_gradient(ch_featmap *m, const lattice *L, int iterations
       int cnt = 0;
       /* The edge between two neighbours is a cell edge: S edge of (y, x)
        * joins (y, x) and (y, x+1); W edge of (y, x) joins (y, x), (y+1, x). */
-      if (x + 1 < R1 && !(m->config[k] & CH_FM_POINT_S)) sx += g[2 * (k + 1)], sy += g[2 * (k + 1) + 1], cnt++;
-      if (x > 0 && !(m->config[k - 1] & CH_FM_POINT_S)) sx += g[2 * (k - 1)], sy += g[2 * (k - 1) + 1], cnt++;
-      if (y + 1 < R1 && !(m->config[k] & CH_FM_POINT_W)) sx += g[2 * (k + R1)], sy += g[2 * (k + R1) + 1], cnt++;
-      if (y > 0 && !(m->config[k - R1] & CH_FM_POINT_W)) sx += g[2 * (k - R1)], sy += g[2 * (k - R1) + 1], cnt++;
+      if (x + 1 < R1 && !(config[k] & CH_FM_POINT_S)) sx += g[2 * (k + 1)], sy += g[2 * (k + 1) + 1], cnt++;
+      if (x > 0 && !(config[k - 1] & CH_FM_POINT_S)) sx += g[2 * (k - 1)], sy += g[2 * (k - 1) + 1], cnt++;
+      if (y + 1 < R1 && !(config[k] & CH_FM_POINT_W)) sx += g[2 * (k + R1)], sy += g[2 * (k + R1) + 1], cnt++;
+      if (y > 0 && !(config[k - R1] & CH_FM_POINT_W)) sx += g[2 * (k - R1)], sy += g[2 * (k - R1) + 1], cnt++;
       double gx = g[2 * k], gy = g[2 * k + 1];
       if (cnt) {
         gx += 0.5 * (sx / cnt - gx);
@@ -741,17 +807,17 @@ static ch_status smooth_gradient(ch_featmap *m, const lattice *L, int iterations
       double l = sqrt(gx * gx + gy * gy);
       if (l > 1e-12) gx /= l, gy /= l;
       else gx = g[2 * k], gy = g[2 * k + 1];
-      next[2 * a] = (float)gx;
-      next[2 * a + 1] = (float)gy;
-    }
-#pragma omp parallel for schedule(static) if (count > (1 << 16))
-    for (long a = 0; a < (long)count; a++) {
-      g[2 * (size_t)list[a]] = next[2 * a];
-      g[2 * (size_t)list[a] + 1] = next[2 * a + 1];
+      next[2 * k] = (float)gx;
+      next[2 * k + 1] = (float)gy;
     }
   }
+  /* The last step's copy is the gradient map. */
+  if (iterations % 2) {
+    m->grad = other;
+    other = bufs[0];
+  }
   free(list);
-  free(next);
+  free(other);
   return CH_OK;
 }
 
@@ -1022,12 +1088,192 @@ done:
 
 /* ---- the build ---- */
 
+/* Whether |a - b| > limit, as hypot decides it, calling hypot only where
+ * the two bounds max(|dx|, |dy|) <= |a - b| <= |dx| + |dy| leave it open
+ * (the check asks this for every pair of corners near the curves). */
+static int jumps(const double a[2], const double b[2], double limit) {
+  double dx = fabs(a[0] - b[0]), dy = fabs(a[1] - b[1]);
+  if (fmax(dx, dy) > limit) return 1;
+  if ((dx + dy) * (1.0 + 1e-12) <= limit) return 0;
+  return hypot(dx, dy) > limit;
+}
+
+/* A used crossing on edge slot 2 c + (W edge). */
+typedef struct edge_use {
+  size_t slot, event;
+  double pos;
+} edge_use;
+
+/* Sorts uses by slot, keeping the order of equal slots (so by event):
+ * two stable counting passes, by the slot's column and side, then by its
+ * row (rows 0..R1-1, 2 R1 slots a row). */
+static int sort_edge_uses(edge_use *eu, size_t nu, int R1) {
+  size_t width = 2 * (size_t)R1, nb = width > (size_t)R1 ? width : (size_t)R1;
+  edge_use *tmp = malloc((nu > 0 ? nu : 1) * sizeof *tmp);
+  size_t *at = malloc((nb + 1) * sizeof *at);
+  if (!tmp || !at) {
+    free(tmp);
+    free(at);
+    return -1;
+  }
+  for (int pass = 0; pass < 2; pass++) {
+    edge_use *from = pass ? tmp : eu, *to = pass ? eu : tmp;
+    size_t buckets = pass ? (size_t)R1 : width;
+    memset(at, 0, (buckets + 1) * sizeof *at);
+    for (size_t a = 0; a < nu; a++) at[(pass ? from[a].slot / width : from[a].slot % width) + 1]++;
+    for (size_t b = 0; b < buckets; b++) at[b + 1] += at[b];
+    for (size_t a = 0; a < nu; a++) to[at[pass ? from[a].slot / width : from[a].slot % width]++] = from[a];
+  }
+  free(tmp);
+  free(at);
+  return 0;
+}
+
 static int cmp_piece_cell(const void *a, const void *b) {
   const piece *x = *(piece *const *)a, *y = *(piece *const *)b;
   if (x->cell != y->cell) return (x->cell > y->cell) - (x->cell < y->cell);
   /* longest first; ties by position in the list (stable) */
   if (x->length != y->length) return (x->length < y->length) - (x->length > y->length);
   return (x > y) - (x < y);
+}
+
+/* Steps 2-3: the curves cut into pieces per cell (under a warp, the curves
+ * warped through the cage, into *warped), the configurations and the edge
+ * points. Reads only the curves and the lattice, so it runs beside the
+ * samples' propagation. */
+static ch_status build_cells(const ch_curve_set *set, const unsigned char *use, const lattice *L, const ch_warp *warp,
+                             ch_curve_set *warped, const ch_curve_set **pset, vec_event *ev, vec_piece *pc,
+                             piece ***order_out, size_t *nin_out, ch_featmap *m, ch_error *err) {
+  int R = L->R, R1 = R + 1;
+  ch_status st = CH_OK;
+  if (warp) {
+    if ((st = ch_warp_curves(warp, set, warped, NULL, err))) return st;
+    *pset = warped;
+  }
+  if ((st = build_pieces(*pset, use, L, ev, pc, err))) return st;
+  piece **order = *order_out = malloc((pc->n > 0 ? pc->n : 1) * sizeof *order);
+  if (!order) {
+    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for curve pieces");
+    return st;
+  }
+  size_t nin = 0;
+  for (size_t k = 0; k < pc->n; k++)
+    if (pc->v[k].cell >= 0) order[nin++] = &pc->v[k];
+  *nin_out = nin;
+  qsort(order, nin, sizeof *order, cmp_piece_cell);
+  for (size_t a = 0; a < nin;) {
+    size_t b = a;
+    int cell = order[a]->cell, ci = cell / R, cj = cell % R;
+    size_t c = (size_t)ci * R1 + cj;
+    uint8_t segs[2] = {0, 0};
+    uint32_t lost = 0;
+    int curve_of[2] = {-1, -1}, rev[2] = {0, 0}, flat[2] = {0, 0};
+    for (; b < nin && order[b]->cell == cell; b++) {
+      piece *p = order[b];
+      if (p->corner) lost |= CH_FM_LOST_CORNER;
+      int na = p->edge_a >= 0, nb = p->edge_b >= 0;
+      if ((p->ea >= 0 && !na) || (p->eb >= 0 && !nb)) {
+        lost |= CH_FM_LOST_LOOP; /* crossings that do not bound its cell */
+        continue;
+      }
+      if (!na && !nb) {
+        lost |= CH_FM_LOST_LOOP;
+        continue;
+      }
+      if (na != nb) {
+        lost |= CH_FM_LOST_END;
+        continue;
+      }
+      if (p->edge_a == p->edge_b) {
+        lost |= CH_FM_LOST_LOOP;
+        continue;
+      }
+      int pair = fm_pair_index(p->edge_a, p->edge_b);
+      transform t = table_apply(segs, pair);
+      if (t.what == 2) {
+        lost |= CH_FM_LOST_DROPPED;
+        m->stats.pieces_dropped++;
+        continue;
+      }
+      if (t.what == 1) lost |= CH_FM_LOST_MERGED;
+      else {
+        int slot = segs[0] ? 1 : 0;
+        curve_of[slot] = p->curve;
+        rev[slot] = p->edge_a > p->edge_b;
+        /* A piece within FLAT of its chord is a straight segment: exact
+         * enough, and its tangent lines (often a tiny corner clip) need
+         * not meet inside the cell. */
+        flat[slot] = !p->corner && p->sagitta < FLAT;
+      }
+      segs[0] = t.seg[0], segs[1] = t.seg[1];
+      p->kept = 1;
+      if (p->ea >= 0) ev->v[p->ea].used++;
+      if (p->eb >= 0) ev->v[p->eb].used++;
+    }
+    m->config[c] |= (uint32_t)segs[0] | ((uint32_t)segs[1] << CH_FM_SEG_BITS) | lost;
+    if (rev[0]) m->config[c] |= CH_FM_REVERSED0;
+    if (rev[1]) m->config[c] |= CH_FM_REVERSED1;
+    if (flat[0] && !m->linear) m->config[c] |= CH_FM_STRAIGHT0;
+    if (flat[1] && !m->linear) m->config[c] |= CH_FM_STRAIGHT1;
+    m->seg_curve[2 * c] = curve_of[0];
+    m->seg_curve[2 * c + 1] = curve_of[1];
+    a = b;
+  }
+  /* Edge points: the crossings of kept pieces, centre of mass. The used
+   * crossings are sorted by edge slot (then by their order, so every sum
+   * adds in the same order): a pass over those few, not over every slot. */
+  {
+    edge_use *eu = malloc((ev->n > 0 ? ev->n : 1) * sizeof *eu);
+    if (!eu) {
+      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for edge points");
+      return st;
+    }
+    size_t nu = 0;
+    for (size_t k = 0; k < ev->n; k++) {
+      const event *e = &ev->v[k];
+      if (!e->used) continue;
+      /* the edge: vertical line x = k at y -> W edge of cell (floor y, k);
+       * horizontal y = k at x -> S edge of cell (k, floor x) */
+      int ci = e->axis == 0 ? (int)floor(e->xy[1]) : e->k, cj = e->axis == 0 ? e->k : (int)floor(e->xy[0]);
+      /* vertical edges exist for rows 0..R-1, horizontal ones for columns 0..R-1 */
+      if (ci < 0 || cj < 0 || ci > R || cj > R || (e->axis == 0 ? ci == R : cj == R)) continue;
+      size_t c = (size_t)ci * R1 + cj;
+      eu[nu++] = (edge_use){2 * c + (e->axis == 0), k, event_pos(e, ci, cj)};
+    }
+    if (sort_edge_uses(eu, nu, R1)) {
+      free(eu);
+      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for edge points");
+      return st;
+    }
+    for (size_t a = 0; a < nu;) {
+      size_t slot = eu[a].slot, c = slot / 2;
+      int w = (int)(slot % 2);
+      double acc[4] = {0.0, 0.0, 0.0, 0.0}; /* count, pos, cos 2a, sin 2a */
+      for (; a < nu && eu[a].slot == slot; a++) {
+        double angle = ev->v[eu[a].event].angle;
+        acc[0] += 1.0;
+        acc[1] += eu[a].pos;
+        acc[2] += cos(2.0 * angle);
+        acc[3] += sin(2.0 * angle);
+      }
+      double pos = ch_clamp(acc[1] / acc[0], 1e-9, 1.0 - 1e-9);
+      double ang = 0.5 * atan2(acc[3], acc[2]);
+      m->edge[4 * c + 2 * w] = (float)pos;
+      m->edge[4 * c + 2 * w + 1] = (float)ang;
+      m->config[c] |= w ? CH_FM_POINT_W : CH_FM_POINT_S;
+      m->stats.points++;
+      if (acc[0] > 1.0) {
+        m->stats.crossings_merged += (long)acc[0] - 1;
+        /* both cells sharing the edge */
+        int ci = (int)(c / R1), cj = (int)(c % R1);
+        if (ci < R && cj < R) m->config[c] |= CH_FM_LOST_MERGED;
+        if (w == 0 && ci > 0 && cj < R) m->config[c - R1] |= CH_FM_LOST_MERGED;
+        if (w == 1 && cj > 0 && ci < R) m->config[c - 1] |= CH_FM_LOST_MERGED;
+      }
+    }
+    free(eu);
+  }
+  return CH_OK;
 }
 
 ch_status ch_featmap_check_lattice(const char *what, int resolution, const double rect[4], double out[4],
@@ -1100,7 +1346,10 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   vec_event ev = {0};
   vec_piece pc = {0};
   piece **order = NULL;
-  float *centre = NULL;
+  size_t nin = 0;
+  int R1 = R + 1;
+  sample_index ix = {0};
+  uint8_t *cover = NULL;
   /* Cells are cut in the maps' space: under a warp, along the curves
    * warped through the cage (ch_warp_curves: exact images of the pieces). */
   ch_curve_set warped = {0};
@@ -1115,6 +1364,7 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
     const ch_curve *cv = &set->curves[c];
     m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth};
   }
+#pragma omp parallel for schedule(static)
   for (size_t k = 0; k < n; k++) {
     m->edge[4 * k] = m->edge[4 * k + 2] = 0.5f;
     m->edge[4 * k + 1] = m->edge[4 * k + 3] = 0.0f;
@@ -1126,133 +1376,30 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
 
   /* 1. samples */
   double t1 = omp_get_wtime();
-  centre = ch_alloc_large((size_t)R * R, sizeof *centre, 0);
-  if (!centre) {
+  cover = ch_alloc_large(n, 1, 0);
+  if (!cover) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature maps", R, R);
     goto fail;
   }
-  if ((st = build_samples(set, use, &L, m, centre, err))) goto fail;
-  m->stats.seconds_samples = omp_get_wtime() - t1;
-
-  /* 2-3. pieces, configurations, edge points */
-  t1 = omp_get_wtime();
-  if (desc->warp) {
-    if ((st = ch_warp_curves(desc->warp, set, &warped, NULL, err))) goto fail;
-    pset = &warped;
-  }
-  if ((st = build_pieces(pset, use, &L, &ev, &pc, err))) goto fail;
-  order = malloc((pc.n > 0 ? pc.n : 1) * sizeof *order);
-  if (!order) {
-    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for curve pieces");
-    goto fail;
-  }
-  size_t nin = 0;
-  for (size_t k = 0; k < pc.n; k++)
-    if (pc.v[k].cell >= 0) order[nin++] = &pc.v[k];
-  qsort(order, nin, sizeof *order, cmp_piece_cell);
-  int R1 = R + 1;
-  for (size_t a = 0; a < nin;) {
-    size_t b = a;
-    int cell = order[a]->cell, ci = cell / R, cj = cell % R;
-    size_t c = (size_t)ci * R1 + cj;
-    uint8_t segs[2] = {0, 0};
-    uint32_t lost = 0;
-    int curve_of[2] = {-1, -1}, rev[2] = {0, 0}, flat[2] = {0, 0};
-    for (; b < nin && order[b]->cell == cell; b++) {
-      piece *p = order[b];
-      if (p->corner) lost |= CH_FM_LOST_CORNER;
-      int na = p->edge_a >= 0, nb = p->edge_b >= 0;
-      if ((p->ea >= 0 && !na) || (p->eb >= 0 && !nb)) {
-        lost |= CH_FM_LOST_LOOP; /* crossings that do not bound its cell */
-        continue;
-      }
-      if (!na && !nb) {
-        lost |= CH_FM_LOST_LOOP;
-        continue;
-      }
-      if (na != nb) {
-        lost |= CH_FM_LOST_END;
-        continue;
-      }
-      if (p->edge_a == p->edge_b) {
-        lost |= CH_FM_LOST_LOOP;
-        continue;
-      }
-      int pair = fm_pair_index(p->edge_a, p->edge_b);
-      transform t = table_apply(segs, pair);
-      if (t.what == 2) {
-        lost |= CH_FM_LOST_DROPPED;
-        m->stats.pieces_dropped++;
-        continue;
-      }
-      if (t.what == 1) lost |= CH_FM_LOST_MERGED;
-      else {
-        int slot = segs[0] ? 1 : 0;
-        curve_of[slot] = p->curve;
-        rev[slot] = p->edge_a > p->edge_b;
-        /* A piece within FLAT of its chord is a straight segment: exact
-         * enough, and its tangent lines (often a tiny corner clip) need
-         * not meet inside the cell. */
-        flat[slot] = !p->corner && p->sagitta < FLAT;
-      }
-      segs[0] = t.seg[0], segs[1] = t.seg[1];
-      p->kept = 1;
-      if (p->ea >= 0) ev.v[p->ea].used++;
-      if (p->eb >= 0) ev.v[p->eb].used++;
-    }
-    m->config[c] |= (uint32_t)segs[0] | ((uint32_t)segs[1] << CH_FM_SEG_BITS) | lost;
-    if (rev[0]) m->config[c] |= CH_FM_REVERSED0;
-    if (rev[1]) m->config[c] |= CH_FM_REVERSED1;
-    if (flat[0] && !m->linear) m->config[c] |= CH_FM_STRAIGHT0;
-    if (flat[1] && !m->linear) m->config[c] |= CH_FM_STRAIGHT1;
-    m->seg_curve[2 * c] = curve_of[0];
-    m->seg_curve[2 * c + 1] = curve_of[1];
-    a = b;
-  }
-  /* Edge points: the crossings of kept pieces, centre of mass. */
+  if ((st = samples_exact(set, use, &L, m, &ix, cover, err))) goto fail;
+  /* 2-3. pieces, configurations, edge points: they read no sample, so they
+   * run beside the propagation, which is one sequential sweep. */
+  double t_cells = 0.0;
+#pragma omp parallel sections
   {
-    double *acc = calloc(5 * 2 * n, sizeof *acc); /* per edge slot: count, pos, cos 2a, sin 2a */
-    if (!acc) {
-      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for edge points");
-      goto fail;
+#pragma omp section
+    ch_edt_propagate(ix.rec, ix.exact, R1, R1);
+#pragma omp section
+    {
+      double tc = omp_get_wtime();
+      st = build_cells(set, use, &L, desc->warp, &warped, &pset, &ev, &pc, &order, &nin, m, err);
+      t_cells = omp_get_wtime() - tc;
     }
-    for (size_t k = 0; k < ev.n; k++) {
-      const event *e = &ev.v[k];
-      if (!e->used) continue;
-      /* the edge: vertical line x = k at y -> W edge of cell (floor y, k);
-       * horizontal y = k at x -> S edge of cell (k, floor x) */
-      int ci = e->axis == 0 ? (int)floor(e->xy[1]) : e->k, cj = e->axis == 0 ? e->k : (int)floor(e->xy[0]);
-      /* vertical edges exist for rows 0..R-1, horizontal ones for columns 0..R-1 */
-      if (ci < 0 || cj < 0 || ci > R || cj > R || (e->axis == 0 ? ci == R : cj == R)) continue;
-      size_t c = (size_t)ci * R1 + cj, slot = 2 * c + (e->axis == 0);
-      double pos = event_pos(e, ci, cj);
-      acc[5 * slot] += 1.0;
-      acc[5 * slot + 1] += pos;
-      acc[5 * slot + 2] += cos(2.0 * e->angle);
-      acc[5 * slot + 3] += sin(2.0 * e->angle);
-    }
-    for (size_t c = 0; c < n; c++)
-      for (int w = 0; w < 2; w++) {
-        const double *a = &acc[5 * (2 * c + w)];
-        if (a[0] == 0.0) continue;
-        double pos = ch_clamp(a[1] / a[0], 1e-9, 1.0 - 1e-9);
-        double ang = 0.5 * atan2(a[3], a[2]);
-        m->edge[4 * c + 2 * w] = (float)pos;
-        m->edge[4 * c + 2 * w + 1] = (float)ang;
-        m->config[c] |= w ? CH_FM_POINT_W : CH_FM_POINT_S;
-        m->stats.points++;
-        if (a[0] > 1.0) {
-          m->stats.crossings_merged += (long)a[0] - 1;
-          /* both cells sharing the edge */
-          int ci = (int)(c / R1), cj = (int)(c % R1);
-          if (ci < R && cj < R) m->config[c] |= CH_FM_LOST_MERGED;
-          if (w == 0 && ci > 0 && cj < R) m->config[c - R1] |= CH_FM_LOST_MERGED;
-          if (w == 1 && cj > 0 && ci < R) m->config[c - 1] |= CH_FM_LOST_MERGED;
-        }
-      }
-    free(acc);
   }
-  m->stats.seconds_cells = omp_get_wtime() - t1;
+  if (st) goto fail;
+  samples_rest(set, use, &L, m, &ix);
+  m->stats.seconds_samples = omp_get_wtime() - t1; /* overlapping seconds_cells */
+  m->stats.seconds_cells = t_cells;
 
   /* 4. signatures: validity, fit */
   t1 = omp_get_wtime();
@@ -1333,7 +1480,8 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
       for (int x = 0; x < R1; x++) {
         size_t k = (size_t)y * R1 + x;
         active[k] = -1;
-        if (!(fabs(m->dist[k]) < half)) continue;
+        /* elsewhere the field's curve is the nearest one or none */
+        if (!(fabs(m->dist[k]) < half) || !cover[k]) continue;
         double q[2];
         ch_groove_sample gs;
         lattice_uv(&L, x, y, q);
@@ -1407,15 +1555,14 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
              * curve of radius r) and their gradients turn by less than
              * 1 / r radians (30 degrees: r under two cells, a tight bend
              * anyway). Otherwise a medial axis runs between them. */
-            double jump = hypot(P[q][0] - P[r][0], P[q][1] - P[r][1]);
             double turn = m->grad[2 * cs[q]] * m->grad[2 * cs[r]] + m->grad[2 * cs[q] + 1] * m->grad[2 * cs[r] + 1];
             if ((m->dist[cs[q]] >= 0.0f) != (m->dist[cs[r]] >= 0.0f) || m->curve[cs[q]] != m->curve[cs[r]] ||
-                jump > 2.5 * cell_uv || turn < 0.866)
+                turn < 0.866 || jumps(P[q], P[r], 2.5 * cell_uv))
               m->config[c] |= CH_FM_LOST_MEDIAL;
           }
         /* The representation's own error at the centre (before fallback
          * lists exist, ch_featmap_eval uses the partition). */
-        float dc = centre[(size_t)ci * R + cj];
+        if (m->config[c] & CH_FM_LOST_ANY || !ix.exact[c]) continue;
         /* only where a profile reads the distance: within the nearest
          * corner's groove band */
         int qn = 0;
@@ -1423,10 +1570,12 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
           if (fabs(m->dist[cs[q]]) < fabs(m->dist[cs[qn]])) qn = q;
         const ch_featmap_curve *cq = &m->curves[m->curve[cs[qn]]];
         double bandc = cq->kind == CH_CURVE_GROOVE ? 0.5 * cq->width + 0.5 * cell_uv : 0.0;
-        if (!(m->config[c] & CH_FM_LOST_ANY) && dc == dc && dc < bandc) {
-          double uv[2];
+        if (!(bandc > 0.0)) continue;
+        double uv[2];
+        lattice_uv(&L, cj + 0.5, ci + 0.5, uv);
+        float dc = (float)index_distance(set, &ix, uv);
+        if (dc == dc && dc < bandc) {
           ch_featmap_sample fs;
-          lattice_uv(&L, cj + 0.5, ci + 0.5, uv);
           ch_featmap_eval(m, m->linear ? CH_FEATMAP_LINEAR : CH_FEATMAP_FEATNORM, uv[0], uv[1], &fs);
           if (fabs(fs.distance - dc) > CH_FEATMAP_TIGHT_DISTANCE * cell_uv) m->config[c] |= CH_FM_LOST_TIGHT;
         }
@@ -1465,21 +1614,29 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   m->stats.seconds_check = omp_get_wtime() - t_check;
 
   /* cell statistics */
-  for (int ci = 0; ci < R; ci++)
-    for (int cj = 0; cj < R; cj++) {
-      uint32_t w = m->config[(size_t)ci * R1 + cj];
-      int ns = ((w & CH_FM_SEG_MASK) != 0) + (((w >> CH_FM_SEG_BITS) & CH_FM_SEG_MASK) != 0);
-      m->stats.cells_one += ns == 1;
-      m->stats.cells_two += ns == 2;
-      m->stats.lost_dropped += (w & CH_FM_LOST_DROPPED) != 0;
-      m->stats.lost_merged += (w & CH_FM_LOST_MERGED) != 0;
-      m->stats.lost_end += (w & CH_FM_LOST_END) != 0;
-      m->stats.lost_loop += (w & CH_FM_LOST_LOOP) != 0;
-      m->stats.lost_corner += (w & CH_FM_LOST_CORNER) != 0;
-      m->stats.lost_medial += (w & CH_FM_LOST_MEDIAL) != 0;
-      m->stats.lost_csg += (w & CH_FM_LOST_CSG) != 0;
-      m->stats.lost_tight += (w & CH_FM_LOST_TIGHT) != 0;
-    }
+  {
+    long one = 0, two = 0, dropped = 0, merged = 0, end = 0, loop = 0, corner = 0, medial = 0, csg = 0, tight = 0;
+#pragma omp parallel for schedule(static) reduction(+ : one, two, dropped, merged, end, loop, corner, medial, csg, tight)
+    for (int ci = 0; ci < R; ci++)
+      for (int cj = 0; cj < R; cj++) {
+        uint32_t w = m->config[(size_t)ci * R1 + cj];
+        int ns = ((w & CH_FM_SEG_MASK) != 0) + (((w >> CH_FM_SEG_BITS) & CH_FM_SEG_MASK) != 0);
+        one += ns == 1;
+        two += ns == 2;
+        dropped += (w & CH_FM_LOST_DROPPED) != 0;
+        merged += (w & CH_FM_LOST_MERGED) != 0;
+        end += (w & CH_FM_LOST_END) != 0;
+        loop += (w & CH_FM_LOST_LOOP) != 0;
+        corner += (w & CH_FM_LOST_CORNER) != 0;
+        medial += (w & CH_FM_LOST_MEDIAL) != 0;
+        csg += (w & CH_FM_LOST_CSG) != 0;
+        tight += (w & CH_FM_LOST_TIGHT) != 0;
+      }
+    m->stats.cells_one = one, m->stats.cells_two = two;
+    m->stats.lost_dropped = dropped, m->stats.lost_merged = merged, m->stats.lost_end = end;
+    m->stats.lost_loop = loop, m->stats.lost_corner = corner, m->stats.lost_medial = medial;
+    m->stats.lost_csg = csg, m->stats.lost_tight = tight;
+  }
 
   /* 5. smoothing */
   t1 = omp_get_wtime();
@@ -1490,6 +1647,7 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   /* 6. fallback */
   t1 = omp_get_wtime();
   if (!desc->no_fallback) {
+#pragma omp parallel for schedule(static)
     for (int ci = 0; ci < R; ci++)
       for (int cj = 0; cj < R; cj++) {
         size_t c = (size_t)ci * R1 + cj;
@@ -1557,7 +1715,8 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   free(pc.v);
   free(order);
   free(use);
-  free(centre);
+  free(cover);
+  sample_index_free(&ix);
   ch_curves_free(&warped);
   return CH_OK;
 fail:
@@ -1565,7 +1724,8 @@ fail:
   free(pc.v);
   free(order);
   free(use);
-  free(centre);
+  free(cover);
+  sample_index_free(&ix);
   ch_curves_free(&warped);
   ch_featmap_free(m);
   return st;
