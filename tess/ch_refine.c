@@ -173,18 +173,19 @@ static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2]) {
 }
 
 /* The level function at point x of edge e, against curve c (LEVEL_PAIR
- * and LEVEL_NEAREST: c = a * MAX_CURVES_LABELLED + b for curves a and b),
+ * and LEVEL_NEAREST: c = a * MAX_CURVES_LABELLED + b for curves a and b,
+ * in 64 bits: any number of curves),
  * or only its segment seg when seg >= 0 (both bracket ends nearest it);
  * *segment gets the nearest segment when asked. */
 static double level_value(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind,
-                          int c, int seg, double x, int *segment) {
+                          int64_t c, int seg, double x, int *segment) {
   double uv[2];
   ch_refine_edge_point(w, e, x, uv, NULL);
   if (kind == LEVEL_PAIR)
-    return groove_carve(lb, c / MAX_CURVES_LABELLED, uv) - groove_carve(lb, c % MAX_CURVES_LABELLED, uv);
+    return groove_carve(lb, (int)(c / MAX_CURVES_LABELLED), uv) - groove_carve(lb, (int)(c % MAX_CURVES_LABELLED), uv);
   if (kind == LEVEL_NEAREST)
-    return fabs(step_distance_at(lb, c / MAX_CURVES_LABELLED, uv, NULL)) -
-           fabs(step_distance_at(lb, c % MAX_CURVES_LABELLED, uv, NULL));
+    return fabs(step_distance_at(lb, (int)(c / MAX_CURVES_LABELLED), uv, NULL)) -
+           fabs(step_distance_at(lb, (int)(c % MAX_CURVES_LABELLED), uv, NULL));
   double v;
   if (seg >= 0) {
     const ch_segment *sg = &lb->set->segments[seg];
@@ -233,7 +234,7 @@ static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
  * labels). One segment of c (seg >= 0: both ends are nearest it) is
  * enough for the search. On return [*a, *b] brackets the root (in either
  * order) and *fa is f(*a)'s sign. */
-static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind, int c,
+static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind, int64_t c,
                        int seg, double target, double tol, double *a, double *b, double *fa, double *fb) {
   int side = 0;
   for (int it = 0; it < 80 && fabs(*b - *a) > tol; it++) {
@@ -273,7 +274,7 @@ static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch
  * roundings away (on a step curve itself the side is rounding): the
  * bracket widens until they confirm it. */
 static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
-                           level_kind kind, int c, int seg, double target, double x0, double f0, double x1, double f1,
+                           level_kind kind, int64_t c, int seg, double target, double x0, double f0, double x1, double f1,
                            double *lo, double *hi, uint64_t *lhi) {
   double a = x0, b = x1, fa = f0, fb = f1;
   level_root(lb, w, e, kind, c, seg, target, 1e-14, &a, &b, &fa, &fb);
@@ -334,9 +335,9 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
     double fb = fabs(groove_level(lb, w, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
       narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi);
-  } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1) && lb->set->num_curves < 2048) {
+  } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1)) {
     /* two grooves: where the deeper carve (or the higher raise) changes */
-    int c = GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
+    int64_t c = (int64_t)GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
     double fa = level_value(lb, w, e, LEVEL_PAIR, c, -1, x0, NULL);
     double fb = level_value(lb, w, e, LEVEL_PAIR, c, -1, x1, NULL);
     if (fa != 0.0 && fa * fb < 0.0) narrow_to_level(lb, w, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
@@ -352,9 +353,9 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
     double fb = level_value(lb, w, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
     if (fa != 0.0 && fa * fb < 0.0)
       narrow_to_level(lb, w, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi);
-  } else if (g0 == g1 && s0 && s1 && (s0 >> 1) != (s1 >> 1) && lb->set->num_curves < 2048) {
+  } else if (g0 == g1 && s0 && s1 && (s0 >> 1) != (s1 >> 1)) {
     /* where the nearest step curve changes */
-    int c = (int)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int)((s1 >> 1) - 1);
+    int64_t c = (int64_t)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int64_t)((s1 >> 1) - 1);
     double fa = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x0, NULL);
     double fb = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x1, NULL);
     if (fa != 0.0 && fa * fb < 0.0)
