@@ -448,15 +448,8 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   double *weighted = malloc(3 * (nc ? nc : 1) * sizeof *weighted); /* face normal times corner weight */
   int *born = malloc((nc ? nc : 1) * sizeof *born); /* per corner: bit 0 a UV, bit 1 a normal born here */
   if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !weighted ||
-      !born) {
-    free(start);
-    free(order);
-    free(weighted);
-    free(born);
-    m->positions = NULL;
-    ch_mesh_free(m);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
-  }
+      !born)
+    goto nomem;
 #pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++) {
     m->face_start[t] = 3 * t;
@@ -541,15 +534,7 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   }
   m->uvs = malloc(2 * (size_t)(nuv > 0 ? nuv : 1) * sizeof *m->uvs);
   m->normals = malloc(3 * (size_t)(nslot > 0 ? nslot : 1) * sizeof *m->normals);
-  if (!m->uvs || !m->normals) {
-    free(start);
-    free(order);
-    free(weighted);
-    free(born);
-    m->positions = NULL;
-    ch_mesh_free(m);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
-  }
+  if (!m->uvs || !m->normals) goto nomem;
   m->num_uvs = nuv;
   m->num_normals = nslot;
 #pragma omp parallel for schedule(static)
@@ -576,6 +561,14 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   free(weighted);
   free(born);
   return CH_OK;
+nomem:
+  free(start);
+  free(order);
+  free(weighted);
+  free(born);
+  m->positions = NULL; /* still o's */
+  ch_mesh_free(m);
+  return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
 }
 
 /* ---- thinning the grooves' layers ---------------------------------------- */
