@@ -24,6 +24,7 @@ res=${RES:-256}
 chisel=$build/chisel
 plane=$here/models/plane.obj
 mkdir -p "$out"
+. "$here/bench/study_scene.sh"
 for set in "${sets[@]}"; do
   svg=$here/models/curves/$set.svg dir=$out/$set
   mkdir -p "$dir"
@@ -35,29 +36,7 @@ for set in "${sets[@]}"; do
 "
     done
   done
-  cat >"$dir/scene.json" <<JSON
-{
-  "curves": "$svg",
-  "dci_resolution": 1024,
-  "truth_grid": 512,
-  "views": [
-    {"name": "orbit", "eye": [0.2, -0.4, 0.9], "target": [0.5, 0.5, -0.01], "fov": 40,
-     "width": 320, "height": 240, "supersample": 2, "orbit": 4},
-    {"name": "graze10", "eye": [0.5, -0.288, 0.139], "target": [0.5, 0.5, 0.0], "fov": 50,
-     "width": 320, "height": 240, "supersample": 2},
-    {"name": "graze20", "eye": [-0.25, 0.45, 0.273], "target": [0.5, 0.45, 0.0], "fov": 50,
-     "width": 320, "height": 240, "supersample": 2},
-    {"name": "closeup", "eye": [0.42, 0.3, 0.14], "target": [0.5, 0.5, -0.01], "fov": 30,
-     "width": 320, "height": 240, "supersample": 2},
-    {"name": "closeup2", "eye": [0.66, 0.7, 0.09], "target": [0.55, 0.55, -0.01], "fov": 30,
-     "width": 320, "height": 240, "supersample": 2}
-  ],
-  "methods": [
-    {"name": "snapped131k", "mesh": "snapped.obj"},
-$feat    {"name": "normals", "mesh": "$plane", "shader": "exact-normals"}
-  ]
-}
-JSON
+  study_scene "$svg" "$plane" "$feat" >"$dir/scene.json"
   rm -rf "$dir/study"
   echo "featmap_study.sh: $set" >&2
   "$chisel" study "$dir/scene.json" -o "$dir/study" -q >"$dir/study.txt"
