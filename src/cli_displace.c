@@ -17,7 +17,7 @@
 #include "cli.h"
 
 static const char usage[] =
-    "usage: chisel displace BASE.obj CURVES.svg -o OUT.obj [--target-tris N] [--res R]\n"
+    "usage: chisel displace BASE.obj CURVES.svg -o OUT.obj [--target-tris N] [--max-tris M] [--res R]\n"
     "                      [--scheme bilinear|catmark] [--no-snap] [--exr MAPS.exr]\n"
     "                      [--camera ex,ey,ez,ax,ay,az,fov [--warp-dci]]\n"
     "                      [--snap-to exact|recon5|recon3] [--png P.png] [--ply OUT.ply]\n"
@@ -31,6 +31,10 @@ static const char usage[] =
     "                     binary: POSITION, NORMAL, TEXCOORD_0, for real-time\n"
     "                     engines); - for OBJ on standard output\n"
     "  --target-tris N    triangles in the output, within 5% (default 520000)\n"
+    "  --max-tris M       the embedding's cap: curves that would need more triangles\n"
+    "                     stop the run with an error, before time and memory run\n"
+    "                     away (default 8 x N + 8388608; at worst about 1.2 kB of\n"
+    "                     memory per triangle)\n"
     "  --res R            resolution of the step curves' diffusion image (default 1024)\n"
     "  --scheme S         base surface: bilinear (default) or catmark (Catmull-Clark)\n"
     "  --no-snap          the naive mesh: no feature embedding (for comparison)\n"
@@ -142,7 +146,7 @@ static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL, *png16 = NULL;
   const char *glb = NULL;
-  long target = 520000, res = 1024;
+  long target = 520000, res = 1024, max_tris = 0;
   int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT, has_camera = 0, warp_dci = 0;
   int json = 0;
   ch_svg_desc svg_desc = {0};
@@ -152,6 +156,9 @@ static int run(int argc, char **argv) {
     if (!strcmp(a, "--target-tris")) {
       const char *v = cli_option_value(cmd, argc, argv, &i);
       if (!v || cli_parse_int(cmd, a, v, 1, 100000000, &target)) return 2;
+    } else if (!strcmp(a, "--max-tris")) {
+      const char *v = cli_option_value(cmd, argc, argv, &i);
+      if (!v || cli_parse_int(cmd, a, v, 1, 700000000, &max_tris)) return 2;
     } else if (!strcmp(a, "--res")) {
       const char *v = cli_option_value(cmd, argc, argv, &i);
       if (!v || cli_parse_int(cmd, a, v, 16, 16384, &res)) return 2;
@@ -212,6 +219,8 @@ static int run(int argc, char **argv) {
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
   if (cli_is_stdout(glb)) return cli_refuse_stdout(cmd, "--glb", "a glTF binary");
   if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
+  if (max_tris && max_tris < target)
+    return cli_usage_error(cmd, "--max-tris %ld is below --target-tris %ld", max_tris, target);
   /* Standard output takes one mesh, OBJ or PLY; EXR and PNG need seeks or
    * are not what a pipe expects. */
   if (cli_is_stdout(exr)) return cli_refuse_stdout(cmd, "--exr", "an EXR");
@@ -246,6 +255,7 @@ static int run(int argc, char **argv) {
                            .curves_path = svg,
                            .svg = svg_desc,
                            .target_triangles = target,
+                           .max_triangles = max_tris,
                            .resolution = (int)res,
                            .scheme = (ch_scheme)scheme,
                            .no_snap = no_snap,

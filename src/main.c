@@ -51,7 +51,7 @@ static void print_overview(FILE *out) {
 static const struct {
   const char *command, *options;
 } option_lists[] = {
-    {"displace", "-o= --output= --target-tris= --res= --scheme= --no-snap --snap-to= --camera= --warp-dci --exr= --glb= "
+    {"displace", "-o= --output= --target-tris= --max-tris= --res= --scheme= --no-snap --snap-to= --camera= --warp-dci --exr= --glb= "
                  "--png= --height-png= --ply= --stats --json --fill-height="},
     {"info", "--json --fill-height="},
     {"sample", "-o= --output= --res= --supersample= --png= --height-png= --fill-height="},

@@ -58,9 +58,37 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
     /* Pilots only count; one that lands is finished from its cut. */
     int count_only = pass < pilots;
     ch_count_request rq = {count_only ? CH_COUNT_PILOT : CH_COUNT_FULL, base, coarsenings, runs + 1};
-    ch_count_reply rp = {0, 0};
+    ch_count_reply rp = {0, 0, 0};
     if ((st = fn(ctx, &rq, &rp))) break;
     runs++;
+    if (rp.over_cap) {
+      /* The cap bounds every run's work (thousands of curves crossing in
+       * a small place); past it at this base, the target is far out of
+       * reach, and the answer is the fewest base's run if that one fits. */
+      if (base <= fewest) {
+        st = CH_ERR_INPUT;
+        break;
+      }
+      ch_count_request last = {CH_COUNT_FULL, fewest, coarsenings, runs + 1};
+      ch_count_reply lr = {0, 0, 0};
+      if ((st = fn(ctx, &last, &lr))) break;
+      runs++;
+      if (lr.over_cap) {
+        st = CH_ERR_INPUT;
+        break;
+      }
+      double lmiss = fabs(lr.count - (double)target);
+      if (lmiss < best_miss) {
+        ch_count_request keep = {CH_COUNT_KEEP, fewest, coarsenings, runs};
+        ch_count_reply none = {0, 0, 0};
+        if ((st = fn(ctx, &keep, &none))) break;
+        best_miss = lmiss;
+        best_count = lr.count;
+        best_base = fewest;
+        best_coarsenings = coarsenings;
+      }
+      break;
+    }
     double nb = rp.base, no = rp.count, miss = fabs(no - (double)target);
     xs[pass] = nb;
     ys[pass] = no;
@@ -97,7 +125,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
     }
     if (!count_only && miss < best_miss) { /* keep the closest full run */
       ch_count_request keep = {CH_COUNT_KEEP, base, coarsenings, runs};
-      ch_count_reply none = {0, 0};
+      ch_count_reply none = {0, 0, 0};
       if ((st = fn(ctx, &keep, &none))) break;
       best_miss = miss;
       best_count = no;
@@ -171,11 +199,11 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
   }
   if (!st && best_miss == INFINITY) { /* only pilots ran (the next base was a pilot's): that one in full */
     ch_count_request rq = {CH_COUNT_FULL, base, coarsenings, runs + 1};
-    ch_count_reply rp = {0, 0};
+    ch_count_reply rp = {0, 0, 0};
     st = fn(ctx, &rq, &rp);
     runs++;
     if (!st) {
-      ch_count_reply none = {0, 0};
+      ch_count_reply none = {0, 0, 0};
       rq.kind = CH_COUNT_KEEP;
       st = fn(ctx, &rq, &none);
       best_count = rp.count;

@@ -47,6 +47,8 @@ typedef struct ch_count_request {
 typedef struct ch_count_reply {
   double base;  /* PILOT, FULL: the base triangle count the tessellation gave */
   double count; /* PILOT, FINISH, FULL: the output triangle count */
+  int over_cap; /* PILOT, FULL: the run stopped at the embedding's cap on
+                   triangles (no mesh; the error is in the caller's hands) */
 } ch_count_reply;
 
 /* One run (or a FINISH/KEEP) as the request says; returns CH_OK, or an
@@ -72,6 +74,12 @@ typedef struct ch_count_result {
 } ch_count_result;
 
 /* Searches for the base count whose full run lands within 5% of
+ * desc->target (see below). A run over the cap (rp->over_cap) means the
+ * features need far more than the target at that base: the search then
+ * runs once at the fewest base triangles and keeps that, or returns
+ * CH_ERR_INPUT if that run is over the cap too (or was the one over it).
+ *
+ * In full: searches for the base count whose full run lands within 5% of
  * desc->target, calling fn for each run; at most 8 runs per angle step
  * (and one full run after them if only pilots ran), so at most 41 in all.
  * The closest full run is the last one fn was asked to KEEP; where the

@@ -95,6 +95,17 @@ static void report(const ch_embed_desc *desc, const ch_embed_pilot *pilot, int r
 }
 
 /* ch_embed_run; a count-only run hands its cut to *kept if asked. */
+/* The error of a run whose triangles would pass the cap (at `stage` n). */
+static ch_status over_cap(ch_error *err, const ch_embed_pilot *pilot, double cap, const char *stage, int n,
+                          int base) {
+  if (pilot->over_cap) *pilot->over_cap = 1;
+  return ch_error_set(err, CH_ERR_INPUT,
+                      "feature embedding: the curves need more than %.0f triangles (the cap; %s %d over %d base "
+                      "triangles): too many curves meet in too small a place; fewer or wider curves, a higher cap, "
+                      "or no embedding (--no-snap)",
+                      cap, stage, n, base);
+}
+
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                            const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
                            ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {
@@ -203,6 +214,11 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   double tol = 1e-5 * scale + 1e-12; /* a jump above this is a wall */
   lb.wall_tol = tol;
 
+  /* Each split edge adds about two triangles, and the cut a few per
+   * crossing. Curves that need more than the cap would take memory and time
+   * without end: the refinement and the cut stop there with an error. */
+  double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
+                                               : MAX_REFINED_PER_BASE * (double)tm->num_faces + MAX_REFINED_EXTRA;
   /* Local refinement until every triangle's crossings pair into chords. */
   int labelled = 0;
   for (int round = 0;; round++) {
@@ -253,15 +269,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       }
     free(refine);
     if (!split) break;
-    /* Each split edge adds about two triangles. Curves that need more than
-     * the cap would take memory and time without end: */
-    double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
-                                                 : MAX_REFINED_PER_BASE * (double)tm->num_faces + MAX_REFINED_EXTRA;
     if ((double)w.ntris + 2.0 * split > cap) {
-      st = ch_error_set(err, CH_ERR_INPUT,
-                        "feature embedding: the curves need more than %.0f triangles (refinement round %d over %d "
-                        "base triangles): too many curves meet in too small a place; fewer or wider curves, or "
-                        "--no-snap", cap, round + 1, tm->num_faces);
+      st = over_cap(err, pilot, cap, "refinement round", round + 1, tm->num_faces);
       goto done;
     }
     stats.refine_rounds = round + 1;
@@ -334,7 +343,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * joined in chunk order, so the bytes do not depend on the threads. */
   {
     enum { CUT_CHUNK = 4096 };
-    int nchunks = (w.ntris + CUT_CHUNK - 1) / CUT_CHUNK, shared = o.npos, oom = 0;
+    int nchunks = (w.ntris + CUT_CHUNK - 1) / CUT_CHUNK, shared = o.npos, oom = 0, over = 0;
     ch_cut_out *part = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *part);
     ch_embed_stats *pstats = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *pstats);
     if (!part || !pstats) {
@@ -365,7 +374,9 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         tbase[c + 1] = tbase[c] + part[c].ntri;
       }
       if (vbase[nchunks] >= INT32_MAX / 3 || tbase[nchunks] >= INT32_MAX / 6) oom = 1;
+      if (!oom && (double)tbase[nchunks] > cap) over = 1;
     }
+    if (over) oom = 1; /* (the parts are freed below, then the error set) */
     if (!oom) {
       size_t nv = (size_t)vbase[nchunks], nt = (size_t)tbase[nchunks];
       int *face = realloc(o.face, (nv ? nv : 1) * sizeof *face);
@@ -428,6 +439,10 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     for (int c = 0; c < nchunks; c++) ch_cut_out_free(&part[c]);
     free(part);
     free(pstats);
+    if (over) {
+      st = over_cap(err, pilot, cap, "the cut after round", stats.refine_rounds, tm->num_faces);
+      goto done;
+    }
     if (oom) goto nomem;
   }
   /* The working mesh is done with: its memory goes before the output's
@@ -583,9 +598,17 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   }
   r->pilot.count_only = rq->kind == CH_COUNT_PILOT;
   r->pilot.run = rq->run;
-  if ((st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats,
-                      r->pilot.count_only ? &r->kept : NULL, r->err)))
-    return st;
+  int over = 0;
+  r->pilot.over_cap = &over;
+  st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats,
+                 r->pilot.count_only ? &r->kept : NULL, r->err);
+  r->pilot.over_cap = NULL;
+  if (st && over) { /* the count model decides (its error keeps the message set here) */
+    target_drop_current(r);
+    rp->over_cap = 1;
+    return CH_OK;
+  }
+  if (st) return st;
   rp->base = r->cur_tess.mesh.num_faces;
   rp->count = (double)r->cur_stats.triangles;
   return CH_OK;
@@ -625,7 +648,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   ch_count_result res;
   st = ch_count_search(&cd, target_run, &r, &res);
   if (!st && r.best_dropped) { /* a later run missed more: the closest again */
-    ch_count_reply again;
+    ch_count_reply again = {0, 0, 0};
     if (!(st = target_run(&r, &r.best_request, &again))) {
       ch_count_request keep = r.best_request;
       keep.kind = CH_COUNT_KEEP;

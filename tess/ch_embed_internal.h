@@ -39,6 +39,8 @@ enum { CROWDED_CELL = 48 };
 #define WALL_GROUP (UINT64_C(1) << 62)
 
 typedef struct ch_embed_pilot {
+  int *over_cap;         /* NULL, or set to 1 where the run stops at
+                            ch_embed_desc.max_triangles */
   int count_only;        /* only count the triangles the cut makes
                             (stats->triangles, before the cleanup; out stays
                             empty): the pilots of ch_embed_to_target */

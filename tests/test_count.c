@@ -12,6 +12,7 @@
  * - u lines that would take more than 7/8 of the target at the default
  *   angle step (out = b + A/1.5^k sqrt(b)): coarsened exactly as often as
  *   the 1/8 rule says (twice for A = 1500 at 100000), then within 5%.
+ * - a cap on a run's triangles: past it, the fewest base, or an error.
  *
  * The fake tessellation gives a base a little off what is asked (as a real
  * one does), a pilot counts 0.3% more than its finished cut (the cleanup),
@@ -35,6 +36,7 @@ typedef struct fake {
   int kept_coarsenings;
   int calls, bad;
   double min_full; /* the fewest output triangles of any full run */
+  double cap;      /* > 0: a run whose count would pass it stops there */
 } fake;
 
 static double fake_base(long b) { return (double)b * (1.0 + 0.004 * sin((double)b)); }
@@ -63,6 +65,12 @@ static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply 
       rp->base = fake_base(rq->base);
       f->last_full = fake_count(f, rp->base, rq->coarsenings);
       rp->count = rq->kind == CH_COUNT_PILOT ? floor(f->last_full * 1.003) : f->last_full;
+      if (f->cap > 0.0 && rp->count > f->cap) { /* stopped: no mesh, nothing to keep */
+        rp->count = 0.0;
+        rp->over_cap = 1;
+        f->last = CH_COUNT_KEEP; /* (no FINISH or KEEP may follow it) */
+        return CH_OK;
+      }
       if (rq->kind == CH_COUNT_FULL) f->min_full = fmin(f->min_full, rp->count);
       break;
     case CH_COUNT_FINISH:
@@ -156,6 +164,32 @@ static void test_u_lines(void) {
   CHECK_MSG(fabs(r.count - 100000.0) <= 5000.0, "%.0f", r.count);
 }
 
+/* A cap on the runs' triangles: features alone at 200000 for a target of
+ * 60000 pass a cap of 202000 at the first run (the pilot at base 3750):
+ * the search goes to the fewest base (200200 triangles, under the cap) and
+ * keeps it, two runs in all; under a cap of 150000 even that run is over
+ * it: CH_ERR_INPUT. A cap no run reaches changes nothing. */
+static void test_cap(void) {
+  fake f = {.kind = OVER, .fewest = 200, .kept = -1.0, .min_full = INFINITY, .last = CH_COUNT_KEEP, .cap = 202000.0};
+  ch_count_desc d = {.target = 60000, .fewest = 200};
+  ch_count_result r;
+  CHECK(ch_count_search(&d, fake_run, &f, &r) == CH_OK);
+  CHECK(f.bad == 0);
+  CHECK_MSG(r.runs == 2, "%d runs", r.runs);
+  CHECK_MSG(r.base == 200, "base %ld", r.base);
+  CHECK_NEAR(f.kept, fake_base(200) + 200000.0, 1e-9);
+  fake g = {.kind = OVER, .fewest = 200, .kept = -1.0, .min_full = INFINITY, .last = CH_COUNT_KEEP, .cap = 150000.0};
+  CHECK(ch_count_search(&d, fake_run, &g, &r) == CH_ERR_INPUT);
+  CHECK(g.bad == 0 && g.kept == -1.0);
+  CHECK_MSG(r.runs == 2, "%d runs", r.runs);
+  /* the sqrt model's search, with a cap above every run, as without one */
+  fake h = {.kind = SQRT_MODEL, .c0 = 3000.0, .c1 = 40.0};
+  ch_count_result plain = search(&h, 130000, 1, 0);
+  fake k = {.kind = SQRT_MODEL, .c0 = 3000.0, .c1 = 40.0, .cap = 1e9};
+  ch_count_result capped = search(&k, 130000, 1, 0);
+  CHECK(plain.runs == capped.runs && plain.base == capped.base && plain.count == capped.count);
+}
+
 static ch_status failing_run(void *ctx, const ch_count_request *rq, ch_count_reply *rp) {
   int *n = ctx;
   rp->base = (double)rq->base;
@@ -178,5 +212,6 @@ int main(void) {
   RUN(test_out_of_reach);
   RUN(test_u_lines);
   RUN(test_error_stops);
+  RUN(test_cap);
   TEST_MAIN_END();
 }

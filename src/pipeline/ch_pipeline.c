@@ -269,8 +269,15 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
         memset(&tess.mesh, 0, sizeof tess.mesh);
       }
     } else {
-      ch_embed_desc ed = {.warp = warp, .progress = progress};
+      long cap = desc->max_triangles > 0 ? desc->max_triangles
+                                         : CH_DISPLACE_DEFAULT_CAP_PER_TARGET * target + CH_DISPLACE_DEFAULT_CAP_EXTRA;
+      ch_embed_desc ed = {.warp = warp, .max_triangles = cap, .progress = progress};
       st = ch_embed_to_target(surface, &height, &ed, target, &tess, &out->mesh, &out->embed, &out->passes, err);
+      if (st == CH_ERR_INPUT && err) { /* the curves' fault (over the cap): name their file */
+        char why[CH_ERROR_MESSAGE_MAX];
+        snprintf(why, sizeof why, "%s", err->message);
+        ch_error_set(err, st, "%s: %s", svg, why);
+      }
       out->snapped = 1;
       out->min_h = out->embed.min_h;
       out->max_h = out->embed.max_h;

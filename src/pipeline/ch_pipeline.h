@@ -33,6 +33,11 @@ extern "C" {
 
 /* Defaults of the command line (docs/cli.md). */
 enum { CH_DISPLACE_DEFAULT_TARGET = 520000, CH_DISPLACE_DEFAULT_RESOLUTION = 1024 };
+/* The default cap of the embedding's triangles: 8 x the target plus 8M,
+ * far above what drawn features need (the bundled sets: under 1.2 x the
+ * target) and below what fills this class of machine (at worst about
+ * 1.2 kB of peak memory per triangle: 11 GB at the cap of a 130k target). */
+enum { CH_DISPLACE_DEFAULT_CAP_PER_TARGET = 8, CH_DISPLACE_DEFAULT_CAP_EXTRA = 8388608 };
 
 /* The maps a displace run renders on request, over the UV square at R x R
  * pixel centres (warped UV under a warp). */
@@ -54,6 +59,10 @@ typedef struct ch_displace_desc {
   const ch_camera *camera;  /* a view-dependent warp for this camera, or NULL */
   int warp_dci;             /* with a camera: diffuse the step curves in warped UV too */
   int maps;                 /* CH_DISPLACE_HEIGHT_MAP | CH_DISPLACE_GEOMETRY_MAPS, or 0 */
+  long max_triangles;       /* the embedding's cap: a run whose refinement or cut would make more
+                               triangles fails with CH_ERR_INPUT ("the curves need more than N
+                               triangles"); 0: CH_DISPLACE_DEFAULT_CAP_PER_TARGET x the target plus
+                               CH_DISPLACE_DEFAULT_CAP_EXTRA */
   const ch_progress *progress; /* stage names and progress, or NULL */
 } ch_displace_desc;
 
