@@ -27,6 +27,7 @@ void ch_label_free(ch_label_ctx *lb) {
   free(lb->crease_t);
   free(lb->chord_tol);
   free(lb->step_boxes);
+  free(lb->step_outer);
   ch_grid_free(&lb->step_grid);
   ch_grid_free(&lb->groove_grid);
   ch_segtree_free(&lb->tree);
@@ -195,6 +196,109 @@ int ch_label_capped_end(const ch_curve_set *set, int s, int end) {
   const ch_segment *sg = &set->segments[s];
   const ch_curve *cv = &set->curves[sg->curve];
   return cv->kind == CH_CURVE_GROOVE && cv->profile.kind != CH_PROFILE_U && (end == 0 ? sg->prev : sg->next) < 0;
+}
+
+/* Whether the convex hulls of two segments' control points overlap (or
+ * touch): no axis among their edges' normals and directions separates
+ * them. The segments lie in those hulls, so "no" proves they do not meet. */
+static int hulls_meet(const ch_segment *a, const ch_segment *b) {
+  const ch_segment *sg[2] = {a, b};
+  for (int k = 0; k < 2; k++)
+    for (int i = 0; i < 3; i++) {
+      const double *p = sg[k]->p[i], *q = sg[k]->p[(i + 1) % 3];
+      double d[2] = {q[0] - p[0], q[1] - p[1]}, axes[2][2] = {{-d[1], d[0]}, {d[0], d[1]}};
+      for (int x = 0; x < 2; x++) {
+        if (axes[x][0] == 0.0 && axes[x][1] == 0.0) continue;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int m = 0; m < 2; m++)
+          for (int j = 0; j < 3; j++) {
+            double v = sg[m]->p[j][0] * axes[x][0] + sg[m]->p[j][1] * axes[x][1];
+            lo[m] = fmin(lo[m], v);
+            hi[m] = fmax(hi[m], v);
+          }
+        if (hi[0] < lo[1] || hi[1] < lo[0]) return 0;
+      }
+    }
+  return 1;
+}
+
+/* The outward side of every free closed loop of the step curves
+ * (lb->step_outer): each loop followed by its segments' next links, its
+ * orientation by the signed area of its control polygon (counter-clockwise
+ * in UV: the inside is on the left, so the outward side is the right).
+ * A loop is free when no other step segment (nor its own, but for its
+ * neighbours) comes near it: where two loops cross, the outsides of both
+ * would meet at the crossing point under one label, as different pieces
+ * of h, and the cut could not follow the walls there. */
+static ch_status find_step_outer(ch_label_ctx *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int n = set->num_segments;
+  lb->step_outer = calloc((size_t)(n > 0 ? n : 1), 1);
+  unsigned char *seen = calloc((size_t)(n > 0 ? n : 1), 1);
+  double(*box)[4] = malloc((size_t)(n > 0 ? n : 1) * sizeof *box);
+  ch_grid grid = {0};
+  ch_status st = CH_OK;
+  if (!lb->step_outer || !seen || !box) {
+    st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step loops");
+    goto done;
+  }
+  for (int i = 0; i < n; i++) {
+    if (set->curves[set->segments[i].curve].kind == CH_CURVE_STEP) {
+      ch_segment_box(&set->segments[i], 0.0, box[i]);
+    } else {
+      box[i][0] = 1.0;
+      box[i][2] = 0.0; /* empty: not in the grid */
+    }
+  }
+  if ((st = ch_grid_build(&grid, n, (const double(*)[4])box, err))) goto done;
+  for (int s0 = 0; s0 < n; s0++) {
+    if (seen[s0] || set->curves[set->segments[s0].curve].kind != CH_CURVE_STEP) continue;
+    double area = 0.0;
+    int s = s0, closed = 0;
+    for (int steps = 0; s >= 0 && steps < n; steps++) {
+      const ch_segment *g = &set->segments[s];
+      seen[s] = 1;
+      area += (g->p[0][0] * g->p[1][1] - g->p[1][0] * g->p[0][1]) + (g->p[1][0] * g->p[2][1] - g->p[2][0] * g->p[1][1]);
+      s = g->next;
+      if (s == s0) {
+        closed = 1;
+        break;
+      }
+      if (s >= 0 && seen[s]) break; /* (a loop not through s0: left open) */
+    }
+    if (!closed || area == 0.0) continue;
+    int is_free = 1;
+    s = s0;
+    do { /* every step segment whose box meets one of the loop's */
+      const ch_segment *g = &set->segments[s];
+      int r[4];
+      ch_grid_cell_range(&grid, box[s], r);
+      for (int y = r[1]; y <= r[3] && is_free; y++)
+        for (int x = r[0]; x <= r[2] && is_free; x++) {
+          int c = y * grid.nx + x;
+          for (int k = grid.cell_start[c]; k < grid.cell_start[c + 1] && is_free; k++) {
+            int t = grid.items[k];
+            if (t == s || t == g->prev || t == g->next) continue;
+            const double *b = box[t];
+            if (b[0] > box[s][2] || b[2] < box[s][0] || b[1] > box[s][3] || b[3] < box[s][1]) continue;
+            is_free = !hulls_meet(g, &set->segments[t]);
+          }
+        }
+      s = g->next;
+    } while (s != s0 && is_free);
+    if (!is_free) continue;
+    unsigned char outer = area > 0.0 ? 1 : 2;
+    s = s0;
+    do {
+      lb->step_outer[s] = outer;
+      s = set->segments[s].next;
+    } while (s != s0);
+  }
+done:
+  free(seen);
+  free(box);
+  ch_grid_free(&grid);
+  return st;
 }
 
 /* The open ends coarse_at_cap looks at, bucketed like the step corners. */
@@ -609,6 +713,7 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
       lb->step_boxes[i][2] = 0.0; /* empty: not in the grid */
     }
   }
+  if (lb->has_steps && find_step_outer(lb, err)) return err ? err->status : CH_ERR_NOMEM;
   /* Box grids for one curve's distance (ch_curve_closest_in_cell), whose answer
    * beyond reach is the cell's (so the level functions the crossing search
    * follows, and the bytes out, stay as they were); the groove field's
@@ -722,7 +827,14 @@ uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]) {
         ch_height_step(lb->height, uv[0], uv[1], &rs);
         if (rs.curve == curve) left = rs.side == CH_SIDE_LEFT;
       }
-      s = ((uint64_t)(curve + 1) << 1) | (uint64_t)left;
+      /* Outside every closed loop the step part is 0, whichever loop is
+       * nearest: h is continuous between loops, and labels that changed
+       * with the nearest loop (or at the radius) cut the mesh along every
+       * such line for nothing, twice as many boundary points as the walls
+       * themselves over many small loops. Each wall still separates two
+       * labels: 0 outside, the loop's own inside. */
+      int outer = lb->step_outer ? lb->step_outer[best_seg] : 0;
+      s = outer && left == outer - 1 ? 0 : ((uint64_t)(curve + 1) << 1) | (uint64_t)left;
     }
   }
   return g << 32 | s;

@@ -25,7 +25,8 @@ extern "C" {
  * (active curve + 1)) << 8 | index of the profile segment (break points
  * below t = s / w), 0 where no groove decides h; the line set is 0 but
  * for u grooves under a warp (level_at). Step part: (nearest step curve within the radius + 1)
- * << 1 | (side is left), 0 when none is that near. */
+ * << 1 | (side is left), 0 when none is that near or the side is the one
+ * facing out of a closed loop (step_outer). */
 typedef struct ch_label_ctx {
   const ch_height *height;
   const ch_curve_set *set;
@@ -53,6 +54,10 @@ typedef struct ch_label_ctx {
    * bucketed so by their point; the largest half width among them. */
   int *end_item, *end_start, end_res;
   double end_reach;
+  /* Per segment of a closed step loop, the side of it that faces out of
+   * the loop: 1 right, 2 left (0: a segment of an open curve). The step
+   * part of a label is 0 there (see ch_label_at). */
+  unsigned char *step_outer;
   double radius;
   int has_steps;
   /* Quiet cells: no point within reach of a cell's points is in a groove's

@@ -347,8 +347,15 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
     double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
     if (fa != 0.0 && fa * fb < 0.0)
       narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
-  } else if (g0 == g1 && !s0 != !s1) { /* the edge of a step curve's radius */
+  } else if (g0 == g1 && !s0 != !s1) { /* a loop's wall from outside, or the edge of a step curve's radius */
     int c = (int)((s0 ? s0 : s1) >> 1) - 1;
+    if (lb->height->step_method == CH_RECON_EXACT) {
+      double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
+      double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
+      if (fa != 0.0 && fa * fb < 0.0 &&
+          narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi))
+        return;
+    }
     double fa = level_value(lb, w, e, LEVEL_REACH, c, -1, x0, &sa) - lb->radius;
     double fb = level_value(lb, w, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
     if (fa != 0.0 && fa * fb < 0.0)
