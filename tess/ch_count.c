@@ -54,6 +54,8 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
   double model_c1 = 0.0;                     /* the pilots' sqrt term, kept for the first correction */
   double rescale_f0 = 0.0, rescale_f1 = 0.0; /* what the features added to the pilots before a coarsening */
   int auto_angle = desc->can_coarsen, coarsenings = 0, has_u = desc->has_u;
+  long ceiling = 0; /* > 0: a base whose run went over the cap */
+  int restarts = 0;
   for (int pass = 0; pass < 8; pass++) {
     /* Pilots only count; one that lands is finished from its cut. */
     int count_only = pass < pilots;
@@ -63,11 +65,22 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
     runs++;
     if (rp.over_cap) {
       /* The cap bounds every run's work (thousands of curves crossing in
-       * a small place); past it at this base, the target is far out of
-       * reach, and the answer is the fewest base's run if that one fits. */
+       * a small place). Past it at this base, the count at any base above
+       * is past it too: the search starts again below, at a quarter of it
+       * without pilots (twice at most), and then takes the fewest base's
+       * run if that one fits. */
       if (base <= fewest) {
         st = CH_ERR_INPUT;
         break;
+      }
+      ceiling = base;
+      if (restarts++ < 2 && base / 4 > fewest) {
+        base = base / 4;
+        pilots = 0;
+        auto_angle = 0;
+        rescale_f0 = 0.0;
+        pass = -1;
+        continue;
       }
       ch_count_request last = {CH_COUNT_FULL, fewest, coarsenings, runs + 1};
       ch_count_reply lr = {0, 0, 0};
@@ -193,6 +206,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
       if (!(next > 0.0)) next = xs[pass] * 0.5;
     }
     long nl = (long)llround(fmin(next, 4.0 * (double)target));
+    if (ceiling > 0 && nl >= ceiling) nl = (base + ceiling) / 2; /* (below a run over the cap) */
     if (nl < fewest) nl = fewest;
     if (nl == base) break;
     base = nl;

@@ -74,10 +74,11 @@ typedef struct ch_count_result {
 } ch_count_result;
 
 /* Searches for the base count whose full run lands within 5% of
- * desc->target (see below). A run over the cap (rp->over_cap) means the
- * features need far more than the target at that base: the search then
- * runs once at the fewest base triangles and keeps that, or returns
- * CH_ERR_INPUT if that run is over the cap too (or was the one over it).
+ * desc->target (see below). A run over the cap (rp->over_cap): no base
+ * above it is asked for again, and the search starts over below it (at a
+ * quarter, twice at most); after that, one run at the fewest base
+ * triangles, kept if it is the closest; CH_ERR_INPUT if that run is over
+ * the cap too (or was the one over it).
  *
  * In full: searches for the base count whose full run lands within 5% of
  * desc->target, calling fn for each run; at most 8 runs per angle step

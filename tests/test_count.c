@@ -166,22 +166,24 @@ static void test_u_lines(void) {
 
 /* A cap on the runs' triangles: features alone at 200000 for a target of
  * 60000 pass a cap of 202000 at the first run (the pilot at base 3750):
- * the search goes to the fewest base (200200 triangles, under the cap) and
- * keeps it, two runs in all; under a cap of 150000 even that run is over
- * it: CH_ERR_INPUT. A cap no run reaches changes nothing. */
+ * the search starts again at a quarter of it (937, no pilots: 200937,
+ * under the cap), goes down by its secant and keeps the fewest base's
+ * run (200200), four runs in all, none above 3750 again; under a cap of
+ * 150000 every run is over it, down to the fewest base: CH_ERR_INPUT,
+ * after 3750, 937, 234 and 200. A cap no run reaches changes nothing. */
 static void test_cap(void) {
   fake f = {.kind = OVER, .fewest = 200, .kept = -1.0, .min_full = INFINITY, .last = CH_COUNT_KEEP, .cap = 202000.0};
   ch_count_desc d = {.target = 60000, .fewest = 200};
   ch_count_result r;
   CHECK(ch_count_search(&d, fake_run, &f, &r) == CH_OK);
   CHECK(f.bad == 0);
-  CHECK_MSG(r.runs == 2, "%d runs", r.runs);
+  CHECK_MSG(r.runs == 4, "%d runs", r.runs);
   CHECK_MSG(r.base == 200, "base %ld", r.base);
   CHECK_NEAR(f.kept, fake_base(200) + 200000.0, 1e-9);
   fake g = {.kind = OVER, .fewest = 200, .kept = -1.0, .min_full = INFINITY, .last = CH_COUNT_KEEP, .cap = 150000.0};
   CHECK(ch_count_search(&d, fake_run, &g, &r) == CH_ERR_INPUT);
   CHECK(g.bad == 0 && g.kept == -1.0);
-  CHECK_MSG(r.runs == 2, "%d runs", r.runs);
+  CHECK_MSG(r.runs == 4, "%d runs", r.runs);
   /* the sqrt model's search, with a cap above every run, as without one */
   fake h = {.kind = SQRT_MODEL, .c0 = 3000.0, .c1 = 40.0};
   ch_count_result plain = search(&h, 130000, 1, 0);
