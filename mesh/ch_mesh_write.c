@@ -127,7 +127,11 @@ typedef struct obj_lines {
   long nv, nt, nn, nf;
 } obj_lines;
 
-enum { OBJ_BLOCK = 1 << 14, OBJ_MAX_LINE = 256 };
+/* Blocks of lines formatted by one thread, and the bytes a v, vt or vn
+ * line may take: 2 + 3 x 18 + 1 (put_g9 writes 16 characters at most,
+ * snprintf's terminator one more). The buffers (two rounds of two blocks
+ * per thread) took a fixed 20-30 MB at a bound of 256 bytes a line. */
+enum { OBJ_BLOCK = 1 << 14, OBJ_MAX_LINE = 80 };
 
 /* Formats line i into o; returns the end. Faces longer than fit in
  * OBJ_MAX_LINE bytes are formatted by the caller. */
