@@ -59,14 +59,17 @@ fi
 # 1c. Texture methods that move hits, on the box groove: the groove
 #    texture is the truth's surface (walls, floor, shadows in texture
 #    space; its curves are floats, 3e-8 off), relief mapping on a 256^2 map
-#    is not; both report their bytes.
-sed 's#"mesh": "box_groove.obj"}#"mesh": "box_groove.obj"},\n    {"name": "g16", "mesh": "'"$models"'/plane.obj", "shader": "grooves", "resolution": 16},\n    {"name": "r256", "mesh": "'"$models"'/plane.obj", "shader": "relief", "resolution": 256, "steps": 32}#; s#"box_groove.svg"#"'"$data"'/box_groove.svg"#; s#"box_groove.obj"#"'"$data"'/box_groove.obj"#' \
+#    is not; they and the normal-map methods report their bytes.
+sed 's#"mesh": "box_groove.obj"}#"mesh": "box_groove.obj"},\n    {"name": "g16", "mesh": "'"$models"'/plane.obj", "shader": "grooves", "resolution": 16},\n    {"name": "r256", "mesh": "'"$models"'/plane.obj", "shader": "relief", "resolution": 256, "steps": 32},\n    {"name": "m64", "mesh": "'"$models"'/plane.obj", "shader": "msdf", "resolution": 64},\n    {"name": "n64", "mesh": "'"$models"'/plane.obj", "shader": "normal-bilinear", "resolution": 64}#; s#"box_groove.svg"#"'"$data"'/box_groove.svg"#; s#"box_groove.obj"#"'"$data"'/box_groove.obj"#' \
   "$data/box_groove.json" >"$tmp/textures.json"
 checks=$((checks + 1))
 if "$chisel" study "$tmp/textures.json" -o "$tmp/textures" >"$tmp/stdout" 2>"$tmp/stderr"; then
   # 16 bytes a texel: 16^2 grid texels and 40 data texels.
   check grep -q '^texture method g16: grooves at 16, 4736 bytes$' "$tmp/stdout"
   check grep -q '^texture method r256: relief at 256, 262144 bytes$' "$tmp/stdout"
+  # The normal-map methods: 16 bytes a texel for the msdf, 12 for a normal map.
+  check grep -q '^texture method m64: msdf at 64, 65536 bytes$' "$tmp/stdout"
+  check grep -q '^texture method n64: normal-bilinear at 64, 49152 bytes$' "$tmp/stdout"
   bad=$(tail -n +2 "$tmp/textures/summary.csv" |
         awk -F, '$2 == "g16" && $1 != "oblique" && ($5 != 0 || $8 > 1e-7 || $10 > 0.01 || $13 != 0)' | wc -l)
   check [ "$bad" = 0 ]

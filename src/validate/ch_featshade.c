@@ -1,6 +1,7 @@
 /* Feature-map normal methods as study shaders (ch_featshade.h). */
 #include "ch_featshade.h"
 
+#include <math.h>
 #include <string.h>
 
 int ch_featshade_method_parse(const char *name) {
@@ -29,6 +30,18 @@ ch_status ch_featshade_init(ch_featshade *fs, ch_featshade_method method, int re
 void ch_featshade_free(ch_featshade *fs) {
   ch_featmap_free(&fs->maps);
   ch_msdf_free(&fs->msdf);
+}
+
+size_t ch_featshade_bytes(const ch_featshade *fs) {
+  static const ch_featmap_method method[] = {CH_FEATMAP_FEATNORM, CH_FEATMAP_LINEAR, CH_FEATMAP_BILINEAR};
+  if (fs->method == CH_FEATSHADE_MSDF) {
+    double texels = (double)fs->msdf.resolution * fs->msdf.resolution;
+    return (size_t)llround(texels * ch_msdf_bytes_per_texel());
+  }
+  double texels = (double)fs->maps.resolution * fs->maps.resolution;
+  double per = ch_featmap_bytes_per_texel(&fs->maps, method[fs->method]);
+  if (fs->method != CH_FEATSHADE_NORMAL_BILINEAR) per += ch_featmap_fallback_bytes(&fs->maps);
+  return (size_t)llround(texels * per);
 }
 
 static int shade(void *user, const double org[3], const double dir[3], ch_trace_hit *hit) {

@@ -44,6 +44,11 @@ ch_status ch_featshade_init(ch_featshade *fs, ch_featshade_method method, int re
                             const ch_height *height, ch_error *err);
 void ch_featshade_free(ch_featshade *fs);
 
+/* Bytes a GPU layout of the method's maps takes at its resolution R:
+ * R x R texels at ch_featmap_bytes_per_texel (and the fallback lists of
+ * featnorm and featnorm-linear) or ch_msdf_bytes_per_texel. */
+size_t ch_featshade_bytes(const ch_featshade *fs);
+
 /* The shader; fs must outlive it. */
 ch_render_shader ch_featshade_shader(const ch_featshade *fs);
 

@@ -106,7 +106,8 @@ ch_status ch_study_create(const ch_scene *scene, const char *scene_file, const c
 }
 
 size_t ch_study_texture_bytes(const ch_study *study, int method) {
-  return study->mr[method].tr ? ch_texray_bytes(study->mr[method].tr) : 0;
+  if (study->mr[method].tr) return ch_texray_bytes(study->mr[method].tr);
+  return study->s->methods[method].featshade >= 0 ? ch_featshade_bytes(&study->mr[method].fs) : 0;
 }
 
 double ch_study_scene_size(const ch_study *study) { return study->scene_size; }
