@@ -3,8 +3,14 @@
  * For random points, decided independently by a scan of each curve
  * (ch_curve_closest, its signed distance positive on the left):
  *
- * - within the step radius of the circle (and off the groove): the step
- *   part is (circle + 1) << 1 | (the point is on its left);
+ * - within the step radius of the circle (and off the groove): inside it,
+ *   the step part is (circle + 1) << 1 | (the point is on its left); on
+ *   its outside 0, as no other step curve touches it (a free loop: the
+ *   outsides of all such loops are one piece, so the mesh is not cut
+ *   where the nearest loop changes);
+ * - two step circles that cross each other are not free: their outsides
+ *   keep the curve and the side (at their crossing points the outsides of
+ *   both would meet the inside of the other under one label);
  * - inside the groove (off the circle's radius): the groove part names
  *   the groove, and two points share a label exactly when they lie on the
  *   same half of the v (t < 0 or t > 0, its break at 0);
@@ -39,6 +45,13 @@ static void test_labels(void) {
   ch_label_ctx lb;
   REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, edge, 2.0 * edge, &err) == CH_OK);
   int in_step = 0, in_groove = 0, outside = 0, bad_step = 0, bad_groove = 0, bad_zero = 0, bad_quiet = 0, bad_h = 0;
+  int inside_left = 0, inside_right = 0;
+  /* The circle's centre and radius in UV, from its segments' ends. */
+  double centre[2] = {0.0, 0.0}, ring = 0.0;
+  const ch_curve *cc = &set.curves[circle];
+  for (int i = cc->first_segment; i < cc->first_segment + cc->num_segments; i++)
+    for (int k = 0; k < 2; k++) centre[k] += set.segments[i].p[0][k] / cc->num_segments;
+  ring = hypot(set.segments[cc->first_segment].p[0][0] - centre[0], set.segments[cc->first_segment].p[0][1] - centre[1]);
   uint64_t half_label[2] = {0, 0};
   for (int i = 0; i < 20000; i++) {
     double q[2] = {0.02 + 0.96 * ch_test_rnd(), 0.02 + 0.96 * ch_test_rnd()};
@@ -49,7 +62,10 @@ static void test_labels(void) {
     double margin = 1e-4;
     if (fabs(c.distance) < radius - margin && c.distance > margin && g.distance > 0.5 * width + margin) {
       in_step++;
-      bad_step += gp != 0 || sp != ((uint64_t)(circle + 1) << 1 | (c.signed_distance >= 0.0));
+      int inside = hypot(q[0] - centre[0], q[1] - centre[1]) < ring;
+      inside_left += inside && c.signed_distance >= 0.0;
+      inside_right += inside && c.signed_distance < 0.0;
+      bad_step += gp != 0 || sp != (inside ? ((uint64_t)(circle + 1) << 1 | (c.signed_distance >= 0.0)) : 0);
     } else if (g.distance < 0.5 * width - margin && fabs(g.signed_distance) > margin && c.distance > radius + margin) {
       in_groove++;
       int half = g.signed_distance > 0.0;
@@ -66,6 +82,9 @@ static void test_labels(void) {
   }
   CHECK_MSG(in_step > 100 && in_groove > 100 && outside > 1000, "%d %d %d", in_step, in_groove, outside);
   CHECK_MSG(bad_step == 0, "%d of %d step labels wrong", bad_step, in_step);
+  /* the inside is one side of the circle */
+  CHECK_MSG((inside_left > 50) != (inside_right > 50) && (inside_left == 0 || inside_right == 0), "%d %d", inside_left,
+            inside_right);
   CHECK_MSG(bad_groove == 0, "%d of %d groove labels wrong", bad_groove, in_groove);
   CHECK(half_label[0] != 0 && half_label[1] != 0 && half_label[0] != half_label[1]);
   CHECK_MSG(bad_zero == 0, "%d of %d labels away from the curves not 0", bad_zero, outside);
@@ -76,7 +95,46 @@ static void test_labels(void) {
   ch_curves_free(&set);
 }
 
+static const char crossing_svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<g data-kind='step' data-left='0' data-right='0.01'>"
+    "<circle cx='40' cy='50' r='15'/><circle cx='60' cy='50' r='15'/></g>"
+    "</svg>";
+
+/* Two crossing circles: on the outside of each, near it and off the
+ * other, the label still names the nearest circle and its side. */
+static void test_crossing_loops(void) {
+  ch_curve_set set;
+  ch_height height;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(crossing_svg, strlen(crossing_svg), "crossing.svg", &set, &err) == CH_OK);
+  REQUIRE(set.num_curves == 2);
+  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
+  REQUIRE(ch_height_init(&height, &set, &hd, &err) == CH_OK);
+  const double radius = 0.03;
+  ch_label_ctx lb;
+  REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, 0.005, 0.01, &err) == CH_OK);
+  int near = 0, bad = 0;
+  for (int i = 0; i < 20000; i++) {
+    double q[2] = {ch_test_rnd(), ch_test_rnd()};
+    ch_curve_point a, b;
+    ch_curve_closest(&set, 0, q, &a);
+    ch_curve_closest(&set, 1, q, &b);
+    const ch_curve_point *n = a.distance < b.distance ? &a : &b;
+    if (!(n->distance < radius - 1e-4 && fabs(a.distance - b.distance) > 1e-4 && n->distance > 1e-4)) continue;
+    near++;
+    int curve = a.distance < b.distance ? 0 : 1;
+    bad += (ch_label_at(&lb, q) & 0xffffffffu) != ((uint64_t)(curve + 1) << 1 | (n->signed_distance >= 0.0));
+  }
+  CHECK_MSG(near > 1000, "%d", near);
+  CHECK_MSG(bad == 0, "%d of %d labels near crossing loops wrong", bad, near);
+  ch_label_free(&lb);
+  ch_height_free(&height);
+  ch_curves_free(&set);
+}
+
 int main(void) {
   RUN(test_labels);
+  RUN(test_crossing_loops);
   TEST_MAIN_END();
 }
