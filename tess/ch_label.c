@@ -891,6 +891,13 @@ double ch_label_piece_height(const ch_label_ctx *lb, uint64_t label, const doubl
   if (h->has_steps) {
     ch_recon_sample rs;
     uint32_t step = (uint32_t)label; /* (curve + 1) << 1 | left, 0 away from steps */
+    if (!step && h->warp && lb->step_outer) {
+      /* 0 is also the outside of a free loop: the side of the nearest one */
+      double d2, t;
+      int seg = nearest_step(lb, inside, &d2, &t);
+      if (seg >= 0 && lb->step_outer[seg])
+        step = (uint32_t)(lb->set->segments[seg].curve + 1) << 1 | (uint32_t)(lb->step_outer[seg] - 1);
+    }
     if (step && h->warp)             /* the label knows the side; in warped UV a point a hair off the curve may not */
       ch_height_step_side(h, inside[0], inside[1], (int)(step >> 1) - 1, (step & 1) ? CH_SIDE_LEFT : CH_SIDE_RIGHT,
                           &rs);
