@@ -222,27 +222,56 @@ static int hulls_meet(const ch_segment *a, const ch_segment *b) {
   return 1;
 }
 
+/* Whether point q lies inside the closed loop through segment s0, by
+ * the crossings of a ray along +u with the loop's chords (the loops this
+ * is asked about keep their hulls off q's loop, so chords and curves
+ * agree about it). */
+static int inside_loop(const ch_curve_set *set, int s0, const double q[2]) {
+  int inside = 0, s = s0;
+  do {
+    const double *a = set->segments[s].p[0], *b = set->segments[s].p[2];
+    if ((a[1] > q[1]) != (b[1] > q[1]) && q[0] < a[0] + (q[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])) inside = !inside;
+    s = set->segments[s].next;
+  } while (s != s0);
+  return inside;
+}
+
 /* The outward side of every free closed loop of the step curves
  * (lb->step_outer): each loop followed by its segments' next links, its
  * orientation by the signed area of its control polygon (counter-clockwise
  * in UV: the inside is on the left, so the outward side is the right).
- * A loop is free when no other step segment (nor its own, but for its
- * neighbours) comes near it: where two loops cross, the outsides of both
- * would meet at the crossing point under one label, as different pieces
- * of h, and the cut could not follow the walls there. */
+ * Outside free loops the labels are 0 whichever is nearest, so between two
+ * such outsides there must be no wall a thin band could hide from the
+ * crossing search. A loop is free when
+ * - no other step segment (nor its own, but for its neighbours) touches
+ *   it: where two loops cross, the outsides of both would meet at the
+ *   crossing point, under one label, as different pieces of h;
+ * - it holds no other loop and lies in none (a letter's outline and its
+ *   counter: the body between them would be a band as thin as the stroke
+ *   between two outsides);
+ * - no open step curve comes within twice the radius (between two free
+ *   loops, its band would be as thin as the gaps). A wall of a loop that
+ *   is not free has its own labels on both sides, and 0 beyond them only
+ *   outside it (nothing free lies inside it): no such band.
+ * Needs the step grid (boxes grown by the radius). */
 static ch_status find_step_outer(ch_label_ctx *lb, ch_error *err) {
   const ch_curve_set *set = lb->set;
-  int n = set->num_segments;
+  int n = set->num_segments, nloops = 0;
   lb->step_outer = calloc((size_t)(n > 0 ? n : 1), 1);
-  unsigned char *seen = calloc((size_t)(n > 0 ? n : 1), 1);
+  int *loop_of = malloc((size_t)(n > 0 ? n : 1) * sizeof *loop_of); /* -1: not in a closed loop */
+  int *loop_first = malloc((size_t)(n > 0 ? n : 1) * sizeof *loop_first);
+  double *loop_area = malloc((size_t)(n > 0 ? n : 1) * sizeof *loop_area);
+  unsigned char *loop_free = malloc((size_t)(n > 0 ? n : 1));
   double(*box)[4] = malloc((size_t)(n > 0 ? n : 1) * sizeof *box);
-  ch_grid grid = {0};
+  double(*lbox)[4] = malloc((size_t)(n > 0 ? n : 1) * sizeof *lbox);
+  ch_grid grid = {0}, loops = {0};
   ch_status st = CH_OK;
-  if (!lb->step_outer || !seen || !box) {
+  if (!lb->step_outer || !loop_of || !loop_first || !loop_area || !loop_free || !box || !lbox) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step loops");
     goto done;
   }
   for (int i = 0; i < n; i++) {
+    loop_of[i] = -1;
     if (set->curves[set->segments[i].curve].kind == CH_CURVE_STEP) {
       ch_segment_box(&set->segments[i], 0.0, box[i]);
     } else {
@@ -250,54 +279,105 @@ static ch_status find_step_outer(ch_label_ctx *lb, ch_error *err) {
       box[i][2] = 0.0; /* empty: not in the grid */
     }
   }
-  if ((st = ch_grid_build(&grid, n, (const double(*)[4])box, err))) goto done;
+  /* The closed loops, their orientation and boxes. */
   for (int s0 = 0; s0 < n; s0++) {
-    if (seen[s0] || set->curves[set->segments[s0].curve].kind != CH_CURVE_STEP) continue;
+    if (loop_of[s0] != -1 || set->curves[set->segments[s0].curve].kind != CH_CURVE_STEP) continue;
     double area = 0.0;
     int s = s0, closed = 0;
     for (int steps = 0; s >= 0 && steps < n; steps++) {
       const ch_segment *g = &set->segments[s];
-      seen[s] = 1;
+      loop_of[s] = -2; /* seen */
       area += (g->p[0][0] * g->p[1][1] - g->p[1][0] * g->p[0][1]) + (g->p[1][0] * g->p[2][1] - g->p[2][0] * g->p[1][1]);
       s = g->next;
       if (s == s0) {
         closed = 1;
         break;
       }
-      if (s >= 0 && seen[s]) break; /* (a loop not through s0: left open) */
+      if (s >= 0 && loop_of[s] != -1) break; /* (a loop not through s0: left open) */
     }
     if (!closed || area == 0.0) continue;
-    int is_free = 1;
-    s = s0;
-    do { /* every step segment whose box meets one of the loop's */
-      const ch_segment *g = &set->segments[s];
-      int r[4];
-      ch_grid_cell_range(&grid, box[s], r);
-      for (int y = r[1]; y <= r[3] && is_free; y++)
-        for (int x = r[0]; x <= r[2] && is_free; x++) {
-          int c = y * grid.nx + x;
-          for (int k = grid.cell_start[c]; k < grid.cell_start[c + 1] && is_free; k++) {
-            int t = grid.items[k];
-            if (t == s || t == g->prev || t == g->next) continue;
-            const double *b = box[t];
-            if (b[0] > box[s][2] || b[2] < box[s][0] || b[1] > box[s][3] || b[3] < box[s][1]) continue;
-            is_free = !hulls_meet(g, &set->segments[t]);
-          }
-        }
-      s = g->next;
-    } while (s != s0 && is_free);
-    if (!is_free) continue;
-    unsigned char outer = area > 0.0 ? 1 : 2;
+    int k = nloops++;
+    loop_first[k] = s0;
+    loop_area[k] = area;
+    loop_free[k] = 1;
+    memcpy(lbox[k], box[s0], sizeof lbox[k]);
     s = s0;
     do {
-      lb->step_outer[s] = outer;
+      loop_of[s] = k;
+      for (int j = 0; j < 2; j++) {
+        lbox[k][j] = fmin(lbox[k][j], box[s][j]);
+        lbox[k][2 + j] = fmax(lbox[k][2 + j], box[s][2 + j]);
+      }
       s = set->segments[s].next;
     } while (s != s0);
   }
+  if (!nloops) goto done;
+  if ((st = ch_grid_build(&grid, n, (const double(*)[4])box, err))) goto done;
+  if ((st = ch_grid_build(&loops, nloops, (const double(*)[4])lbox, err))) goto done;
+  for (int k = 0; k < nloops; k++) {
+    /* touched by another step segment */
+    int s = loop_first[k];
+    do {
+      const ch_segment *g = &set->segments[s];
+      int r[4];
+      ch_grid_cell_range(&grid, box[s], r);
+      for (int y = r[1]; y <= r[3] && loop_free[k]; y++)
+        for (int x = r[0]; x <= r[2] && loop_free[k]; x++) {
+          int c = y * grid.nx + x;
+          for (int i = grid.cell_start[c]; i < grid.cell_start[c + 1] && loop_free[k]; i++) {
+            int t = grid.items[i];
+            if (t == s || t == g->prev || t == g->next) continue;
+            const double *b = box[t];
+            if (b[0] > box[s][2] || b[2] < box[s][0] || b[1] > box[s][3] || b[3] < box[s][1]) continue;
+            if (hulls_meet(g, &set->segments[t])) loop_free[k] = 0;
+          }
+        }
+      s = g->next;
+    } while (s != loop_first[k] && loop_free[k]);
+    /* inside another loop (both are then not free) */
+    const double *q = set->segments[loop_first[k]].p[0];
+    const int *items;
+    int m = ch_grid_query(&loops, q[0], q[1], &items);
+    for (int i = 0; i < m; i++) {
+      int o = items[i];
+      const double *b = lbox[o];
+      if (o == k || q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
+      if (inside_loop(set, loop_first[o], q)) loop_free[k] = loop_free[o] = 0;
+    }
+  }
+  /* Near an open step curve. */
+  for (int k = 0; k < nloops; k++) {
+    int s = loop_first[k];
+    while (loop_free[k]) {
+      double grown[4];
+      ch_segment_box(&set->segments[s], lb->radius, grown);
+      int r[4];
+      ch_grid_cell_range(&lb->step_grid, grown, r);
+      for (int y = r[1]; y <= r[3] && loop_free[k]; y++)
+        for (int x = r[0]; x <= r[2] && loop_free[k]; x++) {
+          int c = y * lb->step_grid.nx + x;
+          for (int i = lb->step_grid.cell_start[c]; i < lb->step_grid.cell_start[c + 1] && loop_free[k]; i++) {
+            int t = lb->step_grid.items[i];
+            const double *b = lb->step_boxes[t];
+            if (b[0] > grown[2] || b[2] < grown[0] || b[1] > grown[3] || b[3] < grown[1]) continue;
+            if (loop_of[t] < 0) loop_free[k] = 0;
+          }
+        }
+      s = set->segments[s].next;
+      if (s == loop_first[k]) break;
+    }
+  }
+  for (int s = 0; s < n; s++)
+    if (loop_of[s] >= 0 && loop_free[loop_of[s]]) lb->step_outer[s] = loop_area[loop_of[s]] > 0.0 ? 1 : 2;
 done:
-  free(seen);
+  free(loop_of);
+  free(loop_first);
+  free(loop_area);
+  free(loop_free);
   free(box);
+  free(lbox);
   ch_grid_free(&grid);
+  ch_grid_free(&loops);
   return st;
 }
 
@@ -713,7 +793,6 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
       lb->step_boxes[i][2] = 0.0; /* empty: not in the grid */
     }
   }
-  if (lb->has_steps && find_step_outer(lb, err)) return err ? err->status : CH_ERR_NOMEM;
   /* Box grids for one curve's distance (ch_curve_closest_in_cell), whose answer
    * beyond reach is the cell's (so the level functions the crossing search
    * follows, and the bytes out, stay as they were); the groove field's
@@ -722,6 +801,7 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
   if (!st) st = ch_grid_build(&lb->groove_grid, set->num_segments, (const double(*)[4])ch_groove_field_boxes(&height->grooves), err);
   if (!st) st = ch_segtree_build(&lb->tree, set, err);
   if (!st && lb->has_steps) st = build_step_hints(lb, err);
+  if (!st && lb->has_steps) st = find_step_outer(lb, err);
   if (!st) st = find_step_corners(lb, err);
   if (!st) st = find_open_ends(lb, err);
   if (st) {

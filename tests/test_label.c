@@ -8,6 +8,7 @@
  *   its outside 0, as no other step curve touches it (a free loop: the
  *   outsides of all such loops are one piece, so the mesh is not cut
  *   where the nearest loop changes);
+ * - nor are a circle inside another, or one near an open step curve;
  * - two step circles that cross each other are not free: their outsides
  *   keep the curve and the side (at their crossing points the outsides of
  *   both would meet the inside of the other under one label);
@@ -133,8 +134,63 @@ static void test_crossing_loops(void) {
   ch_curves_free(&set);
 }
 
+static const char nested_svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<g data-kind='step' data-left='0' data-right='0.01'>"
+    "<circle cx='30' cy='50' r='20'/><circle cx='30' cy='50' r='10'/>"
+    "<circle cx='75' cy='50' r='8'/><path d='M 88 0 L 88 100'/>"
+    "<circle cx='70' cy='15' r='5'/></g>"
+    "</svg>";
+
+/* Loops whose outsides must keep their labels: a circle inside another
+ * (a letter's counter: the body between them would be a band as thin as
+ * the stroke between two label-0 outsides), and a circle 5 units (0.05)
+ * from an open step line, within twice the radius (0.03). A circle far
+ * from both is free: label 0 on its outside. */
+static void test_nested_loops(void) {
+  ch_curve_set set;
+  ch_height height;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(nested_svg, strlen(nested_svg), "nested.svg", &set, &err) == CH_OK);
+  REQUIRE(set.num_curves == 5);
+  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
+  REQUIRE(ch_height_init(&height, &set, &hd, &err) == CH_OK);
+  const double radius = 0.03;
+  ch_label_ctx lb;
+  REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, 0.005, 0.01, &err) == CH_OK);
+  int near[5] = {0}, bad[5] = {0};
+  for (int i = 0; i < 40000; i++) {
+    double q[2] = {ch_test_rnd(), ch_test_rnd()};
+    ch_curve_point p[5];
+    int c = 0;
+    for (int k = 0; k < 5; k++) {
+      ch_curve_closest(&set, k, q, &p[k]);
+      if (p[k].distance < p[c].distance) c = k;
+    }
+    int alone = 1;
+    for (int k = 0; k < 5; k++) alone &= k == c || p[k].distance > p[c].distance + 1e-4;
+    if (!(alone && p[c].distance < radius - 1e-4 && p[c].distance > 1e-4)) continue;
+    /* the circles' centres in UV: the mean of their segments' starts */
+    const ch_curve *cv = &set.curves[c];
+    double centre[2] = {0.0, 0.0}, r0;
+    for (int g = cv->first_segment; g < cv->first_segment + cv->num_segments; g++)
+      for (int k = 0; k < 2; k++) centre[k] += set.segments[g].p[0][k] / cv->num_segments;
+    r0 = hypot(set.segments[cv->first_segment].p[0][0] - centre[0], set.segments[cv->first_segment].p[0][1] - centre[1]);
+    if (c == 3 || hypot(q[0] - centre[0], q[1] - centre[1]) < r0) continue; /* the outsides of the circles */
+    near[c]++;
+    uint64_t named = (uint64_t)(c + 1) << 1 | (p[c].signed_distance >= 0.0);
+    bad[c] += (ch_label_at(&lb, q) & 0xffffffffu) != (c == 4 ? 0 : named);
+  }
+  for (int c = 0; c < 5; c++)
+    if (c != 3) CHECK_MSG(near[c] > 200 && bad[c] == 0, "circle %d: %d of %d outside labels wrong", c, bad[c], near[c]);
+  ch_label_free(&lb);
+  ch_height_free(&height);
+  ch_curves_free(&set);
+}
+
 int main(void) {
   RUN(test_labels);
   RUN(test_crossing_loops);
+  RUN(test_nested_loops);
   TEST_MAIN_END();
 }
