@@ -907,12 +907,12 @@ uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]) {
         ch_height_step(lb->height, uv[0], uv[1], &rs);
         if (rs.curve == curve) left = rs.side == CH_SIDE_LEFT;
       }
-      /* Outside every closed loop the step part is 0, whichever loop is
-       * nearest: h is continuous between loops, and labels that changed
-       * with the nearest loop (or at the radius) cut the mesh along every
-       * such line for nothing, twice as many boundary points as the walls
-       * themselves over many small loops. Each wall still separates two
-       * labels: 0 outside, the loop's own inside. */
+      /* Outside every free loop (find_step_outer) the step part is 0,
+       * whichever loop is nearest: h is continuous between loops, and
+       * labels that changed with the nearest loop (or at the radius) cut
+       * the mesh along every such line for nothing, twice as many boundary
+       * points as the walls themselves over many small loops. Each wall
+       * still separates two labels: 0 outside, the loop's own inside. */
       int outer = lb->step_outer ? lb->step_outer[best_seg] : 0;
       s = outer && left == outer - 1 ? 0 : ((uint64_t)(curve + 1) << 1) | (uint64_t)left;
     }

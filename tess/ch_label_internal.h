@@ -54,9 +54,9 @@ typedef struct ch_label_ctx {
    * bucketed so by their point; the largest half width among them. */
   int *end_item, *end_start, end_res;
   double end_reach;
-  /* Per segment of a closed step loop, the side of it that faces out of
-   * the loop: 1 right, 2 left (0: a segment of an open curve). The step
-   * part of a label is 0 there (see ch_label_at). */
+  /* Per segment of a free closed step loop (find_step_outer), the side of
+   * it that faces out of the loop: 1 right, 2 left (0: any other step
+   * segment). The step part of a label is 0 there (see ch_label_at). */
   unsigned char *step_outer;
   double radius;
   int has_steps;
