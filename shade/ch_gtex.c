@@ -720,11 +720,29 @@ static void events_end_line(events *E, const ray *R, const double P[2], const do
 
 /* The signed distance from the ray's point at t to a quadratic element,
  * and its rate along the ray (the ray's direction against the distance's
- * gradient, the unit vector from the foot). */
+ * gradient, the unit vector from the foot). Only called where the foot is
+ * on the element (between the normal lines at its ends), so the side is
+ * always the element's own: where the foot lands on an end point (the
+ * stretch's ends lie on those normal lines) it is the end's tangent line,
+ * not docs/spec.md §3's sector rule of the joint there. On the inner side
+ * of a joint turning by more than a right angle the two disagree on the
+ * normal line itself (it runs into the next element's outer side): the
+ * sector's sign would make s jump at the stretch's end, and the bracketing
+ * below, which needs s continuous and convex, would lose the crossing
+ * inside. The corner's own region is events_point's. */
 static double quad_s(const elem *el, const ray *R, double t, double *rate) {
   double q[2] = {R->o[0] + t * R->d[0], R->o[1] + t * R->d[1]}, tau, c[2];
   double d2 = elem_closest(el, q, &tau);
-  double side = elem_side(el, tau, q), d = sqrt(d2);
+  double side, d = sqrt(d2);
+  if (tau > 0.0 && tau < 1.0) {
+    side = elem_side(el, tau, q);
+  } else {
+    double tg[2], e[2];
+    elem_tangent(el, tau <= 0.0 ? 0.0 : 1.0, tg);
+    elem_point(el, tau <= 0.0 ? 0.0 : 1.0, e);
+    double dq[2] = {q[0] - e[0], q[1] - e[1]};
+    side = ch_cross2(tg, dq) >= 0.0 ? 1.0 : -1.0;
+  }
   elem_point(el, tau, c);
   double g[2];
   if (d > 1e-14) {

@@ -19,6 +19,8 @@
  *   a tight circle, at G = 8, 64, 256.
  * - The paper's straight approximation of curved elements departs from the
  *   truth on a tight curve where the exact method does not.
+ * - A ray past a sharp corner of two quadratic elements: its hit in closed
+ *   form (the elements are straight), checked against the field's h.
  * - Bad input: resolutions out of range, a step curve, a profile of too
  *   many points, a cell with too many elements.
  * - The same bytes on 1 and 2 threads. */
@@ -402,6 +404,54 @@ static void test_paper_approximation(void) {
   world_free(&w);
 }
 
+/* A v groove along two quadratic elements (control points on their chords,
+ * so both are the straight arms (0.6, 0.7)-(0.5, 0.5)-(0.4, 0.7), width
+ * 0.04, depth 0.01) meeting at a sharp corner: the arms turn by 127
+ * degrees, more than a right angle. The ray from (0.47, 0.6, 0.005) along
+ * (0.4, -0.9, -0.12) stays more than w/2 = 0.02 from the right arm and
+ * from the corner up to its hit on the left arm's near facet, where
+ * s = (0.1 t - 0.04) / sqrt(5) (left of the arm positive) and h = -d (1 -
+ * 2 |s| / w): 0.005 - 0.12 t = -0.01 + 0.5 (0.04 - 0.1 t) / sqrt(5), t =
+ * (0.015 - 0.02 / sqrt(5)) / (0.12 - 0.05 / sqrt(5)) = 0.0620214. Past
+ * the hit the ray crosses the left arm's normal line at the corner on the
+ * right arm's outer side, where docs/spec.md §3's sector rule has the
+ * other sign than the arm's own side: the crossing was lost and the hit
+ * came at a grid cell's entry (t = 0.075 at u = 0.5 for G = 4..32, a
+ * point above the surface at t = 0.059 for G = 64). The field's
+ * h along the ray (an independent implementation) agrees: above before,
+ * below after. */
+static void test_sharp_corner_of_quadratics(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(parse("<path d='M 60 30 Q 55 40 50 50 Q 45 40 40 30' data-profile='v' data-width='4' data-depth='0.01'/>",
+                &set));
+  REQUIRE(set.num_segments == 2 && !set.segments[0].is_line && !set.segments[1].is_line);
+  round_to_float(&set);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  const double o[3] = {0.47, 0.6, 0.005}, d[3] = {0.4, -0.9, -0.12}, s5 = sqrt(5.0);
+  const double t_exact = (0.015 - 0.02 / s5) / (0.12 - 0.05 / s5);
+  for (int G = 4; G <= 64; G *= 2) {
+    ch_gtex g;
+    REQUIRE(build(&g, &set, G, 0));
+    ch_gtex_hit h;
+    REQUIRE(ch_gtex_intersect(&g, o, d, 0.0, INFINITY, &h));
+    fprintf(stderr, "  sharp corner, G = %d: hit t = %.9f (exact %.9f), curve %d\n", G, h.t, t_exact, h.curve);
+    /* (The corners and the width are floats: 1e-7.) */
+    CHECK_NEAR(h.t, t_exact, 1e-7);
+    CHECK(h.curve == 0 && !h.wall);
+    ch_gtex_free(&g);
+  }
+  for (int k = 1; k <= 1000; k++) {
+    double t = t_exact * k / 1000.0 * 0.9999, z = o[2] + t * d[2];
+    CHECK(z > ch_groove_field_eval(&f, o[0] + t * d[0], o[1] + t * d[1], NULL));
+  }
+  const double after = t_exact * 1.0001;
+  CHECK(o[2] + after * d[2] < ch_groove_field_eval(&f, o[0] + after * d[0], o[1] + after * d[1], NULL));
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
 static void test_bad_input(void) {
   ch_curve_set set;
   ch_gtex g;
@@ -550,6 +600,7 @@ int main(void) {
   RUN(test_analytic_rays);
   RUN(test_against_truth);
   RUN(test_paper_approximation);
+  RUN(test_sharp_corner_of_quadratics);
   RUN(test_region_sampling);
   RUN(test_bad_input);
   RUN(test_threads_same_bytes);
