@@ -27,9 +27,11 @@
  *   distance to the quadratic itself is used: convex along the ray within
  *   the element's least radius of curvature, so each event function's
  *   values and rates at the ends of the ray's stretch over the element
- *   bracket its roots (refined by safeguarded Newton); grooves wider than
- *   that radius allows are sampled. `paper` keeps the tangent line, per
- *   cell, to measure the approximation.
+ *   bracket its roots (refined by safeguarded Newton); the u ellipse's,
+ *   not convex on the side the curve turns to, is split where bounds on
+ *   its curvature cannot tell; grooves wider than that radius allows are
+ *   sampled. `paper` keeps the tangent line, per cell, to measure the
+ *   approximation.
  * - Events are only where h can change sides with the ray: facets inside
  *   the band with their foot on the element, jumps of the profile (rims
  *   too where raised and carved grooves meet), the base plane; a kink of
@@ -802,6 +804,135 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
   return t;
 }
 
+/* The roots of event function j on [ta, tb] (values fa, fb, rates ra, rb
+ * at the ends) where it is convex or concave there: a sign change holds
+ * one root; otherwise, turning towards zero and back, the function is
+ * one-signed past the tangents' crossing (it lies on their side of both),
+ * which bounds its extremum: the bracket is cut at the crossing until the
+ * bound keeps the sign (no root) or the function changes it (two roots,
+ * split there). */
+static void convex_roots(events *E, const ray *R, const elem *el, const groove *G, int j, double ta, double fa,
+                         double ra, double tb, double fb, double rb) {
+  if ((fa > 0.0) != (fb > 0.0)) {
+    ev_add(E, quad_root(el, G, R, j, ta, tb, fa, fb));
+    return;
+  }
+  if (!((ra > 0.0) != (rb > 0.0) && (fa > 0.0) == (ra < 0.0))) return;
+  double x0 = ta, x1 = tb, f0 = fa, f1 = fb, r0 = ra, r1 = rb, fm = fa, m = ta;
+  int split = 0;
+  for (int it = 0; it < 40; it++) {
+    /* f0 + r0 (x - x0) = f1 + r1 (x - x1) */
+    m = r0 != r1 ? (f1 - f0 + r0 * x0 - r1 * x1) / (r0 - r1) : 0.5 * (x0 + x1);
+    if (!(m > x0 && m < x1)) m = 0.5 * (x0 + x1);
+    double bound = f0 + r0 * (m - x0);
+    if ((bound > 0.0) == (fa > 0.0) && bound != 0.0) break; /* the extremum keeps the sign */
+    double dsm, sm = quad_s(el, R, m, &dsm), rm;
+    fm = quad_fn(G, R, j, m, sm, dsm, &rm);
+    if ((fm > 0.0) != (fa > 0.0)) {
+      split = 1;
+      break;
+    }
+    if ((rm > 0.0) == (r0 > 0.0)) x0 = m, f0 = fm, r0 = rm;
+    else x1 = m, f1 = fm, r1 = rm;
+    if (x1 - x0 <= 1e-15 * (1.0 + fabs(x0))) break;
+  }
+  if (split) {
+    ev_add(E, quad_root(el, G, R, j, ta, m, fa, fm));
+    ev_add(E, quad_root(el, G, R, j, m, tb, fm, fb));
+  }
+}
+
+/* A point of the ray with the distance and the ellipse's function there. */
+typedef struct ell_end {
+  double t, s, ds, f, r;
+} ell_end;
+
+/* Bounds of the ellipse's function's second derivative over [a, b], from
+ * those of the distance: f = (z/d)^2 + (2s/w)^2 - 1 has f'' = 2 (z'/d)^2 +
+ * 8 (s'^2 + s s'') / w^2 with s'^2 <= |dxy|^2 and |s''| = (dxy . T)^2 k /
+ * (1 -+ k |s|) (the distance's Hessian at a foot of curvature k, minus on
+ * the side the curve turns to), k at most 1/rho. |s| over [a, b] is
+ * bounded by the chord and the tangents' crossing (s is convex or concave
+ * along the ray). 0 where the bound fails (|s| reaches rho), -1 where
+ * the stretch stays beyond the band. */
+static int ellipse_curvature(const elem *el, const groove *G, const ray *R, const ell_end *a, const ell_end *b,
+                             double *lo, double *hi) {
+  double sl = mn(a->s, b->s), sh = mx(a->s, b->s);
+  if (a->ds != b->ds) {
+    double x = (b->s - a->s + a->ds * a->t - b->ds * b->t) / (a->ds - b->ds);
+    if (x > a->t && x < b->t) {
+      double sx = a->s + a->ds * (x - a->t);
+      sl = mn(sl, sx), sh = mx(sh, sx);
+    }
+  }
+  /* Beyond the band on one side throughout: (2s/w)^2 > 1, no root. */
+  if (sl > 0.5 * G->w || sh < -0.5 * G->w) return -1;
+  double A = mx(fabs(sl), fabs(sh)), k = 1.0 / sqrt(el->rho2);
+  if (!(k * A < 1.0)) return 0;
+  double dxy2 = R->d[0] * R->d[0] + R->d[1] * R->d[1], zz = 2.0 * (R->d[2] / G->d) * (R->d[2] / G->d);
+  double c = 8.0 / (G->w * G->w);
+  *lo = zz - c * A * dxy2 * k / (1.0 - k * A);
+  *hi = zz + c * dxy2 * (1.0 + A * k);
+  return 1;
+}
+
+/* The `u` ellipse's function where it may not be convex: on the side a
+ * curved element turns to, s s'' < 0 can outweigh the rest for a ray
+ * nearly level along the groove, and a stretch then holds up to four
+ * roots whose ends show one sign change or none. Certified by the
+ * bounds on f'' (ellipse_curvature) and split in halves where they
+ * cannot tell: same signs at the ends and a chord bound keeping that sign
+ * hold no root; a sign change with f' bounded away from 0 holds one. */
+static void ellipse_roots(events *E, const ray *R, const elem *el, const groove *G, ell_end a0, ell_end b0) {
+  enum { STACK = 24, SPLITS = 64 };
+  ell_end st[STACK][2];
+  int n = 0, splits = 0, j = G->nb;
+  st[n][0] = a0, st[n][1] = b0, n++;
+  while (n > 0) {
+    n--;
+    ell_end a = st[n][0], b = st[n][1];
+    double lo, hi, h = b.t - a.t;
+    int known = ellipse_curvature(el, G, R, &a, &b, &lo, &hi);
+    if (known < 0) continue;
+    if (known && lo >= 0.0) {
+      convex_roots(E, R, el, G, j, a.t, a.f, a.r, b.t, b.f, b.r);
+      continue;
+    }
+    int change = (a.f > 0.0) != (b.f > 0.0);
+    if (known && !change) {
+      if (a.f > 0.0 ? mn(a.f, b.f) - hi * h * h / 8.0 > 0.0 : mx(a.f, b.f) - lo * h * h / 8.0 < 0.0) continue;
+    }
+    if (known && change) {
+      /* f' between the lines from a.r with slopes lo, hi and those back
+       * from b.r: its least and greatest values over [a, b] are at an end
+       * or where the two bounding lines cross. */
+      double xl = (b.r - a.r - hi * b.t + lo * a.t) / (lo - hi), xh = (b.r - a.r - lo * b.t + hi * a.t) / (hi - lo);
+      xl = xl < a.t ? a.t : xl > b.t ? b.t : xl;
+      xh = xh < a.t ? a.t : xh > b.t ? b.t : xh;
+      double rmin = mn(mx(a.r + lo * (a.t - a.t), b.r - hi * (b.t - a.t)), mx(a.r + lo * (b.t - a.t), b.r));
+      rmin = mn(rmin, mx(a.r + lo * (xl - a.t), b.r - hi * (b.t - xl)));
+      double rmax = mx(mn(a.r, b.r - lo * (b.t - a.t)), mn(a.r + hi * (b.t - a.t), b.r));
+      rmax = mx(rmax, mn(a.r + hi * (xh - a.t), b.r - lo * (b.t - xh)));
+      if (rmin > 0.0 || rmax < 0.0) {
+        ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f));
+        continue;
+      }
+    }
+    if (splits >= SPLITS || n + 2 > STACK || h <= 1e-12 * (1.0 + fabs(a.t))) {
+      if (change) ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f));
+      continue;
+    }
+    splits++;
+    ell_end m;
+    m.t = 0.5 * (a.t + b.t);
+    m.s = quad_s(el, R, m.t, &m.ds);
+    m.f = quad_fn(G, R, j, m.t, m.s, m.ds, &m.r);
+    /* The later half first on the stack: the earlier one is taken next. */
+    st[n][0] = m, st[n][1] = b, n++;
+    st[n][0] = a, st[n][1] = m, n++;
+  }
+}
+
 /* Events of a quadratic element over [lo, hi], the part of the ray whose
  * foot is inside the element. Within the element's least radius of
  * curvature of it, the signed distance s(t) is convex or concave (the
@@ -809,11 +940,13 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
  * so a break function s - b w, or a facet z - d P(s / w) with P linear,
  * has at most one extremum: the values and rates at the two ends tell a
  * single crossing (refined by safeguarded Newton) from a pair (split at
- * the extremum) from none. The ellipse's function (z/d)^2 + (2s/w)^2 is
- * convex unless s s'' < 0 outweighs the rest (a ray along the groove,
- * nearly level): it gets two intervals. A groove wider than twice that
- * radius has points with two feet (where the paper's straight
- * approximation fails too): those are sampled eight times per width. */
+ * the extremum) from none (convex_roots). The ellipse's function (z/d)^2
+ * + (2s/w)^2 is convex unless s s'' < 0 outweighs the rest (a ray along
+ * the groove, nearly level, on the side the curve turns to): there its
+ * roots are isolated by bounds on its curvature (ellipse_roots). A groove
+ * wider than twice that radius has points with two feet (where the
+ * paper's straight approximation fails too): those are sampled eight
+ * times per width. */
 static void events_quad_range(events *E, const ray *R, const elem *el, const groove *G, double lo, double hi,
                               int all_breaks) {
   double len = (hi - lo) * len2d(R->d[0], R->d[1]);
@@ -837,37 +970,11 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
       }
       double ra, rb, fa = quad_fn(G, R, j, ta, sa, dsa, &ra), fb = quad_fn(G, R, j, tb, sb, dsb, &rb);
       E->wall_now = j < G->nb;
-      if ((fa > 0.0) != (fb > 0.0)) {
-        ev_add(E, quad_root(el, G, R, j, ta, tb, fa, fb));
-        continue;
-      }
-      /* Turning towards zero and back: between the ends the function is
-       * one-signed past the tangents' crossing (it lies on their side of
-       * both: convex or concave), so that bounds its extremum; cut the
-       * bracket at the crossing until the bound keeps the sign (no root)
-       * or the function changes it (two roots, split there). */
-      if (!((ra > 0.0) != (rb > 0.0) && (fa > 0.0) == (ra < 0.0))) continue;
-      double x0 = ta, x1 = tb, f0 = fa, f1 = fb, r0 = ra, r1 = rb, fm = fa, m = ta;
-      int split = 0;
-      for (int it = 0; it < 40; it++) {
-        /* f0 + r0 (x - x0) = f1 + r1 (x - x1) */
-        m = r0 != r1 ? (f1 - f0 + r0 * x0 - r1 * x1) / (r0 - r1) : 0.5 * (x0 + x1);
-        if (!(m > x0 && m < x1)) m = 0.5 * (x0 + x1);
-        double bound = f0 + r0 * (m - x0);
-        if ((bound > 0.0) == (fa > 0.0) && bound != 0.0) break; /* the extremum keeps the sign */
-        double dsm, sm = quad_s(el, R, m, &dsm), rm;
-        fm = quad_fn(G, R, j, m, sm, dsm, &rm);
-        if ((fm > 0.0) != (fa > 0.0)) {
-          split = 1;
-          break;
-        }
-        if ((rm > 0.0) == (r0 > 0.0)) x0 = m, f0 = fm, r0 = rm;
-        else x1 = m, f1 = fm, r1 = rm;
-        if (x1 - x0 <= 1e-15 * (1.0 + fabs(x0))) break;
-      }
-      if (split) {
-        ev_add(E, quad_root(el, G, R, j, ta, m, fa, fm));
-        ev_add(E, quad_root(el, G, R, j, m, tb, fm, fb));
+      if (j >= G->nb && G->ellipse && !tight) {
+        ell_end a = {ta, sa, dsa, fa, ra}, b = {tb, sb, dsb, fb, rb};
+        ellipse_roots(E, R, el, G, a, b);
+      } else {
+        convex_roots(E, R, el, G, j, ta, fa, ra, tb, fb, rb);
       }
     }
     ta = tb, sa = sb, dsa = dsb;
@@ -1013,7 +1120,6 @@ typedef struct trace {
   double duv;       /* |(dx, dy)| */
   /* the hit */
   double t;
-  int ci;           /* its cell */
   int maybe_wall;   /* whether h may jump at the hit */
   int at_top;       /* the walk is at its start, where it entered the
                        slab of h's range from above: no wall there */
@@ -1144,7 +1250,7 @@ static int same_list(const ch_gtex *g, const float *a, const float *b) {
   return 1;
 }
 
-/* Walks the cells from tnear to tfar; 1 with T->t, T->ci at the first hit. */
+/* Walks the cells from tnear to tfar; 1 with T->t at the first hit. */
 static int walk(trace *T, double tnear, double tfar) {
   const ch_gtex *g = T->g;
   const ray *R = &T->R;
@@ -1198,12 +1304,12 @@ static int walk(trace *T, double tnear, double tfar) {
       if (n == 0) {
         /* The base plane h = 0. */
         if (za <= 0.0) {
-          T->t = t, T->ci = ci, T->maybe_wall = 1;
+          T->t = t, T->maybe_wall = 1;
           return 1;
         }
         if (zb <= 0.0) {
           T->t = d[2] != 0.0 ? -o[2] / d[2] : t;
-          T->ci = ci, T->maybe_wall = 0;
+          T->maybe_wall = 0;
           return 1;
         }
       } else {
@@ -1232,7 +1338,7 @@ static int walk(trace *T, double tnear, double tfar) {
         double th;
         int mw;
         if (cell_hit(T, T->C, t0, t_exit, cmax, cuts, ncuts, &th, &mw)) {
-          T->t = th, T->ci = ci, T->maybe_wall = mw;
+          T->t = th, T->maybe_wall = mw;
           return 1;
         }
       }

@@ -20,7 +20,9 @@
  * - The paper's straight approximation of curved elements departs from the
  *   truth on a tight curve where the exact method does not.
  * - A ray past a sharp corner of two quadratic elements: its hit in closed
- *   form (the elements are straight), checked against the field's h.
+ *   form (the elements are straight), checked against the field's h; a
+ *   nearly level ray along a curved u groove: its hit by a march of the
+ *   field.
  * - Bad input: resolutions out of range, a step curve, a profile of too
  *   many points, a cell with too many elements.
  * - The same bytes on 1 and 2 threads. */
@@ -452,6 +454,58 @@ static void test_sharp_corner_of_quadratics(void) {
   ch_curves_free(&set);
 }
 
+/* The first t in [0, t1] where the ray is on or below the field's h (an
+ * implementation of docs/spec.md §3 independent of the textures): a march
+ * in steps of 1e-5, then bisection. -1 if none. */
+static double march_field(const ch_groove_field *f, const double o[3], const double d[3], double t1) {
+  double prev = 0.0;
+  for (double t = 0.0; t <= t1; t += 1e-5) {
+    if (o[2] + t * d[2] <= ch_groove_field_eval(f, o[0] + t * d[0], o[1] + t * d[1], NULL)) {
+      double a = prev, b = t;
+      for (int i = 0; i < 60; i++) {
+        double m = 0.5 * (a + b);
+        if (o[2] + m * d[2] <= ch_groove_field_eval(f, o[0] + m * d[0], o[1] + m * d[1], NULL)) b = m;
+        else a = m;
+      }
+      return b;
+    }
+    prev = t;
+  }
+  return -1.0;
+}
+
+/* A u groove (width 0.04, depth 0.01) along the arch (0.2, 0.5) - (0.5,
+ * 0.8) - (0.8, 0.5), one quadratic element, and a ray 2.6 degrees below
+ * level along its chord under the apex, from inside the groove: it
+ * crosses the curve twice, so on the side the curve turns to the
+ * ellipse's function (z/d)^2 + (2s/w)^2 - 1 is not convex along it and
+ * has several roots where its ends change sign once; the last was taken
+ * and the hit (on the far wall, before the ray's second crossing of the
+ * curve) came 0.007 late. Its t is the field's, by a march. */
+static void test_level_ray_along_curved_u(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(parse("<path d='M 20 50 Q 50 20 80 50' data-profile='u' data-width='4' data-depth='0.01'/>", &set));
+  round_to_float(&set);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  const double o[3] = {0.4, 0.645, 0.003}, d[3] = {1.0, -0.13, -0.045};
+  double t_march = march_field(&f, o, d, 0.5);
+  REQUIRE(t_march > 0.0);
+  for (int G = 4; G <= 64; G *= 4) {
+    ch_gtex g;
+    REQUIRE(build(&g, &set, G, 0));
+    ch_gtex_hit h;
+    REQUIRE(ch_gtex_intersect(&g, o, d, 0.0, INFINITY, &h));
+    fprintf(stderr, "  level ray along a curved u groove, G = %d: hit t = %.9f (the field's %.9f)\n", G, h.t, t_march);
+    CHECK_NEAR(h.t, t_march, 1e-9);
+    CHECK(h.curve == 0 && !h.wall);
+    ch_gtex_free(&g);
+  }
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
 static void test_bad_input(void) {
   ch_curve_set set;
   ch_gtex g;
@@ -601,6 +655,7 @@ int main(void) {
   RUN(test_against_truth);
   RUN(test_paper_approximation);
   RUN(test_sharp_corner_of_quadratics);
+  RUN(test_level_ray_along_curved_u);
   RUN(test_region_sampling);
   RUN(test_bad_input);
   RUN(test_threads_same_bytes);
