@@ -331,8 +331,10 @@ static double robust_closest(const elem *E, const double q[2], double *tau) {
   return ch_bezier_closest(P, !E->quad, Q, tau);
 }
 
-static double elem_closest(const elem *E, const double q[2], double *tau) {
-  if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
+/* From start (a parameter in [0, 1], or -1: the chord's projection), and
+ * with the foot and the derivative there when asked (quad_s). */
+static double elem_closest_from(const elem *E, const double q[2], double start, double *tau, double foot[2],
+                                double deriv[2]) {
   const double p0[2] = {E->p[0][0], E->p[0][1]}, p1[2] = {E->p[1][0], E->p[1][1]}, p2[2] = {E->p[2][0], E->p[2][1]};
   double c[2] = {p2[0] - p0[0], p2[1] - p0[1]}, cc = c[0] * c[0] + c[1] * c[1];
   double t = cc > 0.0 ? ((q[0] - p0[0]) * c[0] + (q[1] - p0[1]) * c[1]) / cc : 0.5;
@@ -344,23 +346,45 @@ static double elem_closest(const elem *E, const double q[2], double *tau) {
    * the curve: Newton stays in the basin. */
   double dx = q[0] - (p0[0] + t * c[0]), dy = q[1] - (p0[1] + t * c[1]);
   double dev2 = 0.0625 * bb; /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
-  if (!(dx * dx + dy * dy + dev2 < 0.25 * E->rho2)) return robust_closest(E, q, tau);
+  int robust = !(dx * dx + dy * dy + dev2 < 0.25 * E->rho2);
+  if (!robust && start >= 0.0) t = start;
   /* Quadratic convergence: once a step is below 1e-8 the next is below
    * 1e-16, so take it and stop. */
-  for (int it = 0, last = 0; it < 16 && !last; it++) {
+  for (int it = 0, last = 0; it < 16 && !last && !robust; it++) {
     double s = 1.0 - t;
     double B[2] = {s * s * p0[0] + 2.0 * s * t * p1[0] + t * t * p2[0], s * s * p0[1] + 2.0 * s * t * p1[1] + t * t * p2[1]};
     double D[2] = {a[0] + t * b[0], a[1] + t * b[1]}, r[2] = {B[0] - q[0], B[1] - q[1]};
     double f = r[0] * D[0] + r[1] * D[1], df = D[0] * D[0] + D[1] * D[1] + r[0] * b[0] + r[1] * b[1];
-    if (!(df > 0.0)) return robust_closest(E, q, tau);
+    if (!(df > 0.0)) {
+      robust = 1;
+      break;
+    }
     double tn = t - f / df;
     tn = tn < 0.0 ? 0.0 : tn > 1.0 ? 1.0 : tn;
     last = fabs(tn - t) <= 1e-8;
     t = tn;
   }
+  double d2;
+  if (robust) {
+    d2 = robust_closest(E, q, &t);
+    if (!foot) {
+      *tau = t;
+      return d2;
+    }
+  }
   double u = 1.0 - t, x[2] = {u * u * p0[0] + 2.0 * u * t * p1[0] + t * t * p2[0], u * u * p0[1] + 2.0 * u * t * p1[1] + t * t * p2[1]};
+  if (!robust) d2 = (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
   *tau = t;
-  return (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
+  if (foot) {
+    foot[0] = x[0], foot[1] = x[1];
+    deriv[0] = a[0] + t * b[0], deriv[1] = a[1] + t * b[1];
+  }
+  return d2;
+}
+
+static double elem_closest(const elem *E, const double q[2], double *tau) {
+  if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
+  return elem_closest_from(E, q, -1.0, tau, NULL, NULL);
 }
 
 /* ---- h at a point from a cell's elements ---- */
@@ -731,25 +755,29 @@ static void events_end_line(events *E, const ray *R, const double P[2], const do
  * normal line itself (it runs into the next element's outer side): the
  * sector's sign would make s jump at the stretch's end, and the bracketing
  * below, which needs s continuous and convex, would lose the crossing
- * inside. The corner's own region is events_point's. */
-static double quad_s(const elem *el, const ray *R, double t, double *rate) {
-  double q[2] = {R->o[0] + t * R->d[0], R->o[1] + t * R->d[1]}, tau, c[2];
-  double d2 = elem_closest(el, q, &tau);
-  double side, d = sqrt(d2);
+ * inside. The corner's own region is events_point's. *hint: the foot's
+ * parameter to start Newton from (-1: the chord's projection), set to
+ * this one's (refining a root, the next point is close). */
+static double quad_s(const elem *el, const ray *R, double t, double *rate, double *hint) {
+  double q[2] = {R->o[0] + t * R->d[0], R->o[1] + t * R->d[1]}, tau, c[2], D[2];
+  double d2 = elem_closest_from(el, q, *hint, &tau, c, D);
+  *hint = tau;
+  double side, d = sqrt(d2), dq[2] = {q[0] - c[0], q[1] - c[1]};
   if (tau > 0.0 && tau < 1.0) {
-    side = elem_side(el, tau, q);
+    /* elem_side's test, from the derivative Newton ended with. */
+    double chord2 = (el->p[2][0] - el->p[0][0]) * (el->p[2][0] - el->p[0][0]) + (el->p[2][1] - el->p[0][1]) * (el->p[2][1] - el->p[0][1]);
+    side = D[0] * D[0] + D[1] * D[1] > 1e-12 * chord2 ? (ch_cross2(D, dq) >= 0.0 ? 1.0 : -1.0) : elem_side(el, tau, q);
   } else {
     double tg[2], e[2];
     elem_tangent(el, tau <= 0.0 ? 0.0 : 1.0, tg);
     elem_point(el, tau <= 0.0 ? 0.0 : 1.0, e);
-    double dq[2] = {q[0] - e[0], q[1] - e[1]};
-    side = ch_cross2(tg, dq) >= 0.0 ? 1.0 : -1.0;
+    double de[2] = {q[0] - e[0], q[1] - e[1]};
+    side = ch_cross2(tg, de) >= 0.0 ? 1.0 : -1.0;
   }
-  elem_point(el, tau, c);
   double g[2];
   if (d > 1e-14) {
-    g[0] = side * (q[0] - c[0]) / d;
-    g[1] = side * (q[1] - c[1]) / d;
+    g[0] = side * dq[0] / d;
+    g[1] = side * dq[1] / d;
   } else {
     double tg[2];
     elem_tangent(el, tau, tg);
@@ -791,8 +819,10 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
    * 1e-9 of the bracket the next is at rounding, so take it and stop. */
   double t = fa != fb ? a - fa * (b - a) / (fb - fa) : 0.5 * (a + b), tol = 1e-9 * (b - a);
   if (!(t > a && t < b)) t = 0.5 * (a + b);
+  /* Each foot from the last one: the steps shrink, so do the feet's moves. */
+  double hint = -1.0;
   for (int it = 0, last = 0; it < 60 && !last; it++) {
-    double ds, rate, s = quad_s(el, R, t, &ds), f = quad_fn(G, R, j, t, s, ds, &rate);
+    double ds, rate, s = quad_s(el, R, t, &ds, &hint), f = quad_fn(G, R, j, t, s, ds, &rate);
     if (f == 0.0) return t;
     if ((f > 0.0) == (fa > 0.0)) a = t, fa = f;
     else b = t;
@@ -826,7 +856,7 @@ static void convex_roots(events *E, const ray *R, const elem *el, const groove *
     if (!(m > x0 && m < x1)) m = 0.5 * (x0 + x1);
     double bound = f0 + r0 * (m - x0);
     if ((bound > 0.0) == (fa > 0.0) && bound != 0.0) break; /* the extremum keeps the sign */
-    double dsm, sm = quad_s(el, R, m, &dsm), rm;
+    double dsm, hint = -1.0, sm = quad_s(el, R, m, &dsm, &hint), rm;
     fm = quad_fn(G, R, j, m, sm, dsm, &rm);
     if ((fm > 0.0) != (fa > 0.0)) {
       split = 1;
@@ -925,7 +955,8 @@ static void ellipse_roots(events *E, const ray *R, const elem *el, const groove 
     splits++;
     ell_end m;
     m.t = 0.5 * (a.t + b.t);
-    m.s = quad_s(el, R, m.t, &m.ds);
+    double hint = -1.0;
+    m.s = quad_s(el, R, m.t, &m.ds, &hint);
     m.f = quad_fn(G, R, j, m.t, m.s, m.ds, &m.r);
     /* The later half first on the stack: the earlier one is taken next. */
     st[n][0] = m, st[n][1] = b, n++;
@@ -954,9 +985,11 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
   int ns = tight ? 2 + (int)ceil(8.0 * len / G->w) : 1;
   if (ns > QUAD_SAMPLES_MAX) ns = QUAD_SAMPLES_MAX;
   int nf = G->nb + (G->ellipse ? 1 : G->n - 1);
-  double ta = lo, dsa, sa = quad_s(el, R, ta, &dsa);
+  double ta = lo, dsa, hint = -1.0, sa = quad_s(el, R, ta, &dsa, &hint);
   for (int i = 1; i <= ns; i++) {
-    double tb = lo + (hi - lo) * i / ns, dsb, sb = quad_s(el, R, tb, &dsb);
+    double tb = lo + (hi - lo) * i / ns, dsb;
+    hint = -1.0; /* (samples far apart: the chord's projection is the better start) */
+    double sb = quad_s(el, R, tb, &dsb, &hint);
     for (int j = 0; j < nf; j++) {
       if (j < G->nb && !(all_breaks || G->jump[j])) continue;
       if (j >= G->nb && !G->ellipse) {
