@@ -1022,11 +1022,22 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   elem_tangent(el, 0.0, T0);
   elem_tangent(el, 1.0, T1);
   double lo = E->lo, hi = E->hi;
-  /* (p(t) - B0) . T0 >= 0 and (p(t) - B1) . T1 <= 0: linear in t. */
+  /* (p(t) - B0) . T0 >= 0 and (p(t) - B1) . T1 <= 0: linear in t. That
+   * pair of half-planes holds the feet inside the element only where each
+   * end lies on the inner side of the other's normal line: a quadratic
+   * bending by more than a right angle near one end can put its start
+   * beyond its end's normal line (its normals then meet on its outer
+   * side), and the pair would cut the element's own band away. Such an
+   * element's events are sought over the whole stretch (the ends' caps
+   * have theirs; extra roots where the foot is an end are harmless). */
   double a0 = (R->o[0] - el->p[0][0]) * T0[0] + (R->o[1] - el->p[0][1]) * T0[1], a1 = R->d[0] * T0[0] + R->d[1] * T0[1];
   double b0 = (R->o[0] - el->p[2][0]) * T1[0] + (R->o[1] - el->p[2][1]) * T1[1], b1 = R->d[0] * T1[0] + R->d[1] * T1[1];
+  double c[2] = {el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]};
+  int wedge = c[0] * T0[0] + c[1] * T0[1] >= 0.0 && c[0] * T1[0] + c[1] * T1[1] >= 0.0;
   E->wall_now = 0; /* the ends' normal lines: h is continuous there */
-  if (a1 != 0.0) {
+  if (!wedge) {
+    /* nothing cut */
+  } else if (a1 != 0.0) {
     double tc = -a0 / a1;
     ev_add(E, tc);
     if (a1 > 0.0) lo = mx(lo, tc);
@@ -1034,7 +1045,9 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   } else if (a0 < 0.0) {
     return;
   }
-  if (b1 != 0.0) {
+  if (!wedge) {
+    /* nothing cut */
+  } else if (b1 != 0.0) {
     double tc = -b0 / b1;
     ev_add(E, tc);
     if (b1 < 0.0) lo = mx(lo, tc);

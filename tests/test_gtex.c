@@ -22,7 +22,8 @@
  * - A ray past a sharp corner of two quadratic elements: its hit in closed
  *   form (the elements are straight), checked against the field's h; a
  *   nearly level ray along a curved u groove: its hit by a march of the
- *   field.
+ *   field; a ray past a quadratic element bending by 135 degrees: the top
+ *   plane, in closed form.
  * - Bad input: resolutions out of range, a step curve, a profile of too
  *   many points, a cell with too many elements.
  * - The same bytes on 1 and 2 threads. */
@@ -506,6 +507,40 @@ static void test_level_ray_along_curved_u(void) {
   ch_curves_free(&set);
 }
 
+/* A v groove (width 0.02) along (0.2, 0.5) - (0.5, 0.8) - (0.8, 0.5) and
+ * on, smoothly, along (0.8, 0.5) - (1.1, 0.2) - (0.95, 0.2): the second
+ * element bends by 135 degrees, its start lies beyond its end's normal
+ * line (u = 0.95), and the half-planes of its ends' normal lines, taken
+ * as where its feet are, held none of its band. The ray from (0.98, 0.5,
+ * 0.0013) along (-1, -0.25, -0.01) crosses the base plane at t = 0.13,
+ * (0.85, 0.4675), outside the band: there it meets the top (the field's
+ * h is 0 there and below the ray before). It was taken past the band's
+ * edge, to the next grid cell's entry. */
+static void test_element_bending_past_a_right_angle(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(parse("<path d='M 20 50 Q 50 20 80 50 T 95 80' data-profile='v' data-width='2' data-depth='0.004'/>", &set));
+  REQUIRE(set.num_segments == 2 && !set.segments[1].is_line);
+  round_to_float(&set);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  const double o[3] = {0.98, 0.5, 0.0013}, d[3] = {-1.0, -0.25, -0.01};
+  CHECK(ch_groove_field_eval(&f, 0.85, 0.4675, NULL) == 0.0);
+  CHECK_NEAR(march_field(&f, o, d, 0.5), 0.13, 1e-9);
+  for (int G = 4; G <= 64; G *= 2) {
+    ch_gtex g;
+    REQUIRE(build(&g, &set, G, 0));
+    ch_gtex_hit h;
+    REQUIRE(ch_gtex_intersect(&g, o, d, 0.0, INFINITY, &h));
+    fprintf(stderr, "  element bending by 135 degrees, G = %d: hit t = %.9f (0.13), curve %d\n", G, h.t, h.curve);
+    CHECK_NEAR(h.t, 0.13, 1e-12);
+    CHECK(h.curve == -1);
+    ch_gtex_free(&g);
+  }
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
 static void test_bad_input(void) {
   ch_curve_set set;
   ch_gtex g;
@@ -656,6 +691,7 @@ int main(void) {
   RUN(test_paper_approximation);
   RUN(test_sharp_corner_of_quadratics);
   RUN(test_level_ray_along_curved_u);
+  RUN(test_element_bending_past_a_right_angle);
   RUN(test_region_sampling);
   RUN(test_bad_input);
   RUN(test_threads_same_bytes);
