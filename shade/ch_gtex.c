@@ -27,9 +27,11 @@
  *   distance to the quadratic itself is used: convex along the ray within
  *   the element's least radius of curvature, so each event function's
  *   values and rates at the ends of the ray's stretch over the element
- *   bracket its roots (refined by safeguarded Newton); grooves wider than
- *   that radius allows are sampled. `paper` keeps the tangent line, per
- *   cell, to measure the approximation.
+ *   bracket its roots (refined by safeguarded Newton); the u ellipse's,
+ *   not convex on the side the curve turns to, is split where bounds on
+ *   its curvature cannot tell; grooves wider than that radius allows are
+ *   sampled. `paper` keeps the tangent line, per cell, to measure the
+ *   approximation.
  * - Events are only where h can change sides with the ray: facets inside
  *   the band with their foot on the element, jumps of the profile (rims
  *   too where raised and carved grooves meet), the base plane; a kink of
@@ -329,8 +331,10 @@ static double robust_closest(const elem *E, const double q[2], double *tau) {
   return ch_bezier_closest(P, !E->quad, Q, tau);
 }
 
-static double elem_closest(const elem *E, const double q[2], double *tau) {
-  if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
+/* From start (a parameter in [0, 1], or -1: the chord's projection), and
+ * with the foot and the derivative there when asked (quad_s). */
+static double elem_closest_from(const elem *E, const double q[2], double start, double *tau, double foot[2],
+                                double deriv[2]) {
   const double p0[2] = {E->p[0][0], E->p[0][1]}, p1[2] = {E->p[1][0], E->p[1][1]}, p2[2] = {E->p[2][0], E->p[2][1]};
   double c[2] = {p2[0] - p0[0], p2[1] - p0[1]}, cc = c[0] * c[0] + c[1] * c[1];
   double t = cc > 0.0 ? ((q[0] - p0[0]) * c[0] + (q[1] - p0[1]) * c[1]) / cc : 0.5;
@@ -342,23 +346,45 @@ static double elem_closest(const elem *E, const double q[2], double *tau) {
    * the curve: Newton stays in the basin. */
   double dx = q[0] - (p0[0] + t * c[0]), dy = q[1] - (p0[1] + t * c[1]);
   double dev2 = 0.0625 * bb; /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
-  if (!(dx * dx + dy * dy + dev2 < 0.25 * E->rho2)) return robust_closest(E, q, tau);
+  int robust = !(dx * dx + dy * dy + dev2 < 0.25 * E->rho2);
+  if (!robust && start >= 0.0) t = start;
   /* Quadratic convergence: once a step is below 1e-8 the next is below
    * 1e-16, so take it and stop. */
-  for (int it = 0, last = 0; it < 16 && !last; it++) {
+  for (int it = 0, last = 0; it < 16 && !last && !robust; it++) {
     double s = 1.0 - t;
     double B[2] = {s * s * p0[0] + 2.0 * s * t * p1[0] + t * t * p2[0], s * s * p0[1] + 2.0 * s * t * p1[1] + t * t * p2[1]};
     double D[2] = {a[0] + t * b[0], a[1] + t * b[1]}, r[2] = {B[0] - q[0], B[1] - q[1]};
     double f = r[0] * D[0] + r[1] * D[1], df = D[0] * D[0] + D[1] * D[1] + r[0] * b[0] + r[1] * b[1];
-    if (!(df > 0.0)) return robust_closest(E, q, tau);
+    if (!(df > 0.0)) {
+      robust = 1;
+      break;
+    }
     double tn = t - f / df;
     tn = tn < 0.0 ? 0.0 : tn > 1.0 ? 1.0 : tn;
     last = fabs(tn - t) <= 1e-8;
     t = tn;
   }
+  double d2;
+  if (robust) {
+    d2 = robust_closest(E, q, &t);
+    if (!foot) {
+      *tau = t;
+      return d2;
+    }
+  }
   double u = 1.0 - t, x[2] = {u * u * p0[0] + 2.0 * u * t * p1[0] + t * t * p2[0], u * u * p0[1] + 2.0 * u * t * p1[1] + t * t * p2[1]};
+  if (!robust) d2 = (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
   *tau = t;
-  return (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
+  if (foot) {
+    foot[0] = x[0], foot[1] = x[1];
+    deriv[0] = a[0] + t * b[0], deriv[1] = a[1] + t * b[1];
+  }
+  return d2;
+}
+
+static double elem_closest(const elem *E, const double q[2], double *tau) {
+  if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
+  return elem_closest_from(E, q, -1.0, tau, NULL, NULL);
 }
 
 /* ---- h at a point from a cell's elements ---- */
@@ -720,16 +746,38 @@ static void events_end_line(events *E, const ray *R, const double P[2], const do
 
 /* The signed distance from the ray's point at t to a quadratic element,
  * and its rate along the ray (the ray's direction against the distance's
- * gradient, the unit vector from the foot). */
-static double quad_s(const elem *el, const ray *R, double t, double *rate) {
-  double q[2] = {R->o[0] + t * R->d[0], R->o[1] + t * R->d[1]}, tau, c[2];
-  double d2 = elem_closest(el, q, &tau);
-  double side = elem_side(el, tau, q), d = sqrt(d2);
-  elem_point(el, tau, c);
+ * gradient, the unit vector from the foot). Only called where the foot is
+ * on the element (between the normal lines at its ends), so the side is
+ * always the element's own: where the foot lands on an end point (the
+ * stretch's ends lie on those normal lines) it is the end's tangent line,
+ * not docs/spec.md §3's sector rule of the joint there. On the inner side
+ * of a joint turning by more than a right angle the two disagree on the
+ * normal line itself (it runs into the next element's outer side): the
+ * sector's sign would make s jump at the stretch's end, and the bracketing
+ * below, which needs s continuous and convex, would lose the crossing
+ * inside. The corner's own region is events_point's. *hint: the foot's
+ * parameter to start Newton from (-1: the chord's projection), set to
+ * this one's (refining a root, the next point is close). */
+static double quad_s(const elem *el, const ray *R, double t, double *rate, double *hint) {
+  double q[2] = {R->o[0] + t * R->d[0], R->o[1] + t * R->d[1]}, tau, c[2], D[2];
+  double d2 = elem_closest_from(el, q, *hint, &tau, c, D);
+  *hint = tau;
+  double side, d = sqrt(d2), dq[2] = {q[0] - c[0], q[1] - c[1]};
+  if (tau > 0.0 && tau < 1.0) {
+    /* elem_side's test, from the derivative Newton ended with. */
+    double chord2 = (el->p[2][0] - el->p[0][0]) * (el->p[2][0] - el->p[0][0]) + (el->p[2][1] - el->p[0][1]) * (el->p[2][1] - el->p[0][1]);
+    side = D[0] * D[0] + D[1] * D[1] > 1e-12 * chord2 ? (ch_cross2(D, dq) >= 0.0 ? 1.0 : -1.0) : elem_side(el, tau, q);
+  } else {
+    double tg[2], e[2];
+    elem_tangent(el, tau <= 0.0 ? 0.0 : 1.0, tg);
+    elem_point(el, tau <= 0.0 ? 0.0 : 1.0, e);
+    double de[2] = {q[0] - e[0], q[1] - e[1]};
+    side = ch_cross2(tg, de) >= 0.0 ? 1.0 : -1.0;
+  }
   double g[2];
   if (d > 1e-14) {
-    g[0] = side * (q[0] - c[0]) / d;
-    g[1] = side * (q[1] - c[1]) / d;
+    g[0] = side * dq[0] / d;
+    g[1] = side * dq[1] / d;
   } else {
     double tg[2];
     elem_tangent(el, tau, tg);
@@ -771,8 +819,10 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
    * 1e-9 of the bracket the next is at rounding, so take it and stop. */
   double t = fa != fb ? a - fa * (b - a) / (fb - fa) : 0.5 * (a + b), tol = 1e-9 * (b - a);
   if (!(t > a && t < b)) t = 0.5 * (a + b);
+  /* Each foot from the last one: the steps shrink, so do the feet's moves. */
+  double hint = -1.0;
   for (int it = 0, last = 0; it < 60 && !last; it++) {
-    double ds, rate, s = quad_s(el, R, t, &ds), f = quad_fn(G, R, j, t, s, ds, &rate);
+    double ds, rate, s = quad_s(el, R, t, &ds, &hint), f = quad_fn(G, R, j, t, s, ds, &rate);
     if (f == 0.0) return t;
     if ((f > 0.0) == (fa > 0.0)) a = t, fa = f;
     else b = t;
@@ -784,6 +834,136 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
   return t;
 }
 
+/* The roots of event function j on [ta, tb] (values fa, fb, rates ra, rb
+ * at the ends) where it is convex or concave there: a sign change holds
+ * one root; otherwise, turning towards zero and back, the function is
+ * one-signed past the tangents' crossing (it lies on their side of both),
+ * which bounds its extremum: the bracket is cut at the crossing until the
+ * bound keeps the sign (no root) or the function changes it (two roots,
+ * split there). */
+static void convex_roots(events *E, const ray *R, const elem *el, const groove *G, int j, double ta, double fa,
+                         double ra, double tb, double fb, double rb) {
+  if ((fa > 0.0) != (fb > 0.0)) {
+    ev_add(E, quad_root(el, G, R, j, ta, tb, fa, fb));
+    return;
+  }
+  if (!((ra > 0.0) != (rb > 0.0) && (fa > 0.0) == (ra < 0.0))) return;
+  double x0 = ta, x1 = tb, f0 = fa, f1 = fb, r0 = ra, r1 = rb, fm = fa, m = ta;
+  int split = 0;
+  for (int it = 0; it < 40; it++) {
+    /* f0 + r0 (x - x0) = f1 + r1 (x - x1) */
+    m = r0 != r1 ? (f1 - f0 + r0 * x0 - r1 * x1) / (r0 - r1) : 0.5 * (x0 + x1);
+    if (!(m > x0 && m < x1)) m = 0.5 * (x0 + x1);
+    double bound = f0 + r0 * (m - x0);
+    if ((bound > 0.0) == (fa > 0.0) && bound != 0.0) break; /* the extremum keeps the sign */
+    double dsm, hint = -1.0, sm = quad_s(el, R, m, &dsm, &hint), rm;
+    fm = quad_fn(G, R, j, m, sm, dsm, &rm);
+    if ((fm > 0.0) != (fa > 0.0)) {
+      split = 1;
+      break;
+    }
+    if ((rm > 0.0) == (r0 > 0.0)) x0 = m, f0 = fm, r0 = rm;
+    else x1 = m, f1 = fm, r1 = rm;
+    if (x1 - x0 <= 1e-15 * (1.0 + fabs(x0))) break;
+  }
+  if (split) {
+    ev_add(E, quad_root(el, G, R, j, ta, m, fa, fm));
+    ev_add(E, quad_root(el, G, R, j, m, tb, fm, fb));
+  }
+}
+
+/* A point of the ray with the distance and the ellipse's function there. */
+typedef struct ell_end {
+  double t, s, ds, f, r;
+} ell_end;
+
+/* Bounds of the ellipse's function's second derivative over [a, b], from
+ * those of the distance: f = (z/d)^2 + (2s/w)^2 - 1 has f'' = 2 (z'/d)^2 +
+ * 8 (s'^2 + s s'') / w^2 with s'^2 <= |dxy|^2 and |s''| = (dxy . T)^2 k /
+ * (1 -+ k |s|) (the distance's Hessian at a foot of curvature k, minus on
+ * the side the curve turns to), k at most 1/rho. |s| over [a, b] is
+ * bounded by the chord and the tangents' crossing (s is convex or concave
+ * along the ray). 0 where the bound fails (|s| reaches rho), -1 where
+ * the stretch stays beyond the band. */
+static int ellipse_curvature(const elem *el, const groove *G, const ray *R, const ell_end *a, const ell_end *b,
+                             double *lo, double *hi) {
+  double sl = mn(a->s, b->s), sh = mx(a->s, b->s);
+  if (a->ds != b->ds) {
+    double x = (b->s - a->s + a->ds * a->t - b->ds * b->t) / (a->ds - b->ds);
+    if (x > a->t && x < b->t) {
+      double sx = a->s + a->ds * (x - a->t);
+      sl = mn(sl, sx), sh = mx(sh, sx);
+    }
+  }
+  /* Beyond the band on one side throughout: (2s/w)^2 > 1, no root. */
+  if (sl > 0.5 * G->w || sh < -0.5 * G->w) return -1;
+  double A = mx(fabs(sl), fabs(sh)), k = 1.0 / sqrt(el->rho2);
+  if (!(k * A < 1.0)) return 0;
+  double dxy2 = R->d[0] * R->d[0] + R->d[1] * R->d[1], zz = 2.0 * (R->d[2] / G->d) * (R->d[2] / G->d);
+  double c = 8.0 / (G->w * G->w);
+  *lo = zz - c * A * dxy2 * k / (1.0 - k * A);
+  *hi = zz + c * dxy2 * (1.0 + A * k);
+  return 1;
+}
+
+/* The `u` ellipse's function where it may not be convex: on the side a
+ * curved element turns to, s s'' < 0 can outweigh the rest for a ray
+ * nearly level along the groove, and a stretch then holds up to four
+ * roots whose ends show one sign change or none. Certified by the
+ * bounds on f'' (ellipse_curvature) and split in halves where they
+ * cannot tell: same signs at the ends and a chord bound keeping that sign
+ * hold no root; a sign change with f' bounded away from 0 holds one. */
+static void ellipse_roots(events *E, const ray *R, const elem *el, const groove *G, ell_end a0, ell_end b0) {
+  enum { STACK = 24, SPLITS = 64 };
+  ell_end st[STACK][2];
+  int n = 0, splits = 0, j = G->nb;
+  st[n][0] = a0, st[n][1] = b0, n++;
+  while (n > 0) {
+    n--;
+    ell_end a = st[n][0], b = st[n][1];
+    double lo, hi, h = b.t - a.t;
+    int known = ellipse_curvature(el, G, R, &a, &b, &lo, &hi);
+    if (known < 0) continue;
+    if (known && lo >= 0.0) {
+      convex_roots(E, R, el, G, j, a.t, a.f, a.r, b.t, b.f, b.r);
+      continue;
+    }
+    int change = (a.f > 0.0) != (b.f > 0.0);
+    if (known && !change) {
+      if (a.f > 0.0 ? mn(a.f, b.f) - hi * h * h / 8.0 > 0.0 : mx(a.f, b.f) - lo * h * h / 8.0 < 0.0) continue;
+    }
+    if (known && change) {
+      /* f' between the lines from a.r with slopes lo, hi and those back
+       * from b.r: its least and greatest values over [a, b] are at an end
+       * or where the two bounding lines cross. */
+      double xl = (b.r - a.r - hi * b.t + lo * a.t) / (lo - hi), xh = (b.r - a.r - lo * b.t + hi * a.t) / (hi - lo);
+      xl = xl < a.t ? a.t : xl > b.t ? b.t : xl;
+      xh = xh < a.t ? a.t : xh > b.t ? b.t : xh;
+      double rmin = mn(mx(a.r + lo * (a.t - a.t), b.r - hi * (b.t - a.t)), mx(a.r + lo * (b.t - a.t), b.r));
+      rmin = mn(rmin, mx(a.r + lo * (xl - a.t), b.r - hi * (b.t - xl)));
+      double rmax = mx(mn(a.r, b.r - lo * (b.t - a.t)), mn(a.r + hi * (b.t - a.t), b.r));
+      rmax = mx(rmax, mn(a.r + hi * (xh - a.t), b.r - lo * (b.t - xh)));
+      if (rmin > 0.0 || rmax < 0.0) {
+        ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f));
+        continue;
+      }
+    }
+    if (splits >= SPLITS || n + 2 > STACK || h <= 1e-12 * (1.0 + fabs(a.t))) {
+      if (change) ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f));
+      continue;
+    }
+    splits++;
+    ell_end m;
+    m.t = 0.5 * (a.t + b.t);
+    double hint = -1.0;
+    m.s = quad_s(el, R, m.t, &m.ds, &hint);
+    m.f = quad_fn(G, R, j, m.t, m.s, m.ds, &m.r);
+    /* The later half first on the stack: the earlier one is taken next. */
+    st[n][0] = m, st[n][1] = b, n++;
+    st[n][0] = a, st[n][1] = m, n++;
+  }
+}
+
 /* Events of a quadratic element over [lo, hi], the part of the ray whose
  * foot is inside the element. Within the element's least radius of
  * curvature of it, the signed distance s(t) is convex or concave (the
@@ -791,11 +971,13 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
  * so a break function s - b w, or a facet z - d P(s / w) with P linear,
  * has at most one extremum: the values and rates at the two ends tell a
  * single crossing (refined by safeguarded Newton) from a pair (split at
- * the extremum) from none. The ellipse's function (z/d)^2 + (2s/w)^2 is
- * convex unless s s'' < 0 outweighs the rest (a ray along the groove,
- * nearly level): it gets two intervals. A groove wider than twice that
- * radius has points with two feet (where the paper's straight
- * approximation fails too): those are sampled eight times per width. */
+ * the extremum) from none (convex_roots). The ellipse's function (z/d)^2
+ * + (2s/w)^2 is convex unless s s'' < 0 outweighs the rest (a ray along
+ * the groove, nearly level, on the side the curve turns to): there its
+ * roots are isolated by bounds on its curvature (ellipse_roots). A groove
+ * wider than twice that radius has points with two feet (where the
+ * paper's straight approximation fails too): those are sampled eight
+ * times per width. */
 static void events_quad_range(events *E, const ray *R, const elem *el, const groove *G, double lo, double hi,
                               int all_breaks) {
   double len = (hi - lo) * len2d(R->d[0], R->d[1]);
@@ -803,9 +985,11 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
   int ns = tight ? 2 + (int)ceil(8.0 * len / G->w) : 1;
   if (ns > QUAD_SAMPLES_MAX) ns = QUAD_SAMPLES_MAX;
   int nf = G->nb + (G->ellipse ? 1 : G->n - 1);
-  double ta = lo, dsa, sa = quad_s(el, R, ta, &dsa);
+  double ta = lo, dsa, hint = -1.0, sa = quad_s(el, R, ta, &dsa, &hint);
   for (int i = 1; i <= ns; i++) {
-    double tb = lo + (hi - lo) * i / ns, dsb, sb = quad_s(el, R, tb, &dsb);
+    double tb = lo + (hi - lo) * i / ns, dsb;
+    hint = -1.0; /* (samples far apart: the chord's projection is the better start) */
+    double sb = quad_s(el, R, tb, &dsb, &hint);
     for (int j = 0; j < nf; j++) {
       if (j < G->nb && !(all_breaks || G->jump[j])) continue;
       if (j >= G->nb && !G->ellipse) {
@@ -819,37 +1003,11 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
       }
       double ra, rb, fa = quad_fn(G, R, j, ta, sa, dsa, &ra), fb = quad_fn(G, R, j, tb, sb, dsb, &rb);
       E->wall_now = j < G->nb;
-      if ((fa > 0.0) != (fb > 0.0)) {
-        ev_add(E, quad_root(el, G, R, j, ta, tb, fa, fb));
-        continue;
-      }
-      /* Turning towards zero and back: between the ends the function is
-       * one-signed past the tangents' crossing (it lies on their side of
-       * both: convex or concave), so that bounds its extremum; cut the
-       * bracket at the crossing until the bound keeps the sign (no root)
-       * or the function changes it (two roots, split there). */
-      if (!((ra > 0.0) != (rb > 0.0) && (fa > 0.0) == (ra < 0.0))) continue;
-      double x0 = ta, x1 = tb, f0 = fa, f1 = fb, r0 = ra, r1 = rb, fm = fa, m = ta;
-      int split = 0;
-      for (int it = 0; it < 40; it++) {
-        /* f0 + r0 (x - x0) = f1 + r1 (x - x1) */
-        m = r0 != r1 ? (f1 - f0 + r0 * x0 - r1 * x1) / (r0 - r1) : 0.5 * (x0 + x1);
-        if (!(m > x0 && m < x1)) m = 0.5 * (x0 + x1);
-        double bound = f0 + r0 * (m - x0);
-        if ((bound > 0.0) == (fa > 0.0) && bound != 0.0) break; /* the extremum keeps the sign */
-        double dsm, sm = quad_s(el, R, m, &dsm), rm;
-        fm = quad_fn(G, R, j, m, sm, dsm, &rm);
-        if ((fm > 0.0) != (fa > 0.0)) {
-          split = 1;
-          break;
-        }
-        if ((rm > 0.0) == (r0 > 0.0)) x0 = m, f0 = fm, r0 = rm;
-        else x1 = m, f1 = fm, r1 = rm;
-        if (x1 - x0 <= 1e-15 * (1.0 + fabs(x0))) break;
-      }
-      if (split) {
-        ev_add(E, quad_root(el, G, R, j, ta, m, fa, fm));
-        ev_add(E, quad_root(el, G, R, j, m, tb, fm, fb));
+      if (j >= G->nb && G->ellipse && !tight) {
+        ell_end a = {ta, sa, dsa, fa, ra}, b = {tb, sb, dsb, fb, rb};
+        ellipse_roots(E, R, el, G, a, b);
+      } else {
+        convex_roots(E, R, el, G, j, ta, fa, ra, tb, fb, rb);
       }
     }
     ta = tb, sa = sb, dsa = dsb;
@@ -864,11 +1022,22 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   elem_tangent(el, 0.0, T0);
   elem_tangent(el, 1.0, T1);
   double lo = E->lo, hi = E->hi;
-  /* (p(t) - B0) . T0 >= 0 and (p(t) - B1) . T1 <= 0: linear in t. */
+  /* (p(t) - B0) . T0 >= 0 and (p(t) - B1) . T1 <= 0: linear in t. That
+   * pair of half-planes holds the feet inside the element only where each
+   * end lies on the inner side of the other's normal line: a quadratic
+   * bending by more than a right angle near one end can put its start
+   * beyond its end's normal line (its normals then meet on its outer
+   * side), and the pair would cut the element's own band away. Such an
+   * element's events are sought over the whole stretch (the ends' caps
+   * have theirs; extra roots where the foot is an end are harmless). */
   double a0 = (R->o[0] - el->p[0][0]) * T0[0] + (R->o[1] - el->p[0][1]) * T0[1], a1 = R->d[0] * T0[0] + R->d[1] * T0[1];
   double b0 = (R->o[0] - el->p[2][0]) * T1[0] + (R->o[1] - el->p[2][1]) * T1[1], b1 = R->d[0] * T1[0] + R->d[1] * T1[1];
+  double c[2] = {el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]};
+  int wedge = c[0] * T0[0] + c[1] * T0[1] >= 0.0 && c[0] * T1[0] + c[1] * T1[1] >= 0.0;
   E->wall_now = 0; /* the ends' normal lines: h is continuous there */
-  if (a1 != 0.0) {
+  if (!wedge) {
+    /* nothing cut */
+  } else if (a1 != 0.0) {
     double tc = -a0 / a1;
     ev_add(E, tc);
     if (a1 > 0.0) lo = mx(lo, tc);
@@ -876,7 +1045,9 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   } else if (a0 < 0.0) {
     return;
   }
-  if (b1 != 0.0) {
+  if (!wedge) {
+    /* nothing cut */
+  } else if (b1 != 0.0) {
     double tc = -b0 / b1;
     ev_add(E, tc);
     if (b1 < 0.0) lo = mx(lo, tc);
@@ -995,7 +1166,6 @@ typedef struct trace {
   double duv;       /* |(dx, dy)| */
   /* the hit */
   double t;
-  int ci;           /* its cell */
   int maybe_wall;   /* whether h may jump at the hit */
   int at_top;       /* the walk is at its start, where it entered the
                        slab of h's range from above: no wall there */
@@ -1126,7 +1296,7 @@ static int same_list(const ch_gtex *g, const float *a, const float *b) {
   return 1;
 }
 
-/* Walks the cells from tnear to tfar; 1 with T->t, T->ci at the first hit. */
+/* Walks the cells from tnear to tfar; 1 with T->t at the first hit. */
 static int walk(trace *T, double tnear, double tfar) {
   const ch_gtex *g = T->g;
   const ray *R = &T->R;
@@ -1180,12 +1350,12 @@ static int walk(trace *T, double tnear, double tfar) {
       if (n == 0) {
         /* The base plane h = 0. */
         if (za <= 0.0) {
-          T->t = t, T->ci = ci, T->maybe_wall = 1;
+          T->t = t, T->maybe_wall = 1;
           return 1;
         }
         if (zb <= 0.0) {
           T->t = d[2] != 0.0 ? -o[2] / d[2] : t;
-          T->ci = ci, T->maybe_wall = 0;
+          T->maybe_wall = 0;
           return 1;
         }
       } else {
@@ -1214,7 +1384,7 @@ static int walk(trace *T, double tnear, double tfar) {
         double th;
         int mw;
         if (cell_hit(T, T->C, t0, t_exit, cmax, cuts, ncuts, &th, &mw)) {
-          T->t = th, T->ci = ci, T->maybe_wall = mw;
+          T->t = th, T->maybe_wall = mw;
           return 1;
         }
       }

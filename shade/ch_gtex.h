@@ -33,7 +33,9 @@
  *   for the `u` ellipse (solved without cancellation) and for every piece
  *   swept around an end point or joint, i.e. the rounded caps and corners);
  *   for quadratic segments on the exact signed distance along the ray,
- *   bracketed by its convexity and refined by safeguarded Newton. Between two
+ *   bracketed by its convexity (the u ellipse's function, not convex on
+ *   the side the curve turns to, by bounds on its curvature) and refined
+ *   by safeguarded Newton. Between two
  *   events the ray is on one side of h, so the events are the CSG ray
  *   segments of §5.3-5.4 and one point test of h inside each (h evaluated
  *   exactly from the textures: per groove the nearest element and docs/spec.md §3's

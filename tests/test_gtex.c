@@ -19,6 +19,11 @@
  *   a tight circle, at G = 8, 64, 256.
  * - The paper's straight approximation of curved elements departs from the
  *   truth on a tight curve where the exact method does not.
+ * - A ray past a sharp corner of two quadratic elements: its hit in closed
+ *   form (the elements are straight), checked against the field's h; a
+ *   nearly level ray along a curved u groove: its hit by a march of the
+ *   field; a ray past a quadratic element bending by 135 degrees: the top
+ *   plane, in closed form.
  * - Bad input: resolutions out of range, a step curve, a profile of too
  *   many points, a cell with too many elements.
  * - The same bytes on 1 and 2 threads. */
@@ -402,6 +407,140 @@ static void test_paper_approximation(void) {
   world_free(&w);
 }
 
+/* A v groove along two quadratic elements (control points on their chords,
+ * so both are the straight arms (0.6, 0.7)-(0.5, 0.5)-(0.4, 0.7), width
+ * 0.04, depth 0.01) meeting at a sharp corner: the arms turn by 127
+ * degrees, more than a right angle. The ray from (0.47, 0.6, 0.005) along
+ * (0.4, -0.9, -0.12) stays more than w/2 = 0.02 from the right arm and
+ * from the corner up to its hit on the left arm's near facet, where
+ * s = (0.1 t - 0.04) / sqrt(5) (left of the arm positive) and h = -d (1 -
+ * 2 |s| / w): 0.005 - 0.12 t = -0.01 + 0.5 (0.04 - 0.1 t) / sqrt(5), t =
+ * (0.015 - 0.02 / sqrt(5)) / (0.12 - 0.05 / sqrt(5)) = 0.0620214. Past
+ * the hit the ray crosses the left arm's normal line at the corner on the
+ * right arm's outer side, where docs/spec.md §3's sector rule has the
+ * other sign than the arm's own side: the crossing was lost and the hit
+ * came at a grid cell's entry (t = 0.075 at u = 0.5 for G = 4..32, a
+ * point above the surface at t = 0.059 for G = 64). The field's
+ * h along the ray (an independent implementation) agrees: above before,
+ * below after. */
+static void test_sharp_corner_of_quadratics(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(parse("<path d='M 60 30 Q 55 40 50 50 Q 45 40 40 30' data-profile='v' data-width='4' data-depth='0.01'/>",
+                &set));
+  REQUIRE(set.num_segments == 2 && !set.segments[0].is_line && !set.segments[1].is_line);
+  round_to_float(&set);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  const double o[3] = {0.47, 0.6, 0.005}, d[3] = {0.4, -0.9, -0.12}, s5 = sqrt(5.0);
+  const double t_exact = (0.015 - 0.02 / s5) / (0.12 - 0.05 / s5);
+  for (int G = 4; G <= 64; G *= 2) {
+    ch_gtex g;
+    REQUIRE(build(&g, &set, G, 0));
+    ch_gtex_hit h;
+    REQUIRE(ch_gtex_intersect(&g, o, d, 0.0, INFINITY, &h));
+    fprintf(stderr, "  sharp corner, G = %d: hit t = %.9f (exact %.9f), curve %d\n", G, h.t, t_exact, h.curve);
+    /* (The corners and the width are floats: 1e-7.) */
+    CHECK_NEAR(h.t, t_exact, 1e-7);
+    CHECK(h.curve == 0 && !h.wall);
+    ch_gtex_free(&g);
+  }
+  for (int k = 1; k <= 1000; k++) {
+    double t = t_exact * k / 1000.0 * 0.9999, z = o[2] + t * d[2];
+    CHECK(z > ch_groove_field_eval(&f, o[0] + t * d[0], o[1] + t * d[1], NULL));
+  }
+  const double after = t_exact * 1.0001;
+  CHECK(o[2] + after * d[2] < ch_groove_field_eval(&f, o[0] + after * d[0], o[1] + after * d[1], NULL));
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
+/* The first t in [0, t1] where the ray is on or below the field's h (an
+ * implementation of docs/spec.md §3 independent of the textures): a march
+ * in steps of 1e-5, then bisection. -1 if none. */
+static double march_field(const ch_groove_field *f, const double o[3], const double d[3], double t1) {
+  double prev = 0.0;
+  for (double t = 0.0; t <= t1; t += 1e-5) {
+    if (o[2] + t * d[2] <= ch_groove_field_eval(f, o[0] + t * d[0], o[1] + t * d[1], NULL)) {
+      double a = prev, b = t;
+      for (int i = 0; i < 60; i++) {
+        double m = 0.5 * (a + b);
+        if (o[2] + m * d[2] <= ch_groove_field_eval(f, o[0] + m * d[0], o[1] + m * d[1], NULL)) b = m;
+        else a = m;
+      }
+      return b;
+    }
+    prev = t;
+  }
+  return -1.0;
+}
+
+/* A u groove (width 0.04, depth 0.01) along the arch (0.2, 0.5) - (0.5,
+ * 0.8) - (0.8, 0.5), one quadratic element, and a ray 2.6 degrees below
+ * level along its chord under the apex, from inside the groove: it
+ * crosses the curve twice, so on the side the curve turns to the
+ * ellipse's function (z/d)^2 + (2s/w)^2 - 1 is not convex along it and
+ * has several roots where its ends change sign once; the last was taken
+ * and the hit (on the far wall, before the ray's second crossing of the
+ * curve) came 0.007 late. Its t is the field's, by a march. */
+static void test_level_ray_along_curved_u(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(parse("<path d='M 20 50 Q 50 20 80 50' data-profile='u' data-width='4' data-depth='0.01'/>", &set));
+  round_to_float(&set);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  const double o[3] = {0.4, 0.645, 0.003}, d[3] = {1.0, -0.13, -0.045};
+  double t_march = march_field(&f, o, d, 0.5);
+  REQUIRE(t_march > 0.0);
+  for (int G = 4; G <= 64; G *= 4) {
+    ch_gtex g;
+    REQUIRE(build(&g, &set, G, 0));
+    ch_gtex_hit h;
+    REQUIRE(ch_gtex_intersect(&g, o, d, 0.0, INFINITY, &h));
+    fprintf(stderr, "  level ray along a curved u groove, G = %d: hit t = %.9f (the field's %.9f)\n", G, h.t, t_march);
+    CHECK_NEAR(h.t, t_march, 1e-9);
+    CHECK(h.curve == 0 && !h.wall);
+    ch_gtex_free(&g);
+  }
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
+/* A v groove (width 0.02) along (0.2, 0.5) - (0.5, 0.8) - (0.8, 0.5) and
+ * on, smoothly, along (0.8, 0.5) - (1.1, 0.2) - (0.95, 0.2): the second
+ * element bends by 135 degrees, its start lies beyond its end's normal
+ * line (u = 0.95), and the half-planes of its ends' normal lines, taken
+ * as where its feet are, held none of its band. The ray from (0.98, 0.5,
+ * 0.0013) along (-1, -0.25, -0.01) crosses the base plane at t = 0.13,
+ * (0.85, 0.4675), outside the band: there it meets the top (the field's
+ * h is 0 there and below the ray before). It was taken past the band's
+ * edge, to the next grid cell's entry. */
+static void test_element_bending_past_a_right_angle(void) {
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(parse("<path d='M 20 50 Q 50 20 80 50 T 95 80' data-profile='v' data-width='2' data-depth='0.004'/>", &set));
+  REQUIRE(set.num_segments == 2 && !set.segments[1].is_line);
+  round_to_float(&set);
+  ch_groove_field f;
+  REQUIRE(ch_groove_field_init(&f, &set, &err) == CH_OK);
+  const double o[3] = {0.98, 0.5, 0.0013}, d[3] = {-1.0, -0.25, -0.01};
+  CHECK(ch_groove_field_eval(&f, 0.85, 0.4675, NULL) == 0.0);
+  CHECK_NEAR(march_field(&f, o, d, 0.5), 0.13, 1e-9);
+  for (int G = 4; G <= 64; G *= 2) {
+    ch_gtex g;
+    REQUIRE(build(&g, &set, G, 0));
+    ch_gtex_hit h;
+    REQUIRE(ch_gtex_intersect(&g, o, d, 0.0, INFINITY, &h));
+    fprintf(stderr, "  element bending by 135 degrees, G = %d: hit t = %.9f (0.13), curve %d\n", G, h.t, h.curve);
+    CHECK_NEAR(h.t, 0.13, 1e-12);
+    CHECK(h.curve == -1);
+    ch_gtex_free(&g);
+  }
+  ch_groove_field_free(&f);
+  ch_curves_free(&set);
+}
+
 static void test_bad_input(void) {
   ch_curve_set set;
   ch_gtex g;
@@ -550,6 +689,9 @@ int main(void) {
   RUN(test_analytic_rays);
   RUN(test_against_truth);
   RUN(test_paper_approximation);
+  RUN(test_sharp_corner_of_quadratics);
+  RUN(test_level_ray_along_curved_u);
+  RUN(test_element_bending_past_a_right_angle);
   RUN(test_region_sampling);
   RUN(test_bad_input);
   RUN(test_threads_same_bytes);
