@@ -11,8 +11,15 @@
 #include "ch_render.h"
 #include "ch_truth.h"
 
+/* A layer by its render name, or as the study writes one-value layers of
+ * longer names (NAME.X: ch_report_exr). */
 static const float *plane(const ch_image *img, int layer) {
+  char name[CH_IMAGE_NAME_MAX + 3];
   int c = ch_image_find(img, ch_render_layer_names[layer]);
+  if (c < 0) {
+    snprintf(name, sizeof name, "%s.X", ch_render_layer_names[layer]);
+    c = ch_image_find(img, name);
+  }
   return c < 0 ? NULL : ch_image_plane(img, c);
 }
 
