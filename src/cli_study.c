@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "ch_featshade.h"
 #include "ch_file.h"
 #include "ch_metrics.h"
 #include "ch_report.h"
@@ -194,7 +195,6 @@ static int run(int argc, char **argv) {
     return rc;
   }
   double t_start = omp_get_wtime();
-  static const char *featshade_names[] = {"featnorm", "featnorm-linear", "normal-bilinear", "msdf"};
   /* Every input is read and checked before anything is written. */
   st = ch_study_create(&s, scene_path, NULL, &study, &err);
   for (int i = 0; !st && i < s.num_methods; i++) {
@@ -204,7 +204,7 @@ static int run(int argc, char **argv) {
              m->tex.kind == CH_TEXRAY_GROOVES ? "grooves" : m->tex.kind == CH_TEXRAY_RELIEF ? "relief" : "pom",
              m->tex.resolution, ch_study_texture_bytes(study, i));
     else if (m->featshade >= 0)
-      printf("texture method %s: %s at %d, %zu bytes\n", m->name, featshade_names[m->featshade], m->resolution,
+      printf("texture method %s: %s at %d, %zu bytes\n", m->name, ch_featshade_method_name((ch_featshade_method)m->featshade), m->resolution,
              ch_study_texture_bytes(study, i));
   }
   if (!st) {

@@ -4,13 +4,18 @@
 #include <math.h>
 #include <string.h>
 
+/* By ch_featshade_method: its name, and the feature maps' method it reads
+ * (all but the msdf). */
+static const char *const method_names[] = {"featnorm", "featnorm-linear", "normal-bilinear", "msdf"};
+static const ch_featmap_method map_method[] = {CH_FEATMAP_FEATNORM, CH_FEATMAP_LINEAR, CH_FEATMAP_BILINEAR};
+
 int ch_featshade_method_parse(const char *name) {
-  if (!strcmp(name, "featnorm")) return CH_FEATSHADE_FEATNORM;
-  if (!strcmp(name, "featnorm-linear")) return CH_FEATSHADE_LINEAR;
-  if (!strcmp(name, "normal-bilinear")) return CH_FEATSHADE_NORMAL_BILINEAR;
-  if (!strcmp(name, "msdf")) return CH_FEATSHADE_MSDF;
+  for (int m = 0; m <= CH_FEATSHADE_MSDF; m++)
+    if (!strcmp(name, method_names[m])) return m;
   return -1;
 }
+
+const char *ch_featshade_method_name(ch_featshade_method method) { return method_names[method]; }
 
 ch_status ch_featshade_init(ch_featshade *fs, ch_featshade_method method, int resolution, const ch_curve_set *set,
                             const ch_height *height, ch_error *err) {
@@ -33,13 +38,12 @@ void ch_featshade_free(ch_featshade *fs) {
 }
 
 size_t ch_featshade_bytes(const ch_featshade *fs) {
-  static const ch_featmap_method method[] = {CH_FEATMAP_FEATNORM, CH_FEATMAP_LINEAR, CH_FEATMAP_BILINEAR};
   if (fs->method == CH_FEATSHADE_MSDF) {
     double texels = (double)fs->msdf.resolution * fs->msdf.resolution;
     return (size_t)llround(texels * ch_msdf_bytes_per_texel());
   }
   double texels = (double)fs->maps.resolution * fs->maps.resolution;
-  double per = ch_featmap_bytes_per_texel(&fs->maps, method[fs->method]);
+  double per = ch_featmap_bytes_per_texel(&fs->maps, map_method[fs->method]);
   if (fs->method != CH_FEATSHADE_NORMAL_BILINEAR) per += ch_featmap_fallback_bytes(&fs->maps);
   return (size_t)llround(texels * per);
 }
@@ -49,9 +53,8 @@ static int shade(void *user, const double org[3], const double dir[3], ch_trace_
   (void)dir;
   const ch_featshade *fs = user;
   ch_featmap_sample s;
-  static const ch_featmap_method method[] = {CH_FEATMAP_FEATNORM, CH_FEATMAP_LINEAR, CH_FEATMAP_BILINEAR};
   if (fs->method == CH_FEATSHADE_MSDF) ch_msdf_eval(&fs->msdf, hit->uv[0], hit->uv[1], &s);
-  else ch_featmap_eval(&fs->maps, method[fs->method], hit->uv[0], hit->uv[1], &s);
+  else ch_featmap_eval(&fs->maps, map_method[fs->method], hit->uv[0], hit->uv[1], &s);
   memcpy(hit->shading_normal, s.normal, sizeof hit->shading_normal);
   memcpy(hit->normal, s.normal, sizeof hit->normal);
   hit->wall = 0;

@@ -30,6 +30,9 @@ typedef enum ch_featshade_method {
 /* Parses "featnorm", "featnorm-linear", "normal-bilinear" or "msdf"; -1. */
 int ch_featshade_method_parse(const char *name);
 
+/* The method's name, as parsed. */
+const char *ch_featshade_method_name(ch_featshade_method method);
+
 /* The maps a method reads, built over the unit square at resolution R. */
 typedef struct ch_featshade {
   ch_featshade_method method;
