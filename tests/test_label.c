@@ -32,34 +32,61 @@ static const char svg[] =
     "<circle cx='50' cy='70' r='15' data-kind='step' data-left='0.01' data-right='0.03'/>"
     "</svg>";
 
-static void test_labels(void) {
+/* A scene of curves with its height and labeler (edge: the mesh's mean
+ * edge; reach twice it). */
+typedef struct label_scene {
   ch_curve_set set;
   ch_height height;
-  ch_error err = {0};
-  REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "labels.svg", &set, &err) == CH_OK);
-  REQUIRE(set.num_curves == 2);
-  int groove = set.curves[0].kind == CH_CURVE_GROOVE ? 0 : 1, circle = 1 - groove;
-  REQUIRE(set.curves[circle].kind == CH_CURVE_STEP);
-  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
-  REQUIRE(ch_height_init(&height, &set, &hd, &err) == CH_OK);
-  const double radius = 0.02, edge = 0.005, width = set.curves[groove].width;
   ch_label_ctx lb;
-  REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, edge, 2.0 * edge, &err) == CH_OK);
+} label_scene;
+
+static int scene_open(label_scene *sc, const char *text, const char *name, double radius, double edge) {
+  ch_error err = {0};
+  if (ch_curves_parse_svg(text, strlen(text), name, &sc->set, &err) != CH_OK) return 0;
+  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
+  if (ch_height_init(&sc->height, &sc->set, &hd, &err) != CH_OK) {
+    ch_curves_free(&sc->set);
+    return 0;
+  }
+  if (ch_label_init(&sc->lb, &sc->height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, edge, 2.0 * edge, &err) !=
+      CH_OK) {
+    ch_label_free(&sc->lb);
+    ch_height_free(&sc->height);
+    ch_curves_free(&sc->set);
+    return 0;
+  }
+  return 1;
+}
+
+static void scene_close(label_scene *sc) {
+  ch_label_free(&sc->lb);
+  ch_height_free(&sc->height);
+  ch_curves_free(&sc->set);
+}
+
+static void test_labels(void) {
+  const double radius = 0.02, edge = 0.005;
+  label_scene sc;
+  REQUIRE(scene_open(&sc, svg, "labels.svg", radius, edge));
+  REQUIRE(sc.set.num_curves == 2);
+  int groove = sc.set.curves[0].kind == CH_CURVE_GROOVE ? 0 : 1, circle = 1 - groove;
+  REQUIRE(sc.set.curves[circle].kind == CH_CURVE_STEP);
+  const double width = sc.set.curves[groove].width;
   int in_step = 0, in_groove = 0, outside = 0, bad_step = 0, bad_groove = 0, bad_zero = 0, bad_quiet = 0, bad_h = 0;
   int inside_left = 0, inside_right = 0;
   /* The circle's centre and radius in UV, from its segments' ends. */
   double centre[2] = {0.0, 0.0}, ring = 0.0;
-  const ch_curve *cc = &set.curves[circle];
+  const ch_curve *cc = &sc.set.curves[circle];
   for (int i = cc->first_segment; i < cc->first_segment + cc->num_segments; i++)
-    for (int k = 0; k < 2; k++) centre[k] += set.segments[i].p[0][k] / cc->num_segments;
-  ring = hypot(set.segments[cc->first_segment].p[0][0] - centre[0], set.segments[cc->first_segment].p[0][1] - centre[1]);
+    for (int k = 0; k < 2; k++) centre[k] += sc.set.segments[i].p[0][k] / cc->num_segments;
+  ring = hypot(sc.set.segments[cc->first_segment].p[0][0] - centre[0], sc.set.segments[cc->first_segment].p[0][1] - centre[1]);
   uint64_t half_label[2] = {0, 0};
   for (int i = 0; i < 20000; i++) {
     double q[2] = {0.02 + 0.96 * ch_test_rnd(), 0.02 + 0.96 * ch_test_rnd()};
     ch_curve_point g, c;
-    ch_curve_closest(&set, groove, q, &g);
-    ch_curve_closest(&set, circle, q, &c);
-    uint64_t l = ch_label_at(&lb, q), gp = l >> 32, sp = l & 0xffffffffu;
+    ch_curve_closest(&sc.set, groove, q, &g);
+    ch_curve_closest(&sc.set, circle, q, &c);
+    uint64_t l = ch_label_at(&sc.lb, q), gp = l >> 32, sp = l & 0xffffffffu;
     double margin = 1e-4;
     if (fabs(c.distance) < radius - margin && c.distance > margin && g.distance > 0.5 * width + margin) {
       in_step++;
@@ -77,9 +104,9 @@ static void test_labels(void) {
       outside++;
       bad_zero += l != 0;
     }
-    bad_quiet += ch_label_quiet(&lb, q) && l != 0;
-    double h = ch_height_eval(&height, q[0], q[1]);
-    bad_h += fabs(ch_label_piece_height(&lb, l, q, q) - h) > 1e-9;
+    bad_quiet += ch_label_quiet(&sc.lb, q) && l != 0;
+    double h = ch_height_eval(&sc.height, q[0], q[1]);
+    bad_h += fabs(ch_label_piece_height(&sc.lb, l, q, q) - h) > 1e-9;
   }
   CHECK_MSG(in_step > 100 && in_groove > 100 && outside > 1000, "%d %d %d", in_step, in_groove, outside);
   CHECK_MSG(bad_step == 0, "%d of %d step labels wrong", bad_step, in_step);
@@ -91,9 +118,7 @@ static void test_labels(void) {
   CHECK_MSG(bad_zero == 0, "%d of %d labels away from the curves not 0", bad_zero, outside);
   CHECK_MSG(bad_quiet == 0, "%d quiet points with a label", bad_quiet);
   CHECK_MSG(bad_h == 0, "%d points where the piece's h is not h", bad_h);
-  ch_label_free(&lb);
-  ch_height_free(&height);
-  ch_curves_free(&set);
+  scene_close(&sc);
 }
 
 static const char crossing_svg[] =
@@ -105,33 +130,25 @@ static const char crossing_svg[] =
 /* Two crossing circles: on the outside of each, near it and off the
  * other, the label still names the nearest circle and its side. */
 static void test_crossing_loops(void) {
-  ch_curve_set set;
-  ch_height height;
-  ch_error err = {0};
-  REQUIRE(ch_curves_parse_svg(crossing_svg, strlen(crossing_svg), "crossing.svg", &set, &err) == CH_OK);
-  REQUIRE(set.num_curves == 2);
-  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
-  REQUIRE(ch_height_init(&height, &set, &hd, &err) == CH_OK);
   const double radius = 0.03;
-  ch_label_ctx lb;
-  REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, 0.005, 0.01, &err) == CH_OK);
+  label_scene sc;
+  REQUIRE(scene_open(&sc, crossing_svg, "crossing.svg", radius, 0.005));
+  REQUIRE(sc.set.num_curves == 2);
   int near = 0, bad = 0;
   for (int i = 0; i < 20000; i++) {
     double q[2] = {ch_test_rnd(), ch_test_rnd()};
     ch_curve_point a, b;
-    ch_curve_closest(&set, 0, q, &a);
-    ch_curve_closest(&set, 1, q, &b);
+    ch_curve_closest(&sc.set, 0, q, &a);
+    ch_curve_closest(&sc.set, 1, q, &b);
     const ch_curve_point *n = a.distance < b.distance ? &a : &b;
     if (!(n->distance < radius - 1e-4 && fabs(a.distance - b.distance) > 1e-4 && n->distance > 1e-4)) continue;
     near++;
     int curve = a.distance < b.distance ? 0 : 1;
-    bad += (ch_label_at(&lb, q) & 0xffffffffu) != ((uint64_t)(curve + 1) << 1 | (n->signed_distance >= 0.0));
+    bad += (ch_label_at(&sc.lb, q) & 0xffffffffu) != ((uint64_t)(curve + 1) << 1 | (n->signed_distance >= 0.0));
   }
   CHECK_MSG(near > 1000, "%d", near);
   CHECK_MSG(bad == 0, "%d of %d labels near crossing loops wrong", bad, near);
-  ch_label_free(&lb);
-  ch_height_free(&height);
-  ch_curves_free(&set);
+  scene_close(&sc);
 }
 
 static const char nested_svg[] =
@@ -148,44 +165,36 @@ static const char nested_svg[] =
  * from an open step line, within twice the radius (0.03). A circle far
  * from both is free: label 0 on its outside. */
 static void test_nested_loops(void) {
-  ch_curve_set set;
-  ch_height height;
-  ch_error err = {0};
-  REQUIRE(ch_curves_parse_svg(nested_svg, strlen(nested_svg), "nested.svg", &set, &err) == CH_OK);
-  REQUIRE(set.num_curves == 5);
-  ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
-  REQUIRE(ch_height_init(&height, &set, &hd, &err) == CH_OK);
   const double radius = 0.03;
-  ch_label_ctx lb;
-  REQUIRE(ch_label_init(&lb, &height, NULL, radius, 0.0, 7.0 * CH_PI / 180.0, 1.0, 0.005, 0.01, &err) == CH_OK);
+  label_scene sc;
+  REQUIRE(scene_open(&sc, nested_svg, "nested.svg", radius, 0.005));
+  REQUIRE(sc.set.num_curves == 5);
   int near[5] = {0}, bad[5] = {0};
   for (int i = 0; i < 40000; i++) {
     double q[2] = {ch_test_rnd(), ch_test_rnd()};
     ch_curve_point p[5];
     int c = 0;
     for (int k = 0; k < 5; k++) {
-      ch_curve_closest(&set, k, q, &p[k]);
+      ch_curve_closest(&sc.set, k, q, &p[k]);
       if (p[k].distance < p[c].distance) c = k;
     }
     int alone = 1;
     for (int k = 0; k < 5; k++) alone &= k == c || p[k].distance > p[c].distance + 1e-4;
     if (!(alone && p[c].distance < radius - 1e-4 && p[c].distance > 1e-4)) continue;
     /* the circles' centres in UV: the mean of their segments' starts */
-    const ch_curve *cv = &set.curves[c];
+    const ch_curve *cv = &sc.set.curves[c];
     double centre[2] = {0.0, 0.0}, r0;
     for (int g = cv->first_segment; g < cv->first_segment + cv->num_segments; g++)
-      for (int k = 0; k < 2; k++) centre[k] += set.segments[g].p[0][k] / cv->num_segments;
-    r0 = hypot(set.segments[cv->first_segment].p[0][0] - centre[0], set.segments[cv->first_segment].p[0][1] - centre[1]);
+      for (int k = 0; k < 2; k++) centre[k] += sc.set.segments[g].p[0][k] / cv->num_segments;
+    r0 = hypot(sc.set.segments[cv->first_segment].p[0][0] - centre[0], sc.set.segments[cv->first_segment].p[0][1] - centre[1]);
     if (c == 3 || hypot(q[0] - centre[0], q[1] - centre[1]) < r0) continue; /* the outsides of the circles */
     near[c]++;
     uint64_t named = (uint64_t)(c + 1) << 1 | (p[c].signed_distance >= 0.0);
-    bad[c] += (ch_label_at(&lb, q) & 0xffffffffu) != (c == 4 ? 0 : named);
+    bad[c] += (ch_label_at(&sc.lb, q) & 0xffffffffu) != (c == 4 ? 0 : named);
   }
   for (int c = 0; c < 5; c++)
     if (c != 3) CHECK_MSG(near[c] > 200 && bad[c] == 0, "circle %d: %d of %d outside labels wrong", c, bad[c], near[c]);
-  ch_label_free(&lb);
-  ch_height_free(&height);
-  ch_curves_free(&set);
+  scene_close(&sc);
 }
 
 int main(void) {
