@@ -13,18 +13,12 @@
 # usage: [RES="256 1024"] bench/featmap_study.sh [BUILD_DIR] [OUT_DIR] [SET ...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-build=${1:-$here/build}
-out=${2:-$here/out/featmap_study}
-shift $(( $# < 2 ? $# : 2 ))
-sets=("$@")
-if [ ${#sets[@]} -eq 0 ]; then
-  for f in "$here"/models/curves/*.svg; do sets+=("$(basename "$f" .svg)"); done
-fi
+. "$here/bench/study_scene.sh"
+study_args "$here/out/featmap_study" "$@"
 res=${RES:-256}
 chisel=$build/chisel
 plane=$here/models/plane.obj
 mkdir -p "$out"
-. "$here/bench/study_scene.sh"
 for set in "${sets[@]}"; do
   svg=$here/models/curves/$set.svg dir=$out/$set
   mkdir -p "$dir"

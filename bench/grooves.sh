@@ -15,17 +15,11 @@
 # usage: bench/grooves.sh [BUILD_DIR] [OUT_DIR] [SET ...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-build=${1:-$here/build}
-out=${2:-$here/out/grooves}
-shift $(( $# < 2 ? $# : 2 ))
-sets=("$@")
-if [ ${#sets[@]} -eq 0 ]; then
-  for f in "$here"/models/curves/*.svg; do sets+=("$(basename "$f" .svg)"); done
-fi
+. "$here/bench/study_scene.sh"
+study_args "$here/out/grooves" "$@"
 chisel=$build/chisel silhouette=$build/bench/chisel-silhouette
 plane=$here/models/plane.obj
 mkdir -p "$out"
-. "$here/bench/study_scene.sh"
 for set in "${sets[@]}"; do
   svg=$here/models/curves/$set.svg dir=$out/$set
   mkdir -p "$dir"

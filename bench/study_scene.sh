@@ -5,6 +5,21 @@
 # so their tables compare. Source it, then:
 #   study_scene CURVES.svg PLANE.obj "METHOD LINES" >scene.json
 # (METHOD LINES: JSON objects, each followed by ",\n").
+# Also the scripts' arguments: study_args DEFAULT_OUT [BUILD_DIR] [OUT_DIR]
+# [SET ...] sets build, out and sets (every bundled curve set by default;
+# $here is the repository).
+study_args() {
+  local default_out=$1
+  shift
+  build=${1:-$here/build}
+  out=${2:-$default_out}
+  shift $(( $# < 2 ? $# : 2 ))
+  sets=("$@")
+  if [ ${#sets[@]} -eq 0 ]; then
+    for f in "$here"/models/curves/*.svg; do sets+=("$(basename "$f" .svg)"); done
+  fi
+}
+
 study_scene() {
   local svg=$1 plane=$2 methods=$3
   cat <<JSON
