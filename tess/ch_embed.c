@@ -94,7 +94,6 @@ static void report(const ch_embed_desc *desc, const ch_embed_pilot *pilot, int r
                       pilot->count_only ? " (pilot)" : "", round, what);
 }
 
-/* ch_embed_run; a count-only run hands its cut to *kept if asked. */
 /* The error of a run whose triangles would pass the cap (at `stage` n). */
 static ch_status over_cap(ch_error *err, const ch_embed_pilot *pilot, double cap, const char *stage, int n,
                           int base) {
@@ -106,6 +105,7 @@ static ch_status over_cap(ch_error *err, const ch_embed_pilot *pilot, double cap
                       cap, stage, n, base);
 }
 
+/* ch_embed_run; a count-only run hands its cut to *kept if asked. */
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                            const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
                            ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {

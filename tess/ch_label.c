@@ -311,7 +311,11 @@ static ch_status find_step_outer(ch_label_ctx *lb, ch_error *err) {
       s = set->segments[s].next;
     } while (s != s0);
   }
-  if (!nloops) goto done;
+  if (!nloops) {
+    free(lb->step_outer);
+    lb->step_outer = NULL;
+    goto done;
+  }
   if ((st = ch_grid_build(&grid, n, (const double(*)[4])box, err))) goto done;
   if ((st = ch_grid_build(&loops, nloops, (const double(*)[4])lbox, err))) goto done;
   for (int k = 0; k < nloops; k++) {
@@ -367,8 +371,16 @@ static ch_status find_step_outer(ch_label_ctx *lb, ch_error *err) {
       if (s == loop_first[k]) break;
     }
   }
+  int any = 0;
   for (int s = 0; s < n; s++)
-    if (loop_of[s] >= 0 && loop_free[loop_of[s]]) lb->step_outer[s] = loop_area[loop_of[s]] > 0.0 ? 1 : 2;
+    if (loop_of[s] >= 0 && loop_free[loop_of[s]]) {
+      lb->step_outer[s] = loop_area[loop_of[s]] > 0.0 ? 1 : 2;
+      any = 1;
+    }
+  if (!any) { /* none free: the labels and the crossing search skip the test */
+    free(lb->step_outer);
+    lb->step_outer = NULL;
+  }
 done:
   free(loop_of);
   free(loop_first);

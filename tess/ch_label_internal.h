@@ -56,7 +56,8 @@ typedef struct ch_label_ctx {
   double end_reach;
   /* Per segment of a free closed step loop (find_step_outer), the side of
    * it that faces out of the loop: 1 right, 2 left (0: any other step
-   * segment). The step part of a label is 0 there (see ch_label_at). */
+   * segment; NULL when no loop is free). The step part of a label is 0
+   * there (see ch_label_at). */
   unsigned char *step_outer;
   double radius;
   int has_steps;

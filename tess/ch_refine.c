@@ -349,7 +349,7 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
       narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
   } else if (g0 == g1 && !s0 != !s1) { /* a loop's wall from outside, or the edge of a step curve's radius */
     int c = (int)((s0 ? s0 : s1) >> 1) - 1;
-    if (lb->height->step_method == CH_RECON_EXACT) {
+    if (lb->step_outer && lb->height->step_method == CH_RECON_EXACT) {
       double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
       double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
       if (fa != 0.0 && fa * fb < 0.0 &&
