@@ -25,27 +25,42 @@ declare -A cameras=(
   [closer]="0.35,0.25,0.08,0.35,0.35,0,40"
   [full]="0.5,-0.55,1.3,0.5,0.5,0,50"
 )
+# one case: a curve set seen from one camera, unwarped and warped, snapped and --no-snap
+run_case() {
+  local svg=$1 name=$2 view=$3 cam=$4
+  for method in snap naive; do
+    flag=()
+    [ $method = naive ] && flag=(--no-snap)
+    base="$dir/$name-$view-$method"
+    "$build/chisel" displace models/plane.obj "$svg" -o "$base-flat.obj" --target-tris "$n" --res "$res" \
+      "${flag[@]}" 2>/dev/null
+    log=$("$build/chisel" displace models/plane.obj "$svg" -o "$base-warp.obj" --target-tris "$n" --res "$res" \
+      "${flag[@]}" --camera "$cam" 2>&1 >/dev/null | grep '^chisel: warp' | tr '\n' ' ' || true)
+    "$build/bench/chisel-accuracy" "$base-flat.obj" "$base-warp.obj" "$svg" --camera "$cam" --json |
+      python3 -c 'import json,sys
+for line in sys.stdin:
+    r = json.loads(line); r["warp_log"] = sys.argv[1]; print(json.dumps(r))' "$log" >>"$json"
+    rm -f "$base-flat.obj" "$base-warp.obj"
+  done
+  echo "warp: $name $view done" >&2
+}
 for svg in models/curves/*.svg; do
   name=$(basename "$svg" .svg)
   if [ -n "${WARP_SETS:-}" ] && ! [[ " $WARP_SETS " == *" $name "* ]]; then continue; fi
-  for view in close closer full; do
-    cam=${cameras[$view]}
-    for method in snap naive; do
-      flag=()
-      [ $method = naive ] && flag=(--no-snap)
-      base="$dir/$name-$view-$method"
-      "$build/chisel" displace models/plane.obj "$svg" -o "$base-flat.obj" --target-tris "$n" --res "$res" \
-        "${flag[@]}" 2>/dev/null
-      log=$("$build/chisel" displace models/plane.obj "$svg" -o "$base-warp.obj" --target-tris "$n" --res "$res" \
-        "${flag[@]}" --camera "$cam" 2>&1 >/dev/null | grep '^chisel: warp' | tr '\n' ' ' || true)
-      "$build/bench/chisel-accuracy" "$base-flat.obj" "$base-warp.obj" "$svg" --camera "$cam" --json |
-        python3 -c 'import json,sys
-for line in sys.stdin:
-    r = json.loads(line); r["warp_log"] = sys.argv[1]; print(json.dumps(r))' "$log" >>"$json"
-      rm -f "$base-flat.obj" "$base-warp.obj"
-    done
-    echo "warp: $name $view done" >&2
-  done
+  for view in close closer full; do run_case "$svg" "$name" "$view" "${cameras[$view]}"; done
+done
+# Fans: thin grooves meeting at one point, seen close from above that
+# point (the star's 24 rays, and 16 or 64 grooves 0.2 viewBox units wide
+# crossing at the centre: bench/pathological.py crossing N).
+declare -A fan_cameras=(
+  [centre]="0.5,0.25,0.25,0.5,0.5,0,40"
+  [centrecloser]="0.5,0.4,0.08,0.5,0.5,0,40"
+)
+for fan in star fan16 fan64; do
+  if [ -n "${WARP_SETS:-}" ] && ! [[ " $WARP_SETS " == *" $fan "* ]]; then continue; fi
+  svg=models/curves/star.svg
+  if [ "$fan" != star ]; then svg="$dir/$fan.svg"; python3 bench/pathological.py crossing "${fan#fan}" "$svg"; fi
+  for view in centre centrecloser; do run_case "$svg" "$fan" "$view" "${fan_cameras[$view]}"; done
 done
 # The virtual resolution of a close view of each bundled base mesh (glyphs
 # on it): R times the warp's largest slopes, and the visible share.
@@ -78,7 +93,7 @@ print("| curves | view | method | triangles flat / warped | L1 flat | L1 warped 
       "normal p95 flat / warped | holes | virtual resolution | visible share of texels (unwarped), of triangles | "
       "warp cost |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-order = {"close": 0, "closer": 1, "full": 2}
+order = {"close": 0, "closer": 1, "full": 2, "centre": 3, "centrecloser": 4}
 for (name, view, method, kind), r in sorted(by.items(), key=lambda kv: (kv[0][0], order[kv[0][1]], kv[0][2])):
     if kind != "flat":
         continue
