@@ -336,11 +336,11 @@ static int run(int argc, char **argv) {
     if (!no_snap)
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
-              "junctions, %d wall triangles, %d unresolved, u lines every %.2f deg, %d vertices thinned; refine %.0f ms "
+              "junctions, %d wall triangles, %d unresolved (%d on UV seams), u lines every %.2f deg, %d vertices thinned; refine %.0f ms "
               "(setup %.0f, labels %.0f, edges %.0f, crossings %.0f, classify %.0f, split %.0f), cut %.0f ms (thin "
               "%.0f), normals %.0f ms\n",
               e->refine_rounds, e->refined_edges, e->crossings, e->wall_points, e->junctions, e->wall_triangles,
-              e->unresolved, e->angle_deg, e->thinned, 1e3 * e->seconds_refine, 1e3 * e->seconds_setup,
+              e->unresolved, e->unresolved_at_seams, e->angle_deg, e->thinned, 1e3 * e->seconds_refine, 1e3 * e->seconds_setup,
               1e3 * e->seconds_labels, 1e3 * e->seconds_edges, 1e3 * e->seconds_crossings, 1e3 * e->seconds_classify,
               1e3 * e->seconds_split, 1e3 * e->seconds_cut, 1e3 * e->seconds_thin, 1e3 * e->seconds_normals);
   }
@@ -392,6 +392,7 @@ static int run(int argc, char **argv) {
       cJSON_AddNumberToObject(ej, "junctions", e->junctions);
       cJSON_AddNumberToObject(ej, "wall_triangles", e->wall_triangles);
       cJSON_AddNumberToObject(ej, "unresolved", e->unresolved);
+      cJSON_AddNumberToObject(ej, "unresolved_at_seams", e->unresolved_at_seams);
       if (e->unresolved > 0) {
         cJSON *u = cJSON_AddArrayToObject(ej, "unresolved_first_uv");
         for (int k = 0; k < 2; k++) cJSON_AddItemToArray(u, cJSON_CreateNumber(e->unresolved_uv[k]));

@@ -327,7 +327,8 @@ static int emit_walls(const ch_refine_node *nodes, int m, ch_cut_out *o, ch_embe
 
 /* Counts an unresolved triangle of centre uv: the first one's place and
  * the box of all. */
-static void note_unresolved(ch_embed_stats *stats, const double uv[2]) {
+static void note_unresolved(ch_embed_stats *stats, const double uv[2], int at_seam) {
+  stats->unresolved_at_seams += at_seam;
   if (stats->unresolved++ == 0) {
     stats->unresolved_uv[0] = uv[0], stats->unresolved_uv[1] = uv[1];
     stats->unresolved_box[0] = stats->unresolved_box[2] = uv[0];
@@ -342,6 +343,18 @@ static void note_unresolved(ch_embed_stats *stats, const double uv[2]) {
 
 static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T,
                         const ch_refine_node *nodes, int m, ch_cut_out *o);
+
+/* Whether a corner of T is a vertex of a UV seam labelled in its other
+ * chart (its home face's UV) with another piece than T's UV there gives:
+ * the features differ across the seam, h jumps there, and the one shared
+ * vertex (which keeps the mesh closed) takes the other chart's h. */
+static int at_differing_seam(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T) {
+  for (int k = 0; k < 3; k++) {
+    const ch_refine_vert *v = &w->verts[T->v[k]];
+    if ((T->uv[k][0] != v->uv[0] || T->uv[k][1] != v->uv[1]) && ch_label_at(lb, T->uv[k]) != v->label) return 1;
+  }
+  return 0;
+}
 
 /* Cuts triangle t into its pieces, with walls where h jumps. */
 int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, double tol, ch_cut_out *o,
@@ -366,7 +379,7 @@ int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, doub
     double cuv[2] = {0, 0};
     for (int k = 0; k < 3; k++)
       for (int i = 0; i < 2; i++) cuv[i] += T->uv[k][i] / 3.0;
-    note_unresolved(stats, cuv);
+    note_unresolved(stats, cuv, at_differing_seam(lb, w, T));
   }
   ch_refine_node *all = nodes;
   if (m < 0) { /* more nodes than a cut takes: all of them for the fan, so its neighbours' crossings meet it */

@@ -431,6 +431,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         }
       }
       stats.unresolved += pstats[c].unresolved;
+      stats.unresolved_at_seams += pstats[c].unresolved_at_seams;
       stats.junctions += pstats[c].junctions;
       stats.wall_triangles += pstats[c].wall_triangles;
     }

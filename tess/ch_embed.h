@@ -87,6 +87,10 @@ typedef struct ch_embed_stats {
   double unresolved_uv[2]; /* with unresolved > 0: the centre of the first
                               (in the tessellation's order), UV */
   double unresolved_box[4];/* and the UV box of all their centres */
+  int unresolved_at_seams; /* of them, triangles with a corner on a UV seam
+                              whose other chart has other features there:
+                              h jumps across the seam, which the shared
+                              vertex cannot follow */
   int thinned;             /* vertices the thinning of the grooves' layers removed */
   double angle_deg;        /* the angle step of the u lines the run used */
   long triangles;          /* output triangles (a pilot of ch_embed_to_target

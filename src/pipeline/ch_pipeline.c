@@ -293,11 +293,26 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
             out->mesh.num_faces, target);
   if (!st && out->snapped && out->embed.unresolved > 0) {
     const ch_embed_stats *e = &out->embed;
+    int seams = e->unresolved_at_seams, thin = e->unresolved - seams;
+    /* Two causes, said apart: a UV seam whose charts hold different
+     * features (h jumps across it; the shared vertex keeps the mesh closed
+     * with the other chart's h), or a feature thinner than the refinement. */
+    char why[320];
+    if (thin == 0)
+      snprintf(why, sizeof why,
+               "on UV seams where the curves on the two charts differ (h jumps across the seam, and the vertices "
+               "the charts share keep one side's h)");
+    else if (seams == 0)
+      snprintf(why, sizeof why, "(a feature thinner than the refinement's 1e-5 UV inside)");
+    else
+      snprintf(why, sizeof why,
+               "(%d on UV seams where the curves on the two charts differ, %d with a feature thinner than the "
+               "refinement's 1e-5 UV inside)",
+               seams, thin);
     ch_warn(err,
-            "%s: %d triangle%s could not be cut along the features (a feature thinner than the refinement's "
-            "1e-5 UV inside): filled as fans, the features not followed there; the first at UV (%.6f, %.6f), all "
-            "within UV [%.6f, %.6f] .. [%.6f, %.6f]",
-            svg, e->unresolved, e->unresolved == 1 ? "" : "s", e->unresolved_uv[0], e->unresolved_uv[1],
+            "%s: %d triangle%s could not be cut along the features %s: filled as fans, the features not followed "
+            "there; the first at UV (%.6f, %.6f), all within UV [%.6f, %.6f] .. [%.6f, %.6f]",
+            svg, e->unresolved, e->unresolved == 1 ? "" : "s", why, e->unresolved_uv[0], e->unresolved_uv[1],
             e->unresolved_box[0], e->unresolved_box[1], e->unresolved_box[2], e->unresolved_box[3]);
   }
   if (!st && desc->maps) {
