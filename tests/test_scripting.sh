@@ -107,11 +107,23 @@ lines = open(sys.argv[1]).read().splitlines()
 assert len(lines) == 3, lines
 mesh, svg, exr = (json.loads(l) for l in lines)
 assert mesh["faces"] == 256 and mesh["boundary_edges"] == 64 and mesh["uv_charts"] == 1, mesh
+assert mesh["chisel_output"] is False, mesh
 assert svg["type"] == "svg" and svg["curves"] == len(svg["curve_list"]) > 0, svg
 assert sorted(c["name"] for c in exr["channels"]) == ["Y", "h"], exr
 h = [c for c in exr["channels"] if c["name"] == "h"][0]
 assert abs(h["max"] - 0.03) < 1e-6 and h["non_finite"] == 0, h
 EOF
+
+# A displaced mesh's walls have no UV area: info explains them instead of
+# warning about them (a base mesh's zero UV area is still a warning).
+run 0 "$chisel" info --json "$tmp/r4.obj"
+cp "$tmp/out" "$tmp/i.json"
+json 'd["chisel_output"] is True and d["zero_uv_area_faces"] > 0 and d["nonmanifold_edges"] == 0' "$tmp/i.json"
+err_lines 0
+run 0 "$chisel" info "$tmp/r4.obj"
+err_lines 0
+checks=$((checks + 1))
+grep -q "with zero UV area (a chisel output: its walls have no UV area" "$tmp/out" || fail "info: walls not explained"
 
 # ---- did you mean ----
 run 2 "$chisel" displce
