@@ -397,6 +397,8 @@ typedef struct cell {
   groove g[CH_GTEX_MAX_CELL_ITEMS];
   int mixed;                       /* raised and carved grooves meet here */
   int raises;                      /* some groove here raises the surface */
+  int elem_id[CH_GTEX_MAX_CELL_ITEMS];   /* each element's index in the texture */
+  int groove_id[CH_GTEX_MAX_CELL_ITEMS]; /* each run's groove index */
 } cell;
 
 typedef struct point_state {
@@ -518,20 +520,32 @@ static void fill_sample(const cell *C, const point_state *st, double h, const do
   out->grad[1] = k * gs[1];
 }
 
-/* Loads the elements of grid cell ci (and their grooves, one per run). */
-static void load_cell(const ch_gtex *g, int ci, cell *C) {
+/* Loads the elements of grid cell ci (and their grooves, one per run).
+ * prev (or NULL): the cell the ray read before, whose elements and
+ * grooves are copied where the lists share them (a groove's elements run
+ * through many cells along a ray; the lists are in element order, so one
+ * merge finds them); what a copy holds is what loading gives. */
+static void load_cell(const ch_gtex *g, int ci, cell *C, const cell *prev) {
   const float *gt = g->grid + 4 * (size_t)ci;
   int first = (int)gt[0], n = (int)gt[1];
   C->n = n;
   C->ng = 0;
-  int last_groove = -1;
+  int last_groove = -1, j = 0, jg = 0;
   for (int k = 0; k < n; k++) {
     int e = (int)texel(g, first + k / 4)[k % 4];
-    load_elem(g, e, &C->e[k]);
+    C->elem_id[k] = e;
+    if (prev)
+      while (j < prev->n && prev->elem_id[j] < e) j++;
+    if (prev && j < prev->n && prev->elem_id[j] == e) C->e[k] = prev->e[j];
+    else load_elem(g, e, &C->e[k]);
     if (C->e[k].groove != last_groove) {
       last_groove = C->e[k].groove;
       C->gfirst[C->ng] = k;
-      load_groove(g, last_groove, &C->g[C->ng]);
+      C->groove_id[C->ng] = last_groove;
+      if (prev)
+        while (jg < prev->ng && prev->groove_id[jg] < last_groove) jg++;
+      if (prev && jg < prev->ng && prev->groove_id[jg] == last_groove) C->g[C->ng] = prev->g[jg];
+      else load_groove(g, last_groove, &C->g[C->ng]);
       C->ng++;
     }
   }
@@ -557,7 +571,7 @@ static double eval_in(const ch_gtex *g, double u, double v, cell *C, int *loaded
   if (!(u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0)) return 0.0;
   int ci = cell_index(g, u, v);
   if (*loaded != ci) {
-    load_cell(g, ci, C);
+    load_cell(g, ci, C, NULL);
     *loaded = ci;
   }
   const double q[2] = {u, v};
@@ -1171,6 +1185,7 @@ typedef struct trace {
                        slab of h's range from above: no wall there */
   int cells;
   cell *C;          /* the cell last read, kept for the hit's probes */
+  cell *spare;      /* the one read before (its elements are copied) */
   int loaded;       /* its index, or -1 (the paper's mode edits a cell) */
 } trace;
 
@@ -1359,7 +1374,11 @@ static int walk(trace *T, double tnear, double tfar) {
           return 1;
         }
       } else {
-        load_cell(g, ci, T->C);
+        /* (The paper's mode edits a cell's elements: no copies.) */
+        cell *into = T->spare;
+        load_cell(g, ci, into, T->loaded >= 0 ? T->C : NULL);
+        T->spare = T->C;
+        T->C = into;
         T->loaded = g->paper ? -1 : ci;
         /* The next cells along the ray with the same list hold the same h
          * (a groove's run on a fine grid): one stretch, one set of events.
@@ -1407,8 +1426,8 @@ static int walk(trace *T, double tnear, double tfar) {
 }
 
 int ch_gtex_occluded(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar) {
-  cell C;
-  trace T = {.g = g, .C = &C, .loaded = -1};
+  cell C[2];
+  trace T = {.g = g, .C = &C[0], .spare = &C[1], .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
@@ -1422,7 +1441,7 @@ static double h_on_ray(const ch_gtex *g, const ray *R, double t, cell *C, int *l
   q[1] = R->o[1] + t * R->d[1];
   int ci = cell_index(g, q[0], q[1]);
   if (*loaded != ci) {
-    load_cell(g, ci, C);
+    load_cell(g, ci, C, NULL);
     *loaded = ci;
   }
   if (!(q[0] >= 0.0 && q[0] <= 1.0 && q[1] >= 0.0 && q[1] <= 1.0)) {
@@ -1435,13 +1454,14 @@ static double h_on_ray(const ch_gtex *g, const ray *R, double t, cell *C, int *l
 
 int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar,
                       ch_gtex_hit *hit) {
-  cell C;
-  trace T = {.g = g, .C = &C, .loaded = -1};
+  cell C[2];
+  trace T = {.g = g, .C = &C[0], .spare = &C[1], .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
   if (!walk(&T, tnear, tfar)) return 0;
   const ray *R = &T.R;
+  cell *Ch = T.C; /* the hit's cell, or the last one read */
   double t = T.t;
   memset(hit, 0, sizeof *hit);
   hit->t = t;
@@ -1453,21 +1473,21 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
     int *loaded = &T.loaded;
     point_state sa, sb, s2;
     double qa[2], qb[2], q2[2], dt = 1e-9 / T.duv;
-    double ha = h_on_ray(g, R, t - dt, &C, loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, &C, loaded, &sb, qb);
-    double ha2 = h_on_ray(g, R, t - dt / 16, &C, loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, &C, loaded, &s2, q2);
+    double ha = h_on_ray(g, R, t - dt, Ch, loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, Ch, loaded, &sb, qb);
+    double ha2 = h_on_ray(g, R, t - dt / 16, Ch, loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, Ch, loaded, &s2, q2);
     double jump_eps = 1e-6 * mx(g->zmax - g->zmin, 1e-9);
     if (fabs(hb - ha) > jump_eps && fabs(hb2 - ha2) > 0.5 * fabs(hb - ha)) {
       /* Across the groove of the deeper side, facing the ray. */
       int deeper_b = fabs(hb) >= fabs(ha);
       point_state st;
       double q[2];
-      h_on_ray(g, R, deeper_b ? t + dt : t - dt, &C, loaded, &st, q);
+      h_on_ray(g, R, deeper_b ? t + dt : t - dt, Ch, loaded, &st, q);
       double s = 0.0, tau = 0.0;
       int e = -1, r = active_of(&st, &s, &e, &tau);
       double n2[2] = {-R->d[0] / T.duv, -R->d[1] / T.duv};
       if (r >= 0) {
-        const elem *el = &C.e[e];
-        const groove *G = &C.g[r];
+        const elem *el = &Ch->e[e];
+        const groove *G = &Ch->g[r];
         distance_gradient(el, tau, s, q, n2);
         /* Around an open end the walls are circles |s| = b w (radial
          * normals), except the side flip of an asymmetric profile on the
@@ -1489,14 +1509,14 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
       hit->normal[0] = n2[0];
       hit->normal[1] = n2[1];
       hit->normal[2] = 0.0;
-      hit->curve = r >= 0 ? C.g[r].curve : -1;
-      hit->owner = st.owner_run >= 0 ? C.g[st.owner_run].curve : -1;
+      hit->curve = r >= 0 ? Ch->g[r].curve : -1;
+      hit->owner = st.owner_run >= 0 ? Ch->g[st.owner_run].curve : -1;
       return 1;
     }
   }
   /* A facet: the normal of h at the hit. */
   ch_gtex_sample smp;
-  eval_in(g, hit->point[0], hit->point[1], &C, &T.loaded, &smp);
+  eval_in(g, hit->point[0], hit->point[1], Ch, &T.loaded, &smp);
   double l = sqrt(smp.grad[0] * smp.grad[0] + smp.grad[1] * smp.grad[1] + 1.0);
   hit->normal[0] = -smp.grad[0] / l;
   hit->normal[1] = -smp.grad[1] / l;
@@ -1750,7 +1770,7 @@ ch_status ch_gtex_build(ch_gtex *g, const ch_curve_set *set, const ch_gtex_desc 
       size_t ci = (size_t)j * G + i;
       float *gt = g->grid + 4 * ci;
       if (gt[1] == 0.0f) continue;
-      load_cell(g, (int)ci, &C);
+      load_cell(g, (int)ci, &C, NULL);
       double c[2] = {(i + 0.5) * cs, (j + 0.5) * cs};
       double carve_lo = 0.0, carve_hi = 0.0, raise_lo = 0.0, raise_hi = 0.0;
       int any_carve_lo = 0, any_carve_hi = 0;
