@@ -89,6 +89,9 @@ typedef struct elem {
                              has one foot) */
   double dev;             /* how far the curve strays from its chord:
                              |p0 - 2 p1 + p2| / 4 (0 when straight) */
+  /* Quadratics, for the closest point: B(tau) = p0 + tau (da + tau hb),
+   * B' = da + tau db (hb = db / 2); the chord c and |c|^2. */
+  double da[2], db[2], hb[2], c[2], cc;
 } elem;
 
 static void elem_frame(elem *E) {
@@ -110,6 +113,11 @@ static void elem_box(elem *E) {
   E->box[3] = mx(mx(E->p[0][1], E->p[1][1]), E->p[2][1]);
 }
 
+static void elem_chord(elem *E) {
+  E->c[0] = E->p[2][0] - E->p[0][0], E->c[1] = E->p[2][1] - E->p[0][1];
+  E->cc = E->c[0] * E->c[0] + E->c[1] * E->c[1];
+}
+
 static void load_elem(const ch_gtex *g, int e, elem *E) {
   const float *a = texel(g, g->element_base + ELEM_TEXELS * e), *b = a + 4, *c = a + 8;
   E->p[0][0] = a[0], E->p[0][1] = a[1], E->p[2][0] = a[2], E->p[2][1] = a[3];
@@ -125,6 +133,7 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
     E->p[1][1] = 0.5 * (E->p[0][1] + E->p[2][1]);
   }
   elem_box(E);
+  elem_chord(E);
   E->dev = E->quad ? 0.25 * len2d(E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0], E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])
                    : 0.0;
   /* A straight element's frame is cheap; a quadratic's waits until a ray
@@ -136,8 +145,10 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
   }
   /* B'(t) = a + t b, B'' = b: the curvature |a x b| / |B'|^3 is largest
    * where |B'| is least. */
-  double da[2] = {2.0 * (E->p[1][0] - E->p[0][0]), 2.0 * (E->p[1][1] - E->p[0][1])};
-  double db[2] = {2.0 * (E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0]), 2.0 * (E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])};
+  double *da = E->da, *db = E->db;
+  da[0] = 2.0 * (E->p[1][0] - E->p[0][0]), da[1] = 2.0 * (E->p[1][1] - E->p[0][1]);
+  db[0] = 2.0 * (E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0]), db[1] = 2.0 * (E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1]);
+  E->hb[0] = 0.5 * db[0], E->hb[1] = 0.5 * db[1];
   double bb = db[0] * db[0] + db[1] * db[1], K = fabs(da[0] * db[1] - da[1] * db[0]);
   double tm = bb > 0.0 ? -(da[0] * db[0] + da[1] * db[1]) / bb : 0.0;
   tm = tm < 0.0 ? 0.0 : tm > 1.0 ? 1.0 : tm;
@@ -313,6 +324,7 @@ static void paper_line(elem *E, const double ref[2]) {
   E->dev = 0.0;
   E->open_start = E->open_end = 1;
   elem_box(E);
+  elem_chord(E);
   elem_frame(E);
 }
 
@@ -335,25 +347,21 @@ static double robust_closest(const elem *E, const double q[2], double *tau) {
  * with the foot and the derivative there when asked (quad_s). */
 static double elem_closest_from(const elem *E, const double q[2], double start, double *tau, double foot[2],
                                 double deriv[2]) {
-  const double p0[2] = {E->p[0][0], E->p[0][1]}, p1[2] = {E->p[1][0], E->p[1][1]}, p2[2] = {E->p[2][0], E->p[2][1]};
-  double c[2] = {p2[0] - p0[0], p2[1] - p0[1]}, cc = c[0] * c[0] + c[1] * c[1];
-  double t = cc > 0.0 ? ((q[0] - p0[0]) * c[0] + (q[1] - p0[1]) * c[1]) / cc : 0.5;
+  const double *p0 = E->p[0], *a = E->da, *b = E->db, *hb = E->hb, *c = E->c;
+  double w[2] = {q[0] - p0[0], q[1] - p0[1]}, cc = E->cc; /* q - p0 */
+  double t = cc > 0.0 ? (w[0] * c[0] + w[1] * c[1]) / cc : 0.5;
   t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-  double a[2] = {2.0 * (p1[0] - p0[0]), 2.0 * (p1[1] - p0[1])};
-  double b[2] = {2.0 * (p0[0] - 2.0 * p1[0] + p2[0]), 2.0 * (p0[1] - 2.0 * p1[1] + p2[1])};
-  double bb = b[0] * b[0] + b[1] * b[1];
   /* A point on the chord's box within the least radius is within it of
    * the curve: Newton stays in the basin. */
-  double dx = q[0] - (p0[0] + t * c[0]), dy = q[1] - (p0[1] + t * c[1]);
-  double dev2 = 0.0625 * bb; /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
+  double dx = w[0] - t * c[0], dy = w[1] - t * c[1];
+  double dev2 = 0.0625 * (b[0] * b[0] + b[1] * b[1]); /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
   int robust = !(dx * dx + dy * dy + dev2 < 0.25 * E->rho2);
   if (!robust && start >= 0.0) t = start;
   /* Quadratic convergence: once a step is below 1e-8 the next is below
    * 1e-16, so take it and stop. */
   for (int it = 0, last = 0; it < 16 && !last && !robust; it++) {
-    double s = 1.0 - t;
-    double B[2] = {s * s * p0[0] + 2.0 * s * t * p1[0] + t * t * p2[0], s * s * p0[1] + 2.0 * s * t * p1[1] + t * t * p2[1]};
-    double D[2] = {a[0] + t * b[0], a[1] + t * b[1]}, r[2] = {B[0] - q[0], B[1] - q[1]};
+    double r[2] = {t * (a[0] + t * hb[0]) - w[0], t * (a[1] + t * hb[1]) - w[1]}; /* B - q */
+    double D[2] = {a[0] + t * b[0], a[1] + t * b[1]};
     double f = r[0] * D[0] + r[1] * D[1], df = D[0] * D[0] + D[1] * D[1] + r[0] * b[0] + r[1] * b[1];
     if (!(df > 0.0)) {
       robust = 1;
@@ -372,7 +380,7 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
       return d2;
     }
   }
-  double u = 1.0 - t, x[2] = {u * u * p0[0] + 2.0 * u * t * p1[0] + t * t * p2[0], u * u * p0[1] + 2.0 * u * t * p1[1] + t * t * p2[1]};
+  double x[2] = {p0[0] + t * (a[0] + t * hb[0]), p0[1] + t * (a[1] + t * hb[1])};
   if (!robust) d2 = (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
   *tau = t;
   if (foot) {
@@ -382,8 +390,19 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
   return d2;
 }
 
+/* Squared distance from q to the element's chord and the closest
+ * parameter (ch_bezier_closest's straight case, on the chord kept). */
+static inline double chord_closest(const elem *E, const double q[2], double *tau) {
+  double w[2] = {q[0] - E->p[0][0], q[1] - E->p[0][1]};
+  double t = E->cc > 0.0 ? (w[0] * E->c[0] + w[1] * E->c[1]) / E->cc : 0.0;
+  t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+  double x = E->p[0][0] + t * E->c[0] - q[0], y = E->p[0][1] + t * E->c[1] - q[1];
+  *tau = t;
+  return x * x + y * y;
+}
+
 static double elem_closest(const elem *E, const double q[2], double *tau) {
-  if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
+  if (!E->quad) return chord_closest(E, q, tau);
   return elem_closest_from(E, q, -1.0, tau, NULL, NULL);
 }
 
@@ -1203,7 +1222,7 @@ static int groove_below(const cell *C, int r, const double q[2], double z) {
     const double *b = E->box;
     double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
     if (dx * dx + dy * dy >= reach2) continue; /* beyond the band: no value */
-    double tau, dc = sqrt(ch_bezier_closest(E->p, 1, q, &tau));
+    double tau, dc = sqrt(chord_closest(E, q, &tau));
     lo = mn(lo, dc - E->dev);
     hi = mn(hi, dc + E->dev);
   }
