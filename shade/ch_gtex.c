@@ -1269,6 +1269,24 @@ static int solid_at(const trace *T, const cell *C, double t, int *first) {
   return 1;
 }
 
+/* Whether q is farther than every band of the cell's elements (so h = 0
+ * around it): by the box, else by the chord's distance less how far the
+ * curve strays from it. */
+static int clear_of_bands(const cell *C, const double q[2]) {
+  for (int r = 0; r < C->ng; r++) {
+    const double reach = 0.5 * C->g[r].w * (1.0 + 1e-9) + 1e-12;
+    for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
+      const elem *E = &C->e[k];
+      const double *b = E->box;
+      double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+      if (dx * dx + dy * dy >= reach * reach) continue;
+      double tau;
+      if (!(sqrt(chord_closest(E, q, &tau)) - E->dev >= reach)) return 0;
+    }
+  }
+  return 1;
+}
+
 /* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit.
  * cuts: the borders of the grid cells inside [ta, tb] (cells merged for
  * holding the same list), kept as events of unknown kind, so each cell's
@@ -1289,6 +1307,19 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     *hit = ta;
     *maybe_wall = !T->at_top;
     return 1;
+  }
+  /* Where nothing raises, a ray coming down meets the base plane z = 0
+   * first wherever no band reaches the point it crosses it: the segments
+   * before are above every h <= 0, the one after starts below h = 0 (the
+   * base plane's event, as cell_events finds it; most rays meeting the
+   * top surface end here, without the elements' events). */
+  if (!T->g->paper && !C->raises && R->d[2] < 0.0) {
+    double t0 = -R->o[2] / R->d[2], q0[2] = {R->o[0] + t0 * R->d[0], R->o[1] + t0 * R->d[1]};
+    if (t0 > ta && t0 < tb && clear_of_bands(C, q0)) {
+      *hit = t0;
+      *maybe_wall = 0;
+      return 1;
+    }
   }
   events E;
   double lo = ta;
