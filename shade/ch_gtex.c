@@ -182,36 +182,31 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   int prof = (int)a[2];
   G->priority = (int)a[3];
   G->curve = (int)b[0];
-  const float *ph = texel(g, prof);
+  const float *ph = texel(g, prof), *pts = ph + 4; /* two points a texel */
   G->ellipse = (int)ph[0] == PROFILE_ELLIPSE;
-  G->n = (int)ph[1];
-  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
-  for (int i = 0; i < G->n; i++) {
-    const float *pt = texel(g, prof + 1) + 2 * i; /* two points a texel */
-    G->t[i] = pt[0];
-    G->h[i] = pt[1];
-    pmin = mn(pmin, G->h[i]), pmax = mx(pmax, G->h[i]);
-  }
-  G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
-  int nb = 0;
-  G->brk[nb++] = -0.5;
-  G->brk[nb++] = 0.0;
-  G->brk[nb++] = 0.5;
-  for (int i = 0; i < G->n; i++) {
-    int seen = 0;
-    for (int j = 0; j < nb && !seen; j++) seen = G->brk[j] == G->t[i];
-    if (!seen) G->brk[nb++] = G->t[i];
-  }
-  G->nb = nb;
+  int n = G->n = (int)ph[1];
   /* Derived at build time (groove_derive), kept in the groove's texel. */
   int flags = (int)b[2], mask = (int)b[3];
   G->asym = (flags & 1) != 0;
   G->raises = (flags & 2) != 0;
   G->carves = (flags & 4) != 0;
-  for (int k = 0; k < nb; k++) G->jump[k] = (mask >> k) & 1;
-  G->monotone = !G->asym && G->d > 0.0;
-  for (int i = 0; i < G->n && G->monotone; i++)
-    G->monotone = G->h[i] <= 0.0 && (i == 0 || G->t[i] <= 0.0 || (G->t[i] >= G->t[i - 1] && G->h[i] >= G->h[i - 1]));
+  int monotone = !G->asym && G->d > 0.0, nb = 3;
+  G->brk[0] = -0.5, G->brk[1] = 0.0, G->brk[2] = 0.5;
+  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
+  for (int i = 0; i < n; i++) {
+    double t = pts[2 * i], h = pts[2 * i + 1];
+    G->t[i] = t, G->h[i] = h;
+    pmin = mn(pmin, h), pmax = mx(pmax, h);
+    /* The breaks: -1/2, 0, 1/2 and the points, each once. */
+    int seen = t == -0.5 || t == 0.0 || t == 0.5;
+    for (int j = 3; j < nb && !seen; j++) seen = G->brk[j] == t;
+    if (!seen) G->brk[nb++] = t;
+    monotone = monotone && h <= 0.0 && (i == 0 || t <= 0.0 || (t >= G->t[i - 1] && h >= G->h[i - 1]));
+  }
+  G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
+  G->nb = nb;
+  for (int k2 = 0; k2 < nb; k2++) G->jump[k2] = (mask >> k2) & 1;
+  G->monotone = monotone;
 }
 
 /* Where h can jump: where P does (a side flip at 0 included); a rim where
@@ -618,8 +613,15 @@ typedef struct events {
   int wall_now;               /* the kind of the events being added */
   double t[EV_CAP];
   unsigned char wall[EV_CAP]; /* 1: h may jump there (a break line or
-                                 circle, an open end's side line) */
+                                 circle, an open end's side line); 2: a
+                                 quadratic's end normal line and nothing
+                                 else there (h is continuous, no facet
+                                 crossed) */
 } events;
+
+/* The kind of an event found twice: a jump if either says so, a bare
+ * normal line only if both are. */
+static inline unsigned char ev_merge(unsigned char a, int b) { return (unsigned char)(((a | b) & 1) | (a & b & 2)); }
 
 /* Keeps the EV_CAP smallest events strictly inside (lo, hi), once each
  * (the same point comes from both elements at a joint, and from +-b). */
@@ -629,11 +631,11 @@ static void ev_add(events *E, double t) {
   while (i > 0 && E->t[i - 1] > t) i--;
   const double tie = 1e-15 * (1.0 + fabs(t));
   if (i > 0 && t - E->t[i - 1] <= tie) {
-    E->wall[i - 1] |= (unsigned char)E->wall_now;
+    E->wall[i - 1] = ev_merge(E->wall[i - 1], E->wall_now);
     return;
   }
   if (i < E->n && E->t[i] - t <= tie) {
-    E->wall[i] |= (unsigned char)E->wall_now;
+    E->wall[i] = ev_merge(E->wall[i], E->wall_now);
     return;
   }
   if (E->n == EV_CAP) {
@@ -1067,7 +1069,7 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   double b0 = (R->o[0] - el->p[2][0]) * T1[0] + (R->o[1] - el->p[2][1]) * T1[1], b1 = R->d[0] * T1[0] + R->d[1] * T1[1];
   double c[2] = {el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]};
   int wedge = c[0] * T0[0] + c[1] * T0[1] >= 0.0 && c[0] * T1[0] + c[1] * T1[1] >= 0.0;
-  E->wall_now = 0; /* the ends' normal lines: h is continuous there */
+  E->wall_now = 2; /* the ends' normal lines: h is continuous there */
   if (!wedge) {
     /* nothing cut */
   } else if (a1 != 0.0) {
@@ -1334,10 +1336,14 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     for (int i = 0; i <= E.n; i++) {
       if (i == E.n && E.dropped) break;
       double next = i < E.n ? E.t[i] : tb, mid = 0.5 * (prev + next);
-      /* Above the cell's highest point: nothing to test. */
-      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
+      /* Above the cell's highest point: nothing to test; past a bare
+       * normal line, the segment is on the side of h the one before was
+       * (not solid, or the walk would have stopped there). */
+      if (i > 0 && prev_wall == 2) {
+        /* skip */
+      } else if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
         *hit = prev;
-        *maybe_wall = prev_wall;
+        *maybe_wall = prev_wall & 1;
         return 1;
       }
       prev = next;
@@ -1345,7 +1351,7 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     }
     if (!E.dropped) return 0;
     lo = E.t[E.n - 1];
-    lo_wall = E.wall[E.n - 1];
+    lo_wall = E.wall[E.n - 1] & 1;
   }
   return 0;
 }
