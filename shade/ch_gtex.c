@@ -854,16 +854,27 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
    * 1e-9 of the bracket the next is at rounding, so take it and stop. */
   double t = fa != fb ? a - fa * (b - a) / (fb - fa) : 0.5 * (a + b), tol = 1e-9 * (b - a);
   if (!(t > a && t < b)) t = 0.5 * (a + b);
-  /* Each foot from the last one: the steps shrink, so do the feet's moves. */
-  double hint = -1.0;
+  /* Each foot from the last one: the steps shrink, so do the feet's moves.
+   * A Newton step of e leaves an error of about |f'' / (2 f')| e^2, f''
+   * read from the last two rates: where that is below rounding of t, the
+   * step is the last (it saves the evaluation that would only confirm it;
+   * near a double root f'' / f' is large and the rule waits). */
+  double hint = -1.0, t_prev = 0.0, r_prev = 0.0, width = b - a;
   for (int it = 0, last = 0; it < 60 && !last; it++) {
     double ds, rate, s = quad_s(el, R, t, &ds, &hint), f = quad_fn(G, R, j, t, s, ds, &rate);
     if (f == 0.0) return t;
     if ((f > 0.0) == (fa > 0.0)) a = t, fa = f;
     else b = t;
     double tn = rate != 0.0 ? t - f / rate : 0.5 * (a + b);
-    if (!(tn > a && tn < b)) tn = 0.5 * (a + b);
-    last = fabs(tn - t) <= tol || b - a <= 1e-15 * (1.0 + fabs(a));
+    int newton = tn > a && tn < b;
+    if (!newton) tn = 0.5 * (a + b);
+    double step = fabs(tn - t);
+    last = step <= tol || b - a <= 1e-15 * (1.0 + fabs(a));
+    if (!last && newton && it > 0 && step <= 1e-6 * width && t != t_prev && rate != 0.0) {
+      double curv = fabs((rate - r_prev) / (t - t_prev)) / (2.0 * fabs(rate));
+      last = curv * step * step <= 1e-17 * (1.0 + fabs(tn));
+    }
+    t_prev = t, r_prev = rate;
     t = tn;
   }
   return t;
