@@ -353,7 +353,12 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
   int robust = !(dx * dx + dy * dy + dev2 < 0.25 * E->rho2);
   if (!robust && start >= 0.0) t = start;
   /* Quadratic convergence: once a step is below 1e-8 the next is below
-   * 1e-16, so take it and stop. */
+   * 1e-16, so take it and stop. Asked for the foot (quad_s, the events'
+   * distance), a step below 1e-5 is the last: the distance is stationary
+   * in tau at the foot, so the foot's error after it (about 1e-10) moves
+   * it by the square, below rounding; the foot and its derivative then
+   * only steer Newton along the ray. */
+  const double stop = foot ? 1e-5 : 1e-8;
   for (int it = 0, last = 0; it < 16 && !last && !robust; it++) {
     double r[2] = {t * (a[0] + t * hb[0]) - w[0], t * (a[1] + t * hb[1]) - w[1]}; /* B - q */
     double D[2] = {a[0] + t * b[0], a[1] + t * b[1]};
@@ -364,7 +369,7 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
     }
     double tn = t - f / df;
     tn = tn < 0.0 ? 0.0 : tn > 1.0 ? 1.0 : tn;
-    last = fabs(tn - t) <= 1e-8;
+    last = fabs(tn - t) <= stop;
     t = tn;
   }
   double d2;
