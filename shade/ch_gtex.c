@@ -1,7 +1,7 @@
 /* Path-based groove textures (ch_gtex.h): the representation of
  * path-based-grooves §4 and its rendering along rays (§5).
  *
- * Why one file of about 1,600 lines: it is one texture method, and its
+ * Why one file of about 2,000 lines: it is one texture method, and its
  * build and its shader read the same packed texel layout through the same
  * loaders (elements, grooves, cells, the profile's value and slope, the
  * closest point on an element); the build uses them to bound h per cell
