@@ -13,7 +13,18 @@
  *   bench_gtex CURVES.svg [MESH.obj] [G,G,...] [R,R,...] [K] [REPEATS]
  *
  * defaults: no mesh, G = 64,128,256, R = 512,1024,2048,4096, K = 32, 3
- * repeats (the median is printed). OMP_NUM_THREADS sets the cores. */
+ * repeats (the median is printed). OMP_NUM_THREADS sets the cores.
+ *
+ *   bench_gtex --count CURVES.svg G [STRIDE]
+ *
+ * traces, on one thread, every STRIDE-th pixel (default 16) of the
+ * study's two close-ups (bench/study_scene.sh) through the groove
+ * texture's shader as the renderer calls it (2 x 2 samples, a shadow ray
+ * where the hit faces the light), in trace_closeups alone, so that
+ * instruction counts compare across versions:
+ *   valgrind --tool=callgrind --toggle-collect=trace_closeups bench_gtex --count ...
+ * It prints the hits and lit samples (the same for any version up to
+ * float rounding). */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -74,7 +85,83 @@ static double rate(const ch_trace *scene, const ch_render_shader *sh, const ch_t
   return bench_median(r, repeats);
 }
 
+/* The rays of the study's two close-ups, every stride-th pixel, 2 x 2
+ * samples each (bench/study_scene.sh's closeup and closeup2). */
+static int closeup_rays(int stride, double (**rays)[6]) {
+  const double eye[2][3] = {{0.42, 0.3, 0.14}, {0.66, 0.7, 0.09}}, target[2][3] = {{0.5, 0.5, -0.01}, {0.55, 0.55, -0.01}};
+  int W = 320, H = 240, n = 0;
+  *rays = malloc(sizeof **rays * 2 * ((size_t)W * H / stride + 1) * 4);
+  if (!*rays) return -1;
+  for (int v = 0; v < 2; v++) {
+    ch_render_camera cam = {.eye = {eye[v][0], eye[v][1], eye[v][2]},
+                            .target = {target[v][0], target[v][1], target[v][2]},
+                            .up = {0, 0, 1},
+                            .fov_deg = 30,
+                            .width = W,
+                            .height = H,
+                            .supersample = 2};
+    for (int p = 0; p < W * H; p += stride)
+      for (int sj = 0; sj < 4; sj++) {
+        ch_error err = {0};
+        if (ch_render_camera_ray(&cam, p % W + (sj % 2 + 0.5) / 2, p / W + (sj / 2 + 0.5) / 2, (*rays)[n],
+                                 (*rays)[n] + 3, &err))
+          return -1;
+        n++;
+      }
+  }
+  return n;
+}
+
+/* The renderer's work per sample (ch_render's trace_sample) with the
+ * shader alone: the hit, and a shadow ray where it faces the light. */
+static __attribute__((noinline)) long trace_closeups(const ch_render_shader *sh, const double (*rays)[6], int n, long *lit) {
+  double L[3] = {-0.35, -0.45, 0.82}, l = sqrt(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]);
+  for (int k = 0; k < 3; k++) L[k] /= l;
+  long hits = 0;
+  *lit = 0;
+  for (int i = 0; i < n; i++) {
+    const double *o = rays[i], *d = rays[i] + 3;
+    ch_trace_hit h = {0};
+    if (!sh->shade(sh->user, o, d, &h)) continue;
+    hits++;
+    double s = h.normal[0] * d[0] + h.normal[1] * d[1] + h.normal[2] * d[2] > 0.0 ? -1.0 : 1.0;
+    if (s * (h.normal[0] * L[0] + h.normal[1] * L[1] + h.normal[2] * L[2]) > 0.0) *lit += !sh->occluded(sh->user, &h, L);
+  }
+  return hits;
+}
+
+static int count_main(int argc, char **argv) {
+  if (argc < 4) {
+    fprintf(stderr, "usage: bench_gtex --count CURVES.svg G [STRIDE]\n");
+    return 2;
+  }
+  int G = atoi(argv[3]), stride = argc > 4 ? atoi(argv[4]) : 16;
+  if (stride < 1) stride = 1;
+  ch_error err = {0};
+  ch_curve_set set;
+  ch_texray *tr;
+  ch_texray_desc d = {.kind = CH_TEXRAY_GROOVES, .resolution = G};
+  if (ch_curves_read_svg(argv[2], &set, &err) || ch_texray_create(&d, &set, NULL, argv[2], &tr, &err)) {
+    fprintf(stderr, "bench_gtex: %s\n", err.message);
+    return 1;
+  }
+  double(*rays)[6];
+  int n = closeup_rays(stride, &rays);
+  if (n < 0) {
+    fprintf(stderr, "bench_gtex: close-up rays failed\n");
+    return 1;
+  }
+  ch_render_shader sh = ch_texray_shader(tr);
+  long lit, hits = trace_closeups(&sh, (const double(*)[6])rays, n, &lit);
+  printf("%s G = %d: %d samples, %ld hits, %ld lit\n", argv[2], G, n, hits, lit);
+  free(rays);
+  ch_texray_destroy(tr);
+  ch_curves_free(&set);
+  return 0;
+}
+
 int main(int argc, char **argv) {
+  if (argc > 1 && !strcmp(argv[1], "--count")) return count_main(argc, argv);
   if (argc < 2) {
     fprintf(stderr, "usage: bench_gtex CURVES.svg [MESH.obj|-] [G,...] [R,...] [K] [REPEATS]\n");
     return 2;

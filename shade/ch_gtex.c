@@ -1,7 +1,7 @@
 /* Path-based groove textures (ch_gtex.h): the representation of
  * path-based-grooves §4 and its rendering along rays (§5).
  *
- * Why one file of about 1,600 lines: it is one texture method, and its
+ * Why one file of about 2,000 lines: it is one texture method, and its
  * build and its shader read the same packed texel layout through the same
  * loaders (elements, grooves, cells, the profile's value and slope, the
  * closest point on an element); the build uses them to bound h per cell
@@ -89,6 +89,9 @@ typedef struct elem {
                              has one foot) */
   double dev;             /* how far the curve strays from its chord:
                              |p0 - 2 p1 + p2| / 4 (0 when straight) */
+  /* Quadratics, for the closest point: B(tau) = p0 + tau (da + tau hb),
+   * B' = da + tau db (hb = db / 2); the chord c and |c|^2. */
+  double da[2], db[2], hb[2], c[2], cc;
 } elem;
 
 static void elem_frame(elem *E) {
@@ -110,6 +113,11 @@ static void elem_box(elem *E) {
   E->box[3] = mx(mx(E->p[0][1], E->p[1][1]), E->p[2][1]);
 }
 
+static void elem_chord(elem *E) {
+  E->c[0] = E->p[2][0] - E->p[0][0], E->c[1] = E->p[2][1] - E->p[0][1];
+  E->cc = E->c[0] * E->c[0] + E->c[1] * E->c[1];
+}
+
 static void load_elem(const ch_gtex *g, int e, elem *E) {
   const float *a = texel(g, g->element_base + ELEM_TEXELS * e), *b = a + 4, *c = a + 8;
   E->p[0][0] = a[0], E->p[0][1] = a[1], E->p[2][0] = a[2], E->p[2][1] = a[3];
@@ -125,6 +133,7 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
     E->p[1][1] = 0.5 * (E->p[0][1] + E->p[2][1]);
   }
   elem_box(E);
+  elem_chord(E);
   E->dev = E->quad ? 0.25 * len2d(E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0], E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])
                    : 0.0;
   /* A straight element's frame is cheap; a quadratic's waits until a ray
@@ -136,8 +145,10 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
   }
   /* B'(t) = a + t b, B'' = b: the curvature |a x b| / |B'|^3 is largest
    * where |B'| is least. */
-  double da[2] = {2.0 * (E->p[1][0] - E->p[0][0]), 2.0 * (E->p[1][1] - E->p[0][1])};
-  double db[2] = {2.0 * (E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0]), 2.0 * (E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])};
+  double *da = E->da, *db = E->db;
+  da[0] = 2.0 * (E->p[1][0] - E->p[0][0]), da[1] = 2.0 * (E->p[1][1] - E->p[0][1]);
+  db[0] = 2.0 * (E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0]), db[1] = 2.0 * (E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1]);
+  E->hb[0] = 0.5 * db[0], E->hb[1] = 0.5 * db[1];
   double bb = db[0] * db[0] + db[1] * db[1], K = fabs(da[0] * db[1] - da[1] * db[0]);
   double tm = bb > 0.0 ? -(da[0] * db[0] + da[1] * db[1]) / bb : 0.0;
   tm = tm < 0.0 ? 0.0 : tm > 1.0 ? 1.0 : tm;
@@ -171,36 +182,31 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   int prof = (int)a[2];
   G->priority = (int)a[3];
   G->curve = (int)b[0];
-  const float *ph = texel(g, prof);
+  const float *ph = texel(g, prof), *pts = ph + 4; /* two points a texel */
   G->ellipse = (int)ph[0] == PROFILE_ELLIPSE;
-  G->n = (int)ph[1];
-  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
-  for (int i = 0; i < G->n; i++) {
-    const float *pt = texel(g, prof + 1) + 2 * i; /* two points a texel */
-    G->t[i] = pt[0];
-    G->h[i] = pt[1];
-    pmin = mn(pmin, G->h[i]), pmax = mx(pmax, G->h[i]);
-  }
-  G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
-  int nb = 0;
-  G->brk[nb++] = -0.5;
-  G->brk[nb++] = 0.0;
-  G->brk[nb++] = 0.5;
-  for (int i = 0; i < G->n; i++) {
-    int seen = 0;
-    for (int j = 0; j < nb && !seen; j++) seen = G->brk[j] == G->t[i];
-    if (!seen) G->brk[nb++] = G->t[i];
-  }
-  G->nb = nb;
+  int n = G->n = (int)ph[1];
   /* Derived at build time (groove_derive), kept in the groove's texel. */
   int flags = (int)b[2], mask = (int)b[3];
   G->asym = (flags & 1) != 0;
   G->raises = (flags & 2) != 0;
   G->carves = (flags & 4) != 0;
-  for (int k = 0; k < nb; k++) G->jump[k] = (mask >> k) & 1;
-  G->monotone = !G->asym && G->d > 0.0;
-  for (int i = 0; i < G->n && G->monotone; i++)
-    G->monotone = G->h[i] <= 0.0 && (i == 0 || G->t[i] <= 0.0 || (G->t[i] >= G->t[i - 1] && G->h[i] >= G->h[i - 1]));
+  int monotone = !G->asym && G->d > 0.0, nb = 3;
+  G->brk[0] = -0.5, G->brk[1] = 0.0, G->brk[2] = 0.5;
+  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
+  for (int i = 0; i < n; i++) {
+    double t = pts[2 * i], h = pts[2 * i + 1];
+    G->t[i] = t, G->h[i] = h;
+    pmin = mn(pmin, h), pmax = mx(pmax, h);
+    /* The breaks: -1/2, 0, 1/2 and the points, each once. */
+    int seen = t == -0.5 || t == 0.0 || t == 0.5;
+    for (int j = 3; j < nb && !seen; j++) seen = G->brk[j] == t;
+    if (!seen) G->brk[nb++] = t;
+    monotone = monotone && h <= 0.0 && (i == 0 || t <= 0.0 || (t >= G->t[i - 1] && h >= G->h[i - 1]));
+  }
+  G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
+  G->nb = nb;
+  for (int k2 = 0; k2 < nb; k2++) G->jump[k2] = (mask >> k2) & 1;
+  G->monotone = monotone;
 }
 
 /* Where h can jump: where P does (a side flip at 0 included); a rim where
@@ -313,6 +319,7 @@ static void paper_line(elem *E, const double ref[2]) {
   E->dev = 0.0;
   E->open_start = E->open_end = 1;
   elem_box(E);
+  elem_chord(E);
   elem_frame(E);
 }
 
@@ -335,25 +342,26 @@ static double robust_closest(const elem *E, const double q[2], double *tau) {
  * with the foot and the derivative there when asked (quad_s). */
 static double elem_closest_from(const elem *E, const double q[2], double start, double *tau, double foot[2],
                                 double deriv[2]) {
-  const double p0[2] = {E->p[0][0], E->p[0][1]}, p1[2] = {E->p[1][0], E->p[1][1]}, p2[2] = {E->p[2][0], E->p[2][1]};
-  double c[2] = {p2[0] - p0[0], p2[1] - p0[1]}, cc = c[0] * c[0] + c[1] * c[1];
-  double t = cc > 0.0 ? ((q[0] - p0[0]) * c[0] + (q[1] - p0[1]) * c[1]) / cc : 0.5;
+  const double *p0 = E->p[0], *a = E->da, *b = E->db, *hb = E->hb, *c = E->c;
+  double w[2] = {q[0] - p0[0], q[1] - p0[1]}, cc = E->cc; /* q - p0 */
+  double t = cc > 0.0 ? (w[0] * c[0] + w[1] * c[1]) / cc : 0.5;
   t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-  double a[2] = {2.0 * (p1[0] - p0[0]), 2.0 * (p1[1] - p0[1])};
-  double b[2] = {2.0 * (p0[0] - 2.0 * p1[0] + p2[0]), 2.0 * (p0[1] - 2.0 * p1[1] + p2[1])};
-  double bb = b[0] * b[0] + b[1] * b[1];
   /* A point on the chord's box within the least radius is within it of
    * the curve: Newton stays in the basin. */
-  double dx = q[0] - (p0[0] + t * c[0]), dy = q[1] - (p0[1] + t * c[1]);
-  double dev2 = 0.0625 * bb; /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
+  double dx = w[0] - t * c[0], dy = w[1] - t * c[1];
+  double dev2 = 0.0625 * (b[0] * b[0] + b[1] * b[1]); /* (|p0 - 2 p1 + p2| / 4)^2, the chord's distance to the curve */
   int robust = !(dx * dx + dy * dy + dev2 < 0.25 * E->rho2);
   if (!robust && start >= 0.0) t = start;
   /* Quadratic convergence: once a step is below 1e-8 the next is below
-   * 1e-16, so take it and stop. */
+   * 1e-16, so take it and stop. Asked for the foot (quad_s, the events'
+   * distance), a step below 1e-5 is the last: the distance is stationary
+   * in tau at the foot, so the foot's error after it (about 1e-10) moves
+   * it by the square, below rounding; the foot and its derivative then
+   * only steer Newton along the ray. */
+  const double stop = foot ? 1e-5 : 1e-8;
   for (int it = 0, last = 0; it < 16 && !last && !robust; it++) {
-    double s = 1.0 - t;
-    double B[2] = {s * s * p0[0] + 2.0 * s * t * p1[0] + t * t * p2[0], s * s * p0[1] + 2.0 * s * t * p1[1] + t * t * p2[1]};
-    double D[2] = {a[0] + t * b[0], a[1] + t * b[1]}, r[2] = {B[0] - q[0], B[1] - q[1]};
+    double r[2] = {t * (a[0] + t * hb[0]) - w[0], t * (a[1] + t * hb[1]) - w[1]}; /* B - q */
+    double D[2] = {a[0] + t * b[0], a[1] + t * b[1]};
     double f = r[0] * D[0] + r[1] * D[1], df = D[0] * D[0] + D[1] * D[1] + r[0] * b[0] + r[1] * b[1];
     if (!(df > 0.0)) {
       robust = 1;
@@ -361,7 +369,7 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
     }
     double tn = t - f / df;
     tn = tn < 0.0 ? 0.0 : tn > 1.0 ? 1.0 : tn;
-    last = fabs(tn - t) <= 1e-8;
+    last = fabs(tn - t) <= stop;
     t = tn;
   }
   double d2;
@@ -372,7 +380,7 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
       return d2;
     }
   }
-  double u = 1.0 - t, x[2] = {u * u * p0[0] + 2.0 * u * t * p1[0] + t * t * p2[0], u * u * p0[1] + 2.0 * u * t * p1[1] + t * t * p2[1]};
+  double x[2] = {p0[0] + t * (a[0] + t * hb[0]), p0[1] + t * (a[1] + t * hb[1])};
   if (!robust) d2 = (x[0] - q[0]) * (x[0] - q[0]) + (x[1] - q[1]) * (x[1] - q[1]);
   *tau = t;
   if (foot) {
@@ -382,8 +390,19 @@ static double elem_closest_from(const elem *E, const double q[2], double start, 
   return d2;
 }
 
+/* Squared distance from q to the element's chord and the closest
+ * parameter (ch_bezier_closest's straight case, on the chord kept). */
+static inline double chord_closest(const elem *E, const double q[2], double *tau) {
+  double w[2] = {q[0] - E->p[0][0], q[1] - E->p[0][1]};
+  double t = E->cc > 0.0 ? (w[0] * E->c[0] + w[1] * E->c[1]) / E->cc : 0.0;
+  t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+  double x = E->p[0][0] + t * E->c[0] - q[0], y = E->p[0][1] + t * E->c[1] - q[1];
+  *tau = t;
+  return x * x + y * y;
+}
+
 static double elem_closest(const elem *E, const double q[2], double *tau) {
-  if (!E->quad) return ch_bezier_closest(E->p, 1, q, tau);
+  if (!E->quad) return chord_closest(E, q, tau);
   return elem_closest_from(E, q, -1.0, tau, NULL, NULL);
 }
 
@@ -397,6 +416,8 @@ typedef struct cell {
   groove g[CH_GTEX_MAX_CELL_ITEMS];
   int mixed;                       /* raised and carved grooves meet here */
   int raises;                      /* some groove here raises the surface */
+  int elem_id[CH_GTEX_MAX_CELL_ITEMS];   /* each element's index in the texture */
+  int groove_id[CH_GTEX_MAX_CELL_ITEMS]; /* each run's groove index */
 } cell;
 
 typedef struct point_state {
@@ -518,20 +539,32 @@ static void fill_sample(const cell *C, const point_state *st, double h, const do
   out->grad[1] = k * gs[1];
 }
 
-/* Loads the elements of grid cell ci (and their grooves, one per run). */
-static void load_cell(const ch_gtex *g, int ci, cell *C) {
+/* Loads the elements of grid cell ci (and their grooves, one per run).
+ * prev (or NULL): the cell the ray read before, whose elements and
+ * grooves are copied where the lists share them (a groove's elements run
+ * through many cells along a ray; the lists are in element order, so one
+ * merge finds them); what a copy holds is what loading gives. */
+static void load_cell(const ch_gtex *g, int ci, cell *C, const cell *prev) {
   const float *gt = g->grid + 4 * (size_t)ci;
   int first = (int)gt[0], n = (int)gt[1];
   C->n = n;
   C->ng = 0;
-  int last_groove = -1;
+  int last_groove = -1, j = 0, jg = 0;
   for (int k = 0; k < n; k++) {
     int e = (int)texel(g, first + k / 4)[k % 4];
-    load_elem(g, e, &C->e[k]);
+    C->elem_id[k] = e;
+    if (prev)
+      while (j < prev->n && prev->elem_id[j] < e) j++;
+    if (prev && j < prev->n && prev->elem_id[j] == e) C->e[k] = prev->e[j];
+    else load_elem(g, e, &C->e[k]);
     if (C->e[k].groove != last_groove) {
       last_groove = C->e[k].groove;
       C->gfirst[C->ng] = k;
-      load_groove(g, last_groove, &C->g[C->ng]);
+      C->groove_id[C->ng] = last_groove;
+      if (prev)
+        while (jg < prev->ng && prev->groove_id[jg] < last_groove) jg++;
+      if (prev && jg < prev->ng && prev->groove_id[jg] == last_groove) C->g[C->ng] = prev->g[jg];
+      else load_groove(g, last_groove, &C->g[C->ng]);
       C->ng++;
     }
   }
@@ -557,7 +590,7 @@ static double eval_in(const ch_gtex *g, double u, double v, cell *C, int *loaded
   if (!(u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0)) return 0.0;
   int ci = cell_index(g, u, v);
   if (*loaded != ci) {
-    load_cell(g, ci, C);
+    load_cell(g, ci, C, NULL);
     *loaded = ci;
   }
   const double q[2] = {u, v};
@@ -585,8 +618,15 @@ typedef struct events {
   int wall_now;               /* the kind of the events being added */
   double t[EV_CAP];
   unsigned char wall[EV_CAP]; /* 1: h may jump there (a break line or
-                                 circle, an open end's side line) */
+                                 circle, an open end's side line); 2: a
+                                 quadratic's end normal line and nothing
+                                 else there (h is continuous, no facet
+                                 crossed) */
 } events;
+
+/* The kind of an event found twice: a jump if either says so, a bare
+ * normal line only if both are. */
+static inline unsigned char ev_merge(unsigned char a, int b) { return (unsigned char)(((a | b) & 1) | (a & b & 2)); }
 
 /* Keeps the EV_CAP smallest events strictly inside (lo, hi), once each
  * (the same point comes from both elements at a joint, and from +-b). */
@@ -596,11 +636,11 @@ static void ev_add(events *E, double t) {
   while (i > 0 && E->t[i - 1] > t) i--;
   const double tie = 1e-15 * (1.0 + fabs(t));
   if (i > 0 && t - E->t[i - 1] <= tie) {
-    E->wall[i - 1] |= (unsigned char)E->wall_now;
+    E->wall[i - 1] = ev_merge(E->wall[i - 1], E->wall_now);
     return;
   }
   if (i < E->n && E->t[i] - t <= tie) {
-    E->wall[i] |= (unsigned char)E->wall_now;
+    E->wall[i] = ev_merge(E->wall[i], E->wall_now);
     return;
   }
   if (E->n == EV_CAP) {
@@ -819,16 +859,27 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
    * 1e-9 of the bracket the next is at rounding, so take it and stop. */
   double t = fa != fb ? a - fa * (b - a) / (fb - fa) : 0.5 * (a + b), tol = 1e-9 * (b - a);
   if (!(t > a && t < b)) t = 0.5 * (a + b);
-  /* Each foot from the last one: the steps shrink, so do the feet's moves. */
-  double hint = -1.0;
+  /* Each foot from the last one: the steps shrink, so do the feet's moves.
+   * A Newton step of e leaves an error of about |f'' / (2 f')| e^2, f''
+   * read from the last two rates: where that is below rounding of t, the
+   * step is the last (it saves the evaluation that would only confirm it;
+   * near a double root f'' / f' is large and the rule waits). */
+  double hint = -1.0, t_prev = 0.0, r_prev = 0.0, width = b - a;
   for (int it = 0, last = 0; it < 60 && !last; it++) {
     double ds, rate, s = quad_s(el, R, t, &ds, &hint), f = quad_fn(G, R, j, t, s, ds, &rate);
     if (f == 0.0) return t;
     if ((f > 0.0) == (fa > 0.0)) a = t, fa = f;
     else b = t;
     double tn = rate != 0.0 ? t - f / rate : 0.5 * (a + b);
-    if (!(tn > a && tn < b)) tn = 0.5 * (a + b);
-    last = fabs(tn - t) <= tol || b - a <= 1e-15 * (1.0 + fabs(a));
+    int newton = tn > a && tn < b;
+    if (!newton) tn = 0.5 * (a + b);
+    double step = fabs(tn - t);
+    last = step <= tol || b - a <= 1e-15 * (1.0 + fabs(a));
+    if (!last && newton && it > 0 && step <= 1e-6 * width && t != t_prev && rate != 0.0) {
+      double curv = fabs((rate - r_prev) / (t - t_prev)) / (2.0 * fabs(rate));
+      last = curv * step * step <= 1e-17 * (1.0 + fabs(tn));
+    }
+    t_prev = t, r_prev = rate;
     t = tn;
   }
   return t;
@@ -1034,7 +1085,7 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   double b0 = (R->o[0] - el->p[2][0]) * T1[0] + (R->o[1] - el->p[2][1]) * T1[1], b1 = R->d[0] * T1[0] + R->d[1] * T1[1];
   double c[2] = {el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]};
   int wedge = c[0] * T0[0] + c[1] * T0[1] >= 0.0 && c[0] * T1[0] + c[1] * T1[1] >= 0.0;
-  E->wall_now = 0; /* the ends' normal lines: h is continuous there */
+  E->wall_now = 2; /* the ends' normal lines: h is continuous there */
   if (!wedge) {
     /* nothing cut */
   } else if (a1 != 0.0) {
@@ -1171,6 +1222,7 @@ typedef struct trace {
                        slab of h's range from above: no wall there */
   int cells;
   cell *C;          /* the cell last read, kept for the hit's probes */
+  cell *spare;      /* the one read before (its elements are copied) */
   int loaded;       /* its index, or -1 (the paper's mode edits a cell) */
 } trace;
 
@@ -1188,7 +1240,7 @@ static int groove_below(const cell *C, int r, const double q[2], double z) {
     const double *b = E->box;
     double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
     if (dx * dx + dy * dy >= reach2) continue; /* beyond the band: no value */
-    double tau, dc = sqrt(ch_bezier_closest(E->p, 1, q, &tau));
+    double tau, dc = sqrt(chord_closest(E, q, &tau));
     lo = mn(lo, dc - E->dev);
     hi = mn(hi, dc + E->dev);
   }
@@ -1235,6 +1287,24 @@ static int solid_at(const trace *T, const cell *C, double t, int *first) {
   return 1;
 }
 
+/* Whether q is farther than every band of the cell's elements (so h = 0
+ * around it): by the box, else by the chord's distance less how far the
+ * curve strays from it. */
+static int clear_of_bands(const cell *C, const double q[2]) {
+  for (int r = 0; r < C->ng; r++) {
+    const double reach = 0.5 * C->g[r].w * (1.0 + 1e-9) + 1e-12;
+    for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
+      const elem *E = &C->e[k];
+      const double *b = E->box;
+      double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+      if (dx * dx + dy * dy >= reach * reach) continue;
+      double tau;
+      if (!(sqrt(chord_closest(E, q, &tau)) - E->dev >= reach)) return 0;
+    }
+  }
+  return 1;
+}
+
 /* The first solid segment of the ray in [ta, tb] over cell C: 1 and *hit.
  * cuts: the borders of the grid cells inside [ta, tb] (cells merged for
  * holding the same list), kept as events of unknown kind, so each cell's
@@ -1256,6 +1326,19 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     *maybe_wall = !T->at_top;
     return 1;
   }
+  /* Where nothing raises, a ray coming down meets the base plane z = 0
+   * first wherever no band reaches the point it crosses it: the segments
+   * before are above every h <= 0, the one after starts below h = 0 (the
+   * base plane's event, as cell_events finds it; most rays meeting the
+   * top surface end here, without the elements' events). */
+  if (!T->g->paper && !C->raises && R->d[2] < 0.0) {
+    double t0 = -R->o[2] / R->d[2], q0[2] = {R->o[0] + t0 * R->d[0], R->o[1] + t0 * R->d[1]};
+    if (t0 > ta && t0 < tb && clear_of_bands(C, q0)) {
+      *hit = t0;
+      *maybe_wall = 0;
+      return 1;
+    }
+  }
   events E;
   double lo = ta;
   int lo_wall = 1; /* the cell's entry: unknown */
@@ -1269,10 +1352,14 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     for (int i = 0; i <= E.n; i++) {
       if (i == E.n && E.dropped) break;
       double next = i < E.n ? E.t[i] : tb, mid = 0.5 * (prev + next);
-      /* Above the cell's highest point: nothing to test. */
-      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
+      /* Above the cell's highest point: nothing to test; past a bare
+       * normal line, the segment is on the side of h the one before was
+       * (not solid, or the walk would have stopped there). */
+      if (i > 0 && prev_wall == 2) {
+        /* skip */
+      } else if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
         *hit = prev;
-        *maybe_wall = prev_wall;
+        *maybe_wall = prev_wall & 1;
         return 1;
       }
       prev = next;
@@ -1280,7 +1367,7 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     }
     if (!E.dropped) return 0;
     lo = E.t[E.n - 1];
-    lo_wall = E.wall[E.n - 1];
+    lo_wall = E.wall[E.n - 1] & 1;
   }
   return 0;
 }
@@ -1359,7 +1446,11 @@ static int walk(trace *T, double tnear, double tfar) {
           return 1;
         }
       } else {
-        load_cell(g, ci, T->C);
+        /* (The paper's mode edits a cell's elements: no copies.) */
+        cell *into = T->spare;
+        load_cell(g, ci, into, T->loaded >= 0 ? T->C : NULL);
+        T->spare = T->C;
+        T->C = into;
         T->loaded = g->paper ? -1 : ci;
         /* The next cells along the ray with the same list hold the same h
          * (a groove's run on a fine grid): one stretch, one set of events.
@@ -1407,8 +1498,8 @@ static int walk(trace *T, double tnear, double tfar) {
 }
 
 int ch_gtex_occluded(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar) {
-  cell C;
-  trace T = {.g = g, .C = &C, .loaded = -1};
+  cell C[2];
+  trace T = {.g = g, .C = &C[0], .spare = &C[1], .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
@@ -1422,7 +1513,7 @@ static double h_on_ray(const ch_gtex *g, const ray *R, double t, cell *C, int *l
   q[1] = R->o[1] + t * R->d[1];
   int ci = cell_index(g, q[0], q[1]);
   if (*loaded != ci) {
-    load_cell(g, ci, C);
+    load_cell(g, ci, C, NULL);
     *loaded = ci;
   }
   if (!(q[0] >= 0.0 && q[0] <= 1.0 && q[1] >= 0.0 && q[1] <= 1.0)) {
@@ -1435,13 +1526,14 @@ static double h_on_ray(const ch_gtex *g, const ray *R, double t, cell *C, int *l
 
 int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3], double tnear, double tfar,
                       ch_gtex_hit *hit) {
-  cell C;
-  trace T = {.g = g, .C = &C, .loaded = -1};
+  cell C[2];
+  trace T = {.g = g, .C = &C[0], .spare = &C[1], .loaded = -1};
   memcpy(T.R.o, org, sizeof T.R.o);
   memcpy(T.R.d, dir, sizeof T.R.d);
   T.duv = len2d(dir[0], dir[1]);
   if (!walk(&T, tnear, tfar)) return 0;
   const ray *R = &T.R;
+  cell *Ch = T.C; /* the hit's cell, or the last one read */
   double t = T.t;
   memset(hit, 0, sizeof *hit);
   hit->t = t;
@@ -1453,21 +1545,21 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
     int *loaded = &T.loaded;
     point_state sa, sb, s2;
     double qa[2], qb[2], q2[2], dt = 1e-9 / T.duv;
-    double ha = h_on_ray(g, R, t - dt, &C, loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, &C, loaded, &sb, qb);
-    double ha2 = h_on_ray(g, R, t - dt / 16, &C, loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, &C, loaded, &s2, q2);
+    double ha = h_on_ray(g, R, t - dt, Ch, loaded, &sa, qa), hb = h_on_ray(g, R, t + dt, Ch, loaded, &sb, qb);
+    double ha2 = h_on_ray(g, R, t - dt / 16, Ch, loaded, &s2, q2), hb2 = h_on_ray(g, R, t + dt / 16, Ch, loaded, &s2, q2);
     double jump_eps = 1e-6 * mx(g->zmax - g->zmin, 1e-9);
     if (fabs(hb - ha) > jump_eps && fabs(hb2 - ha2) > 0.5 * fabs(hb - ha)) {
       /* Across the groove of the deeper side, facing the ray. */
       int deeper_b = fabs(hb) >= fabs(ha);
       point_state st;
       double q[2];
-      h_on_ray(g, R, deeper_b ? t + dt : t - dt, &C, loaded, &st, q);
+      h_on_ray(g, R, deeper_b ? t + dt : t - dt, Ch, loaded, &st, q);
       double s = 0.0, tau = 0.0;
       int e = -1, r = active_of(&st, &s, &e, &tau);
       double n2[2] = {-R->d[0] / T.duv, -R->d[1] / T.duv};
       if (r >= 0) {
-        const elem *el = &C.e[e];
-        const groove *G = &C.g[r];
+        const elem *el = &Ch->e[e];
+        const groove *G = &Ch->g[r];
         distance_gradient(el, tau, s, q, n2);
         /* Around an open end the walls are circles |s| = b w (radial
          * normals), except the side flip of an asymmetric profile on the
@@ -1489,14 +1581,14 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
       hit->normal[0] = n2[0];
       hit->normal[1] = n2[1];
       hit->normal[2] = 0.0;
-      hit->curve = r >= 0 ? C.g[r].curve : -1;
-      hit->owner = st.owner_run >= 0 ? C.g[st.owner_run].curve : -1;
+      hit->curve = r >= 0 ? Ch->g[r].curve : -1;
+      hit->owner = st.owner_run >= 0 ? Ch->g[st.owner_run].curve : -1;
       return 1;
     }
   }
   /* A facet: the normal of h at the hit. */
   ch_gtex_sample smp;
-  eval_in(g, hit->point[0], hit->point[1], &C, &T.loaded, &smp);
+  eval_in(g, hit->point[0], hit->point[1], Ch, &T.loaded, &smp);
   double l = sqrt(smp.grad[0] * smp.grad[0] + smp.grad[1] * smp.grad[1] + 1.0);
   hit->normal[0] = -smp.grad[0] / l;
   hit->normal[1] = -smp.grad[1] / l;
@@ -1750,7 +1842,7 @@ ch_status ch_gtex_build(ch_gtex *g, const ch_curve_set *set, const ch_gtex_desc 
       size_t ci = (size_t)j * G + i;
       float *gt = g->grid + 4 * ci;
       if (gt[1] == 0.0f) continue;
-      load_cell(g, (int)ci, &C);
+      load_cell(g, (int)ci, &C, NULL);
       double c[2] = {(i + 0.5) * cs, (j + 0.5) * cs};
       double carve_lo = 0.0, carve_hi = 0.0, raise_lo = 0.0, raise_hi = 0.0;
       int any_carve_lo = 0, any_carve_hi = 0;
