@@ -81,6 +81,13 @@ typedef struct ch_mesh_report {
 ch_status ch_mesh_validate(const ch_mesh *mesh, const char *name,
                            ch_mesh_report *report, ch_error *err);
 
+/* ch_mesh_validate of a displaced mesh chisel wrote: its walls are
+ * vertical, so faces without UV area (and zero-area ones where a wall's
+ * height falls to nothing) are its design, not defects: the same checks
+ * and report, without those two warnings. */
+ch_status ch_mesh_validate_displaced(const ch_mesh *mesh, const char *name,
+                                     ch_mesh_report *report, ch_error *err);
+
 /* Collapses every edge of a triangle mesh no longer than eps (in each
  * coordinate) whose collapse keeps the mesh manifold (the link condition:
  * its endpoints share no neighbour but the vertices opposite the edge),

@@ -435,6 +435,13 @@ static int decides_height(double g, double g_old) {
   return g_old > 0.0 && g > g_old;
 }
 
+/* Squared distance from q to box b (umin vmin umax vmax; 0 inside): it
+ * bounds an element's distance from below. */
+static inline double box_dist2(const double b[4], const double q[2]) {
+  double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
+  return dx * dx + dy * dy;
+}
+
 /* One groove's value d P(s / w) at q from its nearest element in the cell
  * (ties to the first), with its signed distance, element and parameter; 0
  * beyond its band. */
@@ -447,9 +454,7 @@ static double groove_value(const cell *C, int r, const double q[2], double *s, i
   for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
     /* The box's distance bounds the element's: skip elements beyond the
      * profile's support or farther than the best so far. */
-    const double *b = C->e[k].box;
-    double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
-    double bd2 = dx * dx + dy * dy;
+    double bd2 = box_dist2(C->e[k].box, q);
     if (bd2 >= reach2 || bd2 > best) continue;
     double tau, d2 = elem_closest(&C->e[k], q, &tau);
     if (d2 < best) best = d2, *best_tau = tau, *be = k;
@@ -1237,9 +1242,7 @@ static int groove_below(const cell *C, int r, const double q[2], double z) {
   double half = 0.5 * G->w, reach2 = half * half, lo = INFINITY, hi = INFINITY;
   for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
     const elem *E = &C->e[k];
-    const double *b = E->box;
-    double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
-    if (dx * dx + dy * dy >= reach2) continue; /* beyond the band: no value */
+    if (box_dist2(E->box, q) >= reach2) continue; /* beyond the band: no value */
     double tau, dc = sqrt(chord_closest(E, q, &tau));
     lo = mn(lo, dc - E->dev);
     hi = mn(hi, dc + E->dev);
@@ -1295,9 +1298,7 @@ static int clear_of_bands(const cell *C, const double q[2]) {
     const double reach = 0.5 * C->g[r].w * (1.0 + 1e-9) + 1e-12;
     for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
       const elem *E = &C->e[k];
-      const double *b = E->box;
-      double dx = mx(mx(b[0] - q[0], q[0] - b[2]), 0.0), dy = mx(mx(b[1] - q[1], q[1] - b[3]), 0.0);
-      if (dx * dx + dy * dy >= reach * reach) continue;
+      if (box_dist2(E->box, q) >= reach * reach) continue;
       double tau;
       if (!(sqrt(chord_closest(E, q, &tau)) - E->dev >= reach)) return 0;
     }

@@ -349,10 +349,8 @@ static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const c
  * the features differ across the seam, h jumps there, and the one shared
  * vertex (which keeps the mesh closed) takes the other chart's h. */
 static int at_differing_seam(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T) {
-  for (int k = 0; k < 3; k++) {
-    const ch_refine_vert *v = &w->verts[T->v[k]];
-    if ((T->uv[k][0] != v->uv[0] || T->uv[k][1] != v->uv[1]) && ch_label_at(lb, T->uv[k]) != v->label) return 1;
-  }
+  for (int k = 0; k < 3; k++)
+    if (ch_refine_on_seam(w, T->v[k], T->uv[k]) && ch_label_at(lb, T->uv[k]) != w->verts[T->v[k]].label) return 1;
   return 0;
 }
 

@@ -390,9 +390,7 @@ static void record_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
  * the crossings' 1e-14). */
 #define SEAM_X 0x1p-47
 
-/* Whether vertex v's UV (where its label was read) is another chart's
- * point than uv, the edge's end in its canonical triangle. */
-static int on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
+int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
   return fabs(w->verts[v].uv[0] - uv[0]) > 1e-9 || fabs(w->verts[v].uv[1] - uv[1]) > 1e-9;
 }
 
@@ -431,7 +429,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * where h differs across the seam the edge starts (or ends) with a
    * change at the vertex itself, a wall of no width, which no level
    * function brackets; bisection took 46 labels to close in on it. */
-  int seam_a = on_seam(w, e->a, pa), seam_b = on_seam(w, e->b, pb);
+  int seam_a = ch_refine_on_seam(w, e->a, pa), seam_b = ch_refine_on_seam(w, e->b, pb);
   level_cache cache = {0.0, 0.0, -1, -1};
   /* An edge with MAX_NODES crossings makes every triangle holding it one
    * that cannot be cut: the search stops there (what is found is kept). */

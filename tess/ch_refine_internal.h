@@ -80,6 +80,11 @@ typedef struct ch_refine_node {
   int pair; /* the other end of its chord, -1 */
 } ch_refine_node;
 
+/* Whether vertex v's UV (where its label was read: its home face's chart)
+ * is another chart's point than uv, a corner's or an edge end's UV in its
+ * own triangle: v lies on a UV seam. */
+int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]);
+
 /* How a triangle's boundary can be cut (ch_refine_classify). */
 typedef enum ch_refine_cut { CUT_NONE, CUT_REGIONS, CUT_COMPLEX } ch_refine_cut;
 
