@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "ch_file.h"
+#include "ch_le_internal.h"
 #include "ch_mesh.h"
 #include "ch_version.h"
 
@@ -86,19 +87,6 @@ static int weld_corners(const ch_mesh *m, int *vertex_of_corner, int **source_ou
   return (int)ng;
 }
 
-static void put_u32le(unsigned char *o, uint32_t u) {
-  o[0] = (unsigned char)u;
-  o[1] = (unsigned char)(u >> 8);
-  o[2] = (unsigned char)(u >> 16);
-  o[3] = (unsigned char)(u >> 24);
-}
-
-static void put_f32le(unsigned char *o, double x) {
-  float f = (float)x;
-  uint32_t u;
-  memcpy(&u, &f, 4);
-  put_u32le(o, u);
-}
 
 /* Appends printf output to a growing JSON buffer; 0 without memory. */
 typedef struct text {
@@ -179,7 +167,7 @@ ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err
       float f = (float)p[k];
       if (f < lo[k]) lo[k] = f;
       if (f > hi[k]) hi[k] = f;
-      put_f32le(o, p[k]);
+      ch_le_f32(o, p[k]);
     }
   }
   if (has_n)
@@ -190,19 +178,19 @@ ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err
       double q[3] = {0, 0, 1};
       if (len > 0)
         for (int k = 0; k < 3; k++) q[k] = n[k] / len;
-      for (int k = 0; k < 3; k++, o += 4) put_f32le(o, q[k]);
+      for (int k = 0; k < 3; k++, o += 4) ch_le_f32(o, q[k]);
     }
   if (has_uv)
     for (int v = 0; v < nv; v++, o += 8) {
       const double *t = &m->uvs[2 * (size_t)m->corner_uv[source[v]]];
-      put_f32le(o, t[0]);
-      put_f32le(o + 4, 1.0 - t[1]);
+      ch_le_f32(o, t[0]);
+      ch_le_f32(o + 4, 1.0 - t[1]);
     }
   for (int f = 0; f < m->num_faces; f++) /* fans: chisel's faces are triangles, a base mesh's convex */
     for (int c = m->face_start[f] + 1; c + 1 < m->face_start[f + 1]; c++, o += 12) {
-      put_u32le(o, (uint32_t)vertex_of_corner[m->face_start[f]]);
-      put_u32le(o + 4, (uint32_t)vertex_of_corner[c]);
-      put_u32le(o + 8, (uint32_t)vertex_of_corner[c + 1]);
+      ch_le_u32(o, (uint32_t)vertex_of_corner[m->face_start[f]]);
+      ch_le_u32(o + 4, (uint32_t)vertex_of_corner[c]);
+      ch_le_u32(o + 8, (uint32_t)vertex_of_corner[c + 1]);
     }
   free(vertex_of_corner);
   free(source);
@@ -255,13 +243,13 @@ ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err
     return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
   }
   unsigned char header[20], bin_header[8];
-  put_u32le(header, 0x46546C67u); /* "glTF" */
-  put_u32le(header + 4, 2);
-  put_u32le(header + 8, (uint32_t)(12 + 8 + j.len + 8 + bin_len));
-  put_u32le(header + 12, (uint32_t)j.len);
-  put_u32le(header + 16, 0x4E4F534Au); /* "JSON" */
-  put_u32le(bin_header, (uint32_t)bin_len);
-  put_u32le(bin_header + 4, 0x004E4942u); /* "BIN\0" */
+  ch_le_u32(header, 0x46546C67u); /* "glTF" */
+  ch_le_u32(header + 4, 2);
+  ch_le_u32(header + 8, (uint32_t)(12 + 8 + j.len + 8 + bin_len));
+  ch_le_u32(header + 12, (uint32_t)j.len);
+  ch_le_u32(header + 16, 0x4E4F534Au); /* "JSON" */
+  ch_le_u32(bin_header, (uint32_t)bin_len);
+  ch_le_u32(bin_header + 4, 0x004E4942u); /* "BIN\0" */
   ch_atomic_file f;
   ch_status st = ch_atomic_open(&f, path, err);
   if (st == CH_OK) {

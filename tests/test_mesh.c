@@ -872,6 +872,95 @@ static void test_ply_round_trip(void) {
   ch_mesh_free(&b);
 }
 
+/* A PLY large enough to be written in several chunks (more than 65536
+ * vertices and faces), read back by the OpenMesh reader: positions as
+ * floats, corners and UVs in order; and a face of 200 corners (counts that
+ * need int lists). */
+static void test_ply_large_and_wide(void) {
+  enum { G = 260, NV = (G + 1) * (G + 1), NF = 2 * G * G, W = 200 };
+  ch_mesh m = {0};
+  double *pos = malloc(sizeof(double) * 3 * NV), *uv = malloc(sizeof(double) * 2 * NV);
+  int *start = malloc(sizeof(int) * (NF + 1)), *cp = malloc(sizeof(int) * 3 * NF), *cu = malloc(sizeof(int) * 3 * NF);
+  REQUIRE(pos && uv && start && cp && cu);
+  for (int j = 0; j <= G; j++)
+    for (int i = 0; i <= G; i++) {
+      int v = j * (G + 1) + i;
+      pos[3 * v] = i / (double)G;
+      pos[3 * v + 1] = j / (double)G;
+      pos[3 * v + 2] = 0.01 * sin(0.1 * i) * cos(0.07 * j);
+      uv[2 * v] = pos[3 * v];
+      uv[2 * v + 1] = pos[3 * v + 1];
+    }
+  int f = 0;
+  for (int j = 0; j < G; j++)
+    for (int i = 0; i < G; i++) {
+      int a = j * (G + 1) + i, b = a + 1, c = a + G + 2, d = a + G + 1;
+      int tri[2][3] = {{a, b, c}, {a, c, d}};
+      for (int t = 0; t < 2; t++, f++) {
+        start[f] = 3 * f;
+        for (int k = 0; k < 3; k++) cp[3 * f + k] = cu[3 * f + k] = tri[t][k];
+      }
+    }
+  start[NF] = 3 * NF;
+  m.num_positions = NV;
+  m.positions = pos;
+  m.num_uvs = NV;
+  m.uvs = uv;
+  m.num_faces = NF;
+  m.face_start = start;
+  m.num_corners = 3 * NF;
+  m.corner_position = cp;
+  m.corner_uv = cu;
+  ch_error err = new_error(NULL);
+  const char *out = tmp_path("large.ply");
+  REQUIRE(ch_mesh_write_ply(out, &m, &err) == CH_OK);
+  ch_mesh b;
+  CHECK_MSG(ch_mesh_read(out, &b, &err) == CH_OK, "%s", err.message);
+  REQUIRE(b.num_positions > 0);
+  CHECK_MSG(b.num_positions == NV && b.num_faces == NF, "%d positions, %d faces", b.num_positions, b.num_faces);
+  int bad = 0;
+  for (int v = 0; v < NV && v < b.num_positions; v++)
+    for (int k = 0; k < 3; k++) bad += b.positions[3 * v + k] != (double)(float)pos[3 * v + k];
+  for (int c = 0; c < 3 * NF && c < b.num_corners; c++) {
+    bad += b.corner_position[c] != cp[c];
+    for (int k = 0; k < 2; k++) bad += b.uvs[2 * b.corner_uv[c] + k] != (double)(float)uv[2 * cu[c] + k];
+  }
+  CHECK_MSG(bad == 0, "%d values differ", bad);
+  ch_mesh_free(&b);
+
+  /* One face of W corners on a circle. */
+  int wstart[2] = {0, W};
+  for (int k = 0; k < W; k++) {
+    pos[3 * k] = cos(2.0 * 3.14159265358979323846 * k / W);
+    pos[3 * k + 1] = sin(2.0 * 3.14159265358979323846 * k / W);
+    pos[3 * k + 2] = 0.0;
+    uv[2 * k] = 0.5 + 0.5 * pos[3 * k];
+    uv[2 * k + 1] = 0.5 + 0.5 * pos[3 * k + 1];
+    cp[k] = cu[k] = k;
+  }
+  m.num_positions = m.num_uvs = W;
+  m.num_faces = 1;
+  m.face_start = wstart;
+  m.num_corners = W;
+  REQUIRE(ch_mesh_write_ply(out, &m, &err) == CH_OK);
+  CHECK_MSG(ch_mesh_read(out, &b, &err) == CH_OK, "%s", err.message);
+  REQUIRE(b.num_positions > 0);
+  CHECK(b.num_positions == W && b.num_faces == 1 && b.num_corners == W);
+  bad = 0;
+  for (int c = 0; c < W && c < b.num_corners; c++) {
+    bad += b.corner_position[c] != c;
+    for (int k = 0; k < 2; k++) bad += b.uvs[2 * b.corner_uv[c] + k] != (double)(float)uv[2 * c + k];
+  }
+  CHECK_MSG(bad == 0, "%d values differ", bad);
+  ch_mesh_free(&b);
+  free(pos);
+  free(uv);
+  free(start);
+  free(cp);
+  free(cu);
+  remove(out);
+}
+
 static uint32_t le32(const unsigned char *p) {
   return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
@@ -976,6 +1065,7 @@ int main(void) {
   RUN(test_obj_round_trip);
   RUN(test_obj_numbers);
   RUN(test_ply_round_trip);
+  RUN(test_ply_large_and_wide);
   RUN(test_glb);
   RUN(test_write_errors);
   const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply",
