@@ -49,22 +49,22 @@ static const char digit_pairs[201] =
     "8081828384858687888990919293949596979899";
 
 static char *put_uint(char *o, unsigned long v) {
-  char tmp[24];
-  int n = 24;
+  int n = 1; /* its digits, then written from the last */
+  for (unsigned long p = 10; n < 20 && v >= p; p *= 10) n++;
+  char *end = o + n;
   while (v >= 100) {
     unsigned long q = v / 100, r = v - 100 * q;
-    tmp[--n] = digit_pairs[2 * r + 1];
-    tmp[--n] = digit_pairs[2 * r];
+    *--end = digit_pairs[2 * r + 1];
+    *--end = digit_pairs[2 * r];
     v = q;
   }
   if (v >= 10) {
-    tmp[--n] = digit_pairs[2 * v + 1];
-    tmp[--n] = digit_pairs[2 * v];
+    *--end = digit_pairs[2 * v + 1];
+    *--end = digit_pairs[2 * v];
   } else {
-    tmp[--n] = (char)('0' + v);
+    *--end = (char)('0' + v);
   }
-  memcpy(o, tmp + n, (size_t)(24 - n));
-  return o + (24 - n);
+  return o + n;
 }
 
 /* x as "%.9g" would print it: 9 significant digits, trailing zeros dropped,
