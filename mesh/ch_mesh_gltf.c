@@ -87,7 +87,6 @@ static int weld_corners(const ch_mesh *m, int *vertex_of_corner, int **source_ou
   return (int)ng;
 }
 
-
 /* Appends printf output to a growing JSON buffer; 0 without memory. */
 typedef struct text {
   char *s;
@@ -163,11 +162,11 @@ ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err
   unsigned char *o = bin;
   for (int v = 0; v < nv; v++) {
     const double *p = &m->positions[3 * (size_t)m->corner_position[source[v]]];
-    for (int k = 0; k < 3; k++, o += 4) {
+    for (int k = 0; k < 3; k++) {
       float f = (float)p[k];
       if (f < lo[k]) lo[k] = f;
       if (f > hi[k]) hi[k] = f;
-      ch_le_f32(o, p[k]);
+      o = ch_le_f32(o, p[k]);
     }
   }
   if (has_n)
@@ -178,19 +177,19 @@ ch_status ch_mesh_write_glb(const char *path, const ch_mesh *mesh, ch_error *err
       double q[3] = {0, 0, 1};
       if (len > 0)
         for (int k = 0; k < 3; k++) q[k] = n[k] / len;
-      for (int k = 0; k < 3; k++, o += 4) ch_le_f32(o, q[k]);
+      for (int k = 0; k < 3; k++) o = ch_le_f32(o, q[k]);
     }
   if (has_uv)
-    for (int v = 0; v < nv; v++, o += 8) {
+    for (int v = 0; v < nv; v++) {
       const double *t = &m->uvs[2 * (size_t)m->corner_uv[source[v]]];
-      ch_le_f32(o, t[0]);
-      ch_le_f32(o + 4, 1.0 - t[1]);
+      o = ch_le_f32(o, t[0]);
+      o = ch_le_f32(o, 1.0 - t[1]);
     }
   for (int f = 0; f < m->num_faces; f++) /* fans: chisel's faces are triangles, a base mesh's convex */
-    for (int c = m->face_start[f] + 1; c + 1 < m->face_start[f + 1]; c++, o += 12) {
-      ch_le_u32(o, (uint32_t)vertex_of_corner[m->face_start[f]]);
-      ch_le_u32(o + 4, (uint32_t)vertex_of_corner[c]);
-      ch_le_u32(o + 8, (uint32_t)vertex_of_corner[c + 1]);
+    for (int c = m->face_start[f] + 1; c + 1 < m->face_start[f + 1]; c++) {
+      o = ch_le_u32(o, (uint32_t)vertex_of_corner[m->face_start[f]]);
+      o = ch_le_u32(o, (uint32_t)vertex_of_corner[c]);
+      o = ch_le_u32(o, (uint32_t)vertex_of_corner[c + 1]);
     }
   free(vertex_of_corner);
   free(source);
