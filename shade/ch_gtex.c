@@ -84,6 +84,7 @@ typedef struct elem {
   double box[4];          /* umin vmin umax vmax of the control points */
   double t0[2], t1[2];    /* unit tangents at its ends (quadratics: once framed) */
   int framed;
+  int ready;              /* elem_ready has run */
   double rho2;            /* quadratics: the square of the least radius of
                              curvature (within it of the curve every point
                              has one foot) */
@@ -118,6 +119,9 @@ static void elem_chord(elem *E) {
   E->cc = E->c[0] * E->c[0] + E->c[1] * E->c[1];
 }
 
+/* Reads element e: its points, flags and box. What the closest point and
+ * the events need besides (elem_ready) waits until a ray or a point comes
+ * within reach of the box: a cell lists elements many rays pass by. */
 static void load_elem(const ch_gtex *g, int e, elem *E) {
   const float *a = texel(g, g->element_base + ELEM_TEXELS * e), *b = a + 4, *c = a + 8;
   E->p[0][0] = a[0], E->p[0][1] = a[1], E->p[2][0] = a[2], E->p[2][1] = a[3];
@@ -133,12 +137,19 @@ static void load_elem(const ch_gtex *g, int e, elem *E) {
     E->p[1][1] = 0.5 * (E->p[0][1] + E->p[2][1]);
   }
   elem_box(E);
+  E->ready = 0;
+  E->framed = 0;
+}
+
+/* The chord, how far the curve strays from it, a quadratic's power form
+ * and least radius, a straight element's frame. */
+static void elem_ready(elem *E) {
+  E->ready = 1;
   elem_chord(E);
   E->dev = E->quad ? 0.25 * len2d(E->p[0][0] - 2.0 * E->p[1][0] + E->p[2][0], E->p[0][1] - 2.0 * E->p[1][1] + E->p[2][1])
                    : 0.0;
   /* A straight element's frame is cheap; a quadratic's waits until a ray
    * comes within its band. */
-  E->framed = 0;
   if (!E->quad) {
     elem_frame(E);
     return;
@@ -321,6 +332,7 @@ static void paper_line(elem *E, const double ref[2]) {
   elem_box(E);
   elem_chord(E);
   elem_frame(E);
+  E->ready = 1;
 }
 
 /* Squared distance from q to the element and the closest parameter. */
@@ -401,7 +413,8 @@ static inline double chord_closest(const elem *E, const double q[2], double *tau
   return x * x + y * y;
 }
 
-static double elem_closest(const elem *E, const double q[2], double *tau) {
+static double elem_closest(elem *E, const double q[2], double *tau) {
+  if (!E->ready) elem_ready(E);
   if (!E->quad) return chord_closest(E, q, tau);
   return elem_closest_from(E, q, -1.0, tau, NULL, NULL);
 }
@@ -445,7 +458,7 @@ static inline double box_dist2(const double b[4], const double q[2]) {
 /* One groove's value d P(s / w) at q from its nearest element in the cell
  * (ties to the first), with its signed distance, element and parameter; 0
  * beyond its band. */
-static double groove_value(const cell *C, int r, const double q[2], double *s, int *be, double *best_tau) {
+static double groove_value(cell *C, int r, const double q[2], double *s, int *be, double *best_tau) {
   const groove *G = &C->g[r];
   double best = INFINITY;
   *be = -1;
@@ -467,7 +480,7 @@ static double groove_value(const cell *C, int r, const double q[2], double *s, i
 /* The CSG rule of docs/spec.md §3 over the grooves of a cell at q, as
  * ch_groove_field_eval applies it (the nearest element per groove, ties to
  * the first; a tie tolerance for the deciding groove; owner by priority). */
-static double cell_h(const cell *C, const double q[2], point_state *ps) {
+static double cell_h(cell *C, const double q[2], point_state *ps) {
   point_state st = {.min_carve = 0.0, .max_raise = 0.0, .carve_run = -1, .raise_run = -1, .owner_run = -1};
   for (int r = 0; r < C->ng; r++) {
     const groove *G = &C->g[r];
@@ -623,15 +636,11 @@ typedef struct events {
   int wall_now;               /* the kind of the events being added */
   double t[EV_CAP];
   unsigned char wall[EV_CAP]; /* 1: h may jump there (a break line or
-                                 circle, an open end's side line); 2: a
-                                 quadratic's end normal line and nothing
-                                 else there (h is continuous, no facet
-                                 crossed) */
+                                 circle, an open end's side line) */
 } events;
 
-/* The kind of an event found twice: a jump if either says so, a bare
- * normal line only if both are. */
-static inline unsigned char ev_merge(unsigned char a, int b) { return (unsigned char)(((a | b) & 1) | (a & b & 2)); }
+/* The kind of an event found twice: a jump if either says so. */
+static inline unsigned char ev_merge(unsigned char a, int b) { return (unsigned char)((a | b) & 1); }
 
 /* Keeps the EV_CAP smallest events strictly inside (lo, hi), once each
  * (the same point comes from both elements at a joint, and from +-b). */
@@ -1072,7 +1081,10 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
 
 
 /* A quadratic element. Its foot is inside it between the normal lines at
- * its ends (outside, the cap events around its end points apply). */
+ * its ends (outside, the cap events around its end points apply). The
+ * normal lines are no events themselves: only the distance's formula
+ * changes there, not its value, so neither does h or the side of it the
+ * ray is on. */
 static void events_quad(events *E, const ray *R, const elem *el, const groove *G, int all_breaks) {
   double T0[2], T1[2];
   elem_tangent(el, 0.0, T0);
@@ -1090,12 +1102,10 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
   double b0 = (R->o[0] - el->p[2][0]) * T1[0] + (R->o[1] - el->p[2][1]) * T1[1], b1 = R->d[0] * T1[0] + R->d[1] * T1[1];
   double c[2] = {el->p[2][0] - el->p[0][0], el->p[2][1] - el->p[0][1]};
   int wedge = c[0] * T0[0] + c[1] * T0[1] >= 0.0 && c[0] * T1[0] + c[1] * T1[1] >= 0.0;
-  E->wall_now = 2; /* the ends' normal lines: h is continuous there */
   if (!wedge) {
     /* nothing cut */
   } else if (a1 != 0.0) {
     double tc = -a0 / a1;
-    ev_add(E, tc);
     if (a1 > 0.0) lo = mx(lo, tc);
     else hi = mn(hi, tc);
   } else if (a0 < 0.0) {
@@ -1105,7 +1115,6 @@ static void events_quad(events *E, const ray *R, const elem *el, const groove *G
     /* nothing cut */
   } else if (b1 != 0.0) {
     double tc = -b0 / b1;
-    ev_add(E, tc);
     if (b1 < 0.0) lo = mx(lo, tc);
     else hi = mn(hi, tc);
   } else if (b0 > 0.0) {
@@ -1176,6 +1185,7 @@ static void cell_events(events *E, const ray *R, cell *C) {
        * matter (its break lines at the band's edge included). */
       double lo, hi;
       if (!clip_to_box(E, R, el->box, reach, &lo, &hi)) continue;
+      if (!el->ready) elem_ready(el);
       if (!el->framed) elem_frame(el);
       /* A straight element's box is loose (a diagonal's is its whole
        * extent): its facet, break and cap events all lie within its
@@ -1237,12 +1247,13 @@ typedef struct trace {
  * monotone profile's value is bracketed by its values there. 1 below, 0
  * not below, -1 when the bracket cannot tell (within its margin, far
  * above rounding and Newton's tolerance, of z). */
-static int groove_below(const cell *C, int r, const double q[2], double z) {
+static int groove_below(cell *C, int r, const double q[2], double z) {
   const groove *G = &C->g[r];
   double half = 0.5 * G->w, reach2 = half * half, lo = INFINITY, hi = INFINITY;
   for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
-    const elem *E = &C->e[k];
+    elem *E = &C->e[k];
     if (box_dist2(E->box, q) >= reach2) continue; /* beyond the band: no value */
+    if (!E->ready) elem_ready(E);
     double tau, dc = sqrt(chord_closest(E, q, &tau));
     lo = mn(lo, dc - E->dev);
     hi = mn(hi, dc + E->dev);
@@ -1263,7 +1274,7 @@ static int groove_below(const cell *C, int r, const double q[2], double z) {
  * next test along the ray is usually decided by the same groove), and a
  * groove whose deepest value is not below z needs no distance. The answer
  * is z <= cell_h's exactly; only the work differs. */
-static int solid_at(const trace *T, const cell *C, double t, int *first) {
+static int solid_at(const trace *T, cell *C, double t, int *first) {
   double q[2] = {T->R.o[0] + t * T->R.d[0], T->R.o[1] + t * T->R.d[1]}, z = T->R.o[2] + t * T->R.d[2];
   if (C->raises) return z <= cell_h(C, q, NULL);
   if (z > 0.0) return 0;
@@ -1293,12 +1304,13 @@ static int solid_at(const trace *T, const cell *C, double t, int *first) {
 /* Whether q is farther than every band of the cell's elements (so h = 0
  * around it): by the box, else by the chord's distance less how far the
  * curve strays from it. */
-static int clear_of_bands(const cell *C, const double q[2]) {
+static int clear_of_bands(cell *C, const double q[2]) {
   for (int r = 0; r < C->ng; r++) {
     const double reach = 0.5 * C->g[r].w * (1.0 + 1e-9) + 1e-12;
     for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
-      const elem *E = &C->e[k];
+      elem *E = &C->e[k];
       if (box_dist2(E->box, q) >= reach * reach) continue;
+      if (!E->ready) elem_ready(E);
       double tau;
       if (!(sqrt(chord_closest(E, q, &tau)) - E->dev >= reach)) return 0;
     }
@@ -1353,14 +1365,10 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     for (int i = 0; i <= E.n; i++) {
       if (i == E.n && E.dropped) break;
       double next = i < E.n ? E.t[i] : tb, mid = 0.5 * (prev + next);
-      /* Above the cell's highest point: nothing to test; past a bare
-       * normal line, the segment is on the side of h the one before was
-       * (not solid, or the walk would have stopped there). */
-      if (i > 0 && prev_wall == 2) {
-        /* skip */
-      } else if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
+      /* Above the cell's highest point: nothing to test. */
+      if (R->o[2] + mid * R->d[2] <= zmax_cell && solid_at(T, C, mid, &first)) {
         *hit = prev;
-        *maybe_wall = prev_wall & 1;
+        *maybe_wall = prev_wall;
         return 1;
       }
       prev = next;
@@ -1368,7 +1376,7 @@ static int cell_hit(trace *T, cell *C, double ta, double tb, double zmax_cell, c
     }
     if (!E.dropped) return 0;
     lo = E.t[E.n - 1];
-    lo_wall = E.wall[E.n - 1] & 1;
+    lo_wall = E.wall[E.n - 1];
   }
   return 0;
 }
@@ -1954,6 +1962,7 @@ int ch_gtex_region(const ch_gtex *g, const double at[2], const double dir[3], co
   elem el;
   groove G0;
   load_elem(g, elem_id, &el);
+  elem_ready(&el);
   load_groove(g, el.groove, &G0);
   if (el.quad || G0.raises) return 0;
   double T[2] = {el.t0[0], el.t0[1]}, N[2] = {-T[1], T[0]};
