@@ -193,31 +193,52 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   int prof = (int)a[2];
   G->priority = (int)a[3];
   G->curve = (int)b[0];
-  const float *ph = texel(g, prof), *pts = ph + 4; /* two points a texel */
+  /* The cross-section's block (written by profile_block). */
+  const float *ph = texel(g, prof), *pts = ph + 8; /* two points a texel */
   G->ellipse = (int)ph[0] == PROFILE_ELLIPSE;
-  int n = G->n = (int)ph[1];
+  int n = G->n = (int)ph[1], nb = G->nb = (int)ph[2];
+  const float *brk = pts + 4 * ((n + 1) / 2);
   /* Derived at build time (groove_derive), kept in the groove's texel. */
   int flags = (int)b[2], mask = (int)b[3];
   G->asym = (flags & 1) != 0;
   G->raises = (flags & 2) != 0;
   G->carves = (flags & 4) != 0;
-  int monotone = !G->asym && G->d > 0.0, nb = 3;
-  G->brk[0] = -0.5, G->brk[1] = 0.0, G->brk[2] = 0.5;
-  double pmin = G->ellipse ? -1.0 : 0.0, pmax = 0.0;
-  for (int i = 0; i < n; i++) {
-    double t = pts[2 * i], h = pts[2 * i + 1];
-    G->t[i] = t, G->h[i] = h;
-    pmin = mn(pmin, h), pmax = mx(pmax, h);
-    /* The breaks: -1/2, 0, 1/2 and the points, each once. */
-    int seen = t == -0.5 || t == 0.0 || t == 0.5;
-    for (int j = 3; j < nb && !seen; j++) seen = G->brk[j] == t;
-    if (!seen) G->brk[nb++] = t;
-    monotone = monotone && h <= 0.0 && (i == 0 || t <= 0.0 || (t >= G->t[i - 1] && h >= G->h[i - 1]));
-  }
+  for (int i = 0; i < n; i++) G->t[i] = pts[2 * i], G->h[i] = pts[2 * i + 1];
+  for (int k = 0; k < nb; k++) G->brk[k] = brk[k], G->jump[k] = (mask >> k) & 1;
+  double pmin = ph[4], pmax = ph[5];
   G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
-  G->nb = nb;
-  for (int k2 = 0; k2 < nb; k2++) G->jump[k2] = (mask >> k2) & 1;
-  G->monotone = monotone;
+  G->monotone = (int)ph[3] && !G->asym && G->d > 0.0;
+}
+
+/* Texels of a cross-section's block of np points: a header (kind, np,
+ * breaks, monotone shape), the range (least and greatest P), the points
+ * two a texel, the breaks four a texel (at most np + 3). */
+static int profile_texels(int np) { return 2 + (np + 1) / 2 + (np + 3 + 3) / 4; }
+
+/* Writes a cross-section's block at ph: what load_groove reads, with what
+ * it derives from the points once: the breaks (-1/2, 0, 1/2 and the
+ * points' t, each once), the range of P (the ellipse's down to -1), and
+ * whether P <= 0 does not fall as |t| grows (with a symmetric profile and
+ * a positive depth, d P(s / w) then grows with |s|: v, u, box). */
+static void profile_block(float *ph, int kind, int np, const double pt[][2]) {
+  ph[0] = (float)kind, ph[1] = (float)np;
+  float *pts = ph + 8, *brk = pts + 4 * ((np + 1) / 2);
+  int nb = 3, shape_monotone = 1;
+  brk[0] = -0.5f, brk[1] = 0.0f, brk[2] = 0.5f;
+  double pmin = kind == PROFILE_ELLIPSE ? -1.0 : 0.0, pmax = 0.0, t_prev = 0.0, h_prev = 0.0;
+  for (int k = 0; k < np; k++) {
+    float tf = (float)pt[k][0], hf = (float)pt[k][1];
+    pts[2 * k] = tf, pts[2 * k + 1] = hf;
+    double t = tf, h = hf;
+    pmin = mn(pmin, h), pmax = mx(pmax, h);
+    int seen = t == -0.5 || t == 0.0 || t == 0.5;
+    for (int j = 3; j < nb && !seen; j++) seen = brk[j] == t;
+    if (!seen) brk[nb++] = tf;
+    shape_monotone = shape_monotone && h <= 0.0 && (k == 0 || t <= 0.0 || (t >= t_prev && h >= h_prev));
+    t_prev = t, h_prev = h;
+  }
+  ph[2] = (float)nb, ph[3] = (float)shape_monotone;
+  ph[4] = (float)pmin, ph[5] = (float)pmax;
 }
 
 /* Where h can jump: where P does (a side flip at 0 included); a rim where
@@ -1688,7 +1709,7 @@ ch_status ch_gtex_build(ch_gtex *g, const ch_curve_set *set, const ch_gtex_desc 
              : cv->profile.kind == CH_PROFILE_CUSTOM ? cv->profile.num_points
              : cv->profile.kind == CH_PROFILE_BOX ? 4
                                                    : 3;
-    prof_texels += 1 + (np + 1) / 2;
+    prof_texels += profile_texels(np);
   }
   g->num_grooves = ng;
   g->num_elements = ne;
@@ -1824,13 +1845,8 @@ ch_status ch_gtex_build(ch_gtex *g, const ch_curve_set *set, const ch_gtex_desc 
       for (int k = 0; k < np; k++) pt[k][0] = cv->profile.t[k], pt[k][1] = cv->profile.h[k];
       break;
     }
-    float *ph = g->data + 4 * (size_t)pat;
-    ph[0] = (float)kind, ph[1] = (float)np;
-    for (int k = 0; k < np; k++) {
-      float *q = g->data + 4 * (size_t)(pat + 1 + k / 2) + 2 * (k % 2);
-      q[0] = (float)pt[k][0], q[1] = (float)pt[k][1];
-    }
-    pat += 1 + (np + 1) / 2;
+    profile_block(g->data + 4 * (size_t)pat, kind, np, (const double(*)[2])pt);
+    pat += profile_texels(np);
   }
   for (int k = 0; k < ng; k++) {
     groove Gr;

@@ -16,7 +16,9 @@
  *   grooves, two texels each (width, depth, profile, priority; the curve's
  *   index in the set, its kind, flags for a one-sided profile and raised
  *   or carved values, the mask of the profile's jumps); the cross-sections
- *   as point lists headed by their kind and count (§4.2, Figure 3(b)).
+ *   as point lists headed by their kind and count (§4.2, Figure 3(b)),
+ *   with what the renderer derives from them stored once: the break
+ *   values of t, the range of the profile, whether it is monotone.
  * Integers are stored in floats (exact below 2^24). Positions in float put
  * the curves within 3e-8 UV of the SVG's.
  *
