@@ -1,9 +1,14 @@
 """What Blender (3.4, headless) makes of chisel's outputs, one line per check.
 
 usage: blender -b --factory-startup --python blender_check.py -- CHECK...
-  mesh:PATH            import an OBJ, PLY or glTF binary (.glb); prints
-                       `MESH PATH faces F boundary B nonmanifold N uv U`
-                       (B: edges with one face; U: UV layers)
+  mesh:PATH            import an OBJ, PLY or glTF binary (.glb) as Blender's
+                       importer gives it (nothing merged); prints
+                       `MESH PATH faces F boundary B nonmanifold N uv U
+                        welded_faces WF welded_boundary WB welded_nonmanifold WN`
+                       (B: edges with one face, N: with more than two;
+                       U: UV layers; W*: the same once vertices at
+                       bit-identical coordinates are one and the faces left
+                       with fewer than 3 corners dropped)
   image:PATH:X:Y       load an image as a user would (Non-Color); prints
                        `IMAGE PATH type T size W H value V` with V the first
                        channel of pixel (X, Y), Y counted from the top row
@@ -32,34 +37,59 @@ def import_mesh(path):
         if not hasattr(numpy, "bool"):
             numpy.bool = bool
         bpy.ops.import_scene.gltf(filepath=path)
-        new = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
-        # glTF stores a vertex per (position, UV, normal); "Merge by
-        # distance" at float precision joins them back, as a user checking
-        # watertightness would. Its faces with no area go with it.
-        import bmesh
-        bm = bmesh.new()
-        bm.from_mesh(new[0].data)
-        bmesh.ops.remove_doubles(bm, verts=bm.verts, dist=1e-7)
-        bm.to_mesh(new[0].data)
-        bm.free()
-        return new[0]
     else:
         bpy.ops.wm.obj_import(filepath=path)
-    new = [o for o in bpy.data.objects if o not in before]
+    new = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
     return new[0]
 
 
+def topology(me, weld):
+    """Faces, edges with one face and edges with more than two.
+
+    weld: vertices at bit-identical coordinates count as one. glTF keeps
+    one vertex per (position, normal, UV) (glTF 2.0 3.7.2.1), so a .glb
+    is split along creases, walls and seams; this joins exactly those
+    copies back and nothing else. Merge by Distance (bmesh remove_doubles)
+    does not: it merges nothing at distance 0 and missed most exact
+    duplicates at 1e-9, and at 1e-7 it also collapsed the mesh's own
+    edges shorter than that (the OBJ's too)."""
+    import numpy as np
+    nv, nl, nf = len(me.vertices), len(me.loops), len(me.polygons)
+    co = np.empty(3 * nv, np.float32)
+    me.vertices.foreach_get("co", co)
+    v = np.empty(nl, np.int32)
+    me.loops.foreach_get("vertex_index", v)
+    start = np.empty(nf, np.int32)
+    total = np.empty(nf, np.int32)
+    me.polygons.foreach_get("loop_start", start)
+    me.polygons.foreach_get("loop_total", total)
+    if weld and nv:
+        _, ids = np.unique(co.reshape(-1, 3), axis=0, return_inverse=True)
+        v = ids.reshape(-1)[v]
+    face = np.repeat(np.arange(nf), total)  # each loop's polygon
+    nxt = np.arange(nl) + 1
+    last = start + total - 1
+    nxt[last] = start  # each polygon's last loop closes on its first
+    a, b = v, v[nxt]
+    # A polygon keeps a corner per distinct vertex (a collapsed loop is
+    # dropped, as merging does), and counts while 3 remain.
+    corners = np.bincount(face, weights=(a != b), minlength=nf)
+    kept = corners >= 3
+    live = (a != b) & kept[face]
+    edges = np.sort(np.stack([a[live], b[live]], axis=1), axis=1)
+    if len(edges):
+        _, users = np.unique(edges, axis=0, return_counts=True)
+    else:
+        users = np.zeros(0, np.int64)
+    return int(kept.sum()), int((users == 1).sum()), int((users > 2).sum())
+
+
 def check_mesh(path):
-    obj = import_mesh(path)
-    me = obj.data
-    users = {}
-    for p in me.polygons:
-        for key in p.edge_keys:
-            users[key] = users.get(key, 0) + 1
-    boundary = sum(1 for n in users.values() if n == 1)
-    nonmanifold = sum(1 for n in users.values() if n > 2)
-    print("MESH %s faces %d boundary %d nonmanifold %d uv %d" % (path, len(me.polygons), boundary, nonmanifold,
-                                                                len(me.uv_layers)), flush=True)
+    me = import_mesh(path).data
+    faces, boundary, nonmanifold = topology(me, False)
+    wfaces, wboundary, wnonmanifold = topology(me, True)
+    print("MESH %s faces %d boundary %d nonmanifold %d uv %d welded_faces %d welded_boundary %d welded_nonmanifold %d" %
+          (path, faces, boundary, nonmanifold, len(me.uv_layers), wfaces, wboundary, wnonmanifold), flush=True)
 
 
 def check_image(path, x, y):
