@@ -123,8 +123,18 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
   for (int v = 0; v < np && !oom; v++) map[v] = v;
   for (size_t i = 0; i < nc && !oom; i++) {
     if (i > 0 && cand[i][0] == cand[i - 1][0] && cand[i][1] == cand[i - 1][1]) continue;
+    /* An end already merged away: the edge now joins what it merged into
+     * (several lines through one vertex leave several copies of it, and
+     * the edge between two of them may exist only once a third is gone). */
     int a = cand[i][0], b = cand[i][1];
-    if (map[a] != a || map[b] != b) continue; /* already merged away */
+    while (map[a] != a) a = map[a];
+    while (map[b] != b) b = map[b];
+    if (a == b) continue;
+    if (a > b) {
+      int t = a;
+      a = b;
+      b = t;
+    }
     /* Still an edge? And its opposite vertices. */
     int opp[4], nopp = 0, edge = 0;
     for (int j = 0; j < inc[b].n; j++) {
@@ -160,22 +170,28 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
       }
     }
     if (!ok || common != nopp) continue;
-    /* Nor may the two opposite vertices be joined in a's or b's link (a
-     * face a-w-x or b-w-x): the collapse would double that face. */
+    /* Nor may the two opposite vertices be joined in both a's and b's
+     * link (faces a-w-x and b-w-x: a tetrahedron's corner, which the
+     * collapse would flatten into a doubled face). In one link only it is
+     * the link condition's allowed case: b of valence 3 inside a-w-x (a
+     * line through a vertex leaves such a copy of it, with two zero-area
+     * faces), whose collapse leaves the face w-x-a. */
     if (nopp == 2) {
       int joined = 0;
-      for (int e = 0; e < 2 && !joined; e++) {
+      for (int e = 0; e < 2; e++) {
         const vlist *l = &inc[e ? b : a];
-        for (int j = 0; j < l->n && !joined; j++) {
+        int here = 0;
+        for (int j = 0; j < l->n && !here; j++) {
           int f = l->f[j];
           if (dead[f]) continue;
           const int *c = &m->corner_position[3 * (size_t)f];
           int hw = c[0] == opp[0] || c[1] == opp[0] || c[2] == opp[0];
           int hx = c[0] == opp[1] || c[1] == opp[1] || c[2] == opp[1];
-          joined = hw && hx;
+          here = hw && hx;
         }
+        joined += here;
       }
-      if (joined) continue;
+      if (joined == 2) continue;
     }
     /* And no face of b may become a copy of a face of a, or be one of
      * another face of b already (a fin: the embedding leaves a few such

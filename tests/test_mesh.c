@@ -605,6 +605,41 @@ static void test_collapse_short_edges(void) {
   CHECK(s.m.num_faces == 5 && s.m.num_positions == 8);
 }
 
+/* Whether the mesh's faces are these position triples (each in any
+ * rotation, in this order). */
+static int faces_are(const ch_mesh *m, int n, const int (*want)[3]) {
+  if (m->num_faces != n) return 0;
+  for (int f = 0; f < n; f++) {
+    const int *c = &m->corner_position[3 * f];
+    int rot = 0;
+    for (int r = 0; r < 3; r++) rot |= c[r] == want[f][0] && c[(r + 1) % 3] == want[f][1] && c[(r + 2) % 3] == want[f][2];
+    if (!rot) return 0;
+  }
+  return 1;
+}
+
+/* Copies of a vertex left where several lines pass through it: a copy of
+ * valence 3 inside a triangle of the original (two zero-area faces) goes
+ * (the link condition allows it: only its own link holds the far edge);
+ * a second copy inside a triangle of the first goes too, through the edge
+ * that joins it to the original only once the first is gone. */
+static void test_collapse_vertex_copies(void) {
+  /* 0 (0,0) 1 (1,0) 2 (1,1) 3 (0,1); 4 and 5 at 0. */
+  static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
+  static const double uv[] = {0, 0, 1, 0, 1, 1, 0, 1, 0, 0, 0, 0};
+  static const int faces[][4] = {{0, 1, 4, -1}, {1, 2, 4, -1}, {2, 0, 4, -1}, {0, 2, 3, -1}};
+  static const int want[][3] = {{1, 2, 0}, {0, 2, 3}};
+  small_mesh s;
+  make_mesh(&s, 5, pos, uv, 4, faces);
+  CHECK(ch_mesh_collapse_short_edges(&s.m, 1e-12) == 1);
+  CHECK(s.m.num_positions == 4 && faces_are(&s.m, 2, want));
+  static const int faces2[][4] = {{0, 1, 4, -1}, {2, 0, 4, -1}, {4, 1, 5, -1}, {1, 2, 5, -1}, {2, 4, 5, -1}, {0, 2, 3, -1}};
+  make_mesh(&s, 6, pos, uv, 6, faces2);
+  CHECK(ch_mesh_collapse_short_edges(&s.m, 1e-12) == 2);
+  CHECK_MSG(s.m.num_positions == 4 && faces_are(&s.m, 2, want), "%d faces, %d positions", s.m.num_faces,
+            s.m.num_positions);
+}
+
 /* A flap (a triangle and its reverse) hanging off the diagonal of a quad
  * goes, leaving the quad; a reversed copy of one of the quad's own
  * triangles stays (removing both would open a hole). */
@@ -1059,6 +1094,7 @@ int main(void) {
   RUN(test_truncations);
   RUN(test_nonmanifold);
   RUN(test_collapse_short_edges);
+  RUN(test_collapse_vertex_copies);
   RUN(test_remove_pillows);
   RUN(test_validate_uv);
   RUN(test_validate_errors);
