@@ -146,9 +146,8 @@ assert meshes["t.obj"]["faces"] == meshes["t.ply"]["faces"]
 # OBJ's count), split where UVs or normals differ as glTF needs. With the
 # copies at identical coordinates joined it is the PLY joined the same way
 # (both float32: faces, boundary, non-manifold edges) and closed where the
-# OBJ is. Joining drops the faces with two corners at one float32 point:
-# the OBJ's zero-width walls (distinct vertices at one place, where a piece
-# boundary runs through a vertex) and edges shorter than float32's step.
+# OBJ is. Joining drops the faces with two corners at one float32 point
+# (edges shorter than float32's step).
 for glb, obj, ply in (("r.glb", "r.obj", "r.ply"), ("t.glb", "t.obj", "t.ply")):
     g, o, p = meshes[glb], meshes[obj], meshes[ply]
     assert g["faces"] == o["faces"] and g["uv"] == 1, (g, o)
