@@ -884,33 +884,65 @@ static double quad_fn(const groove *G, const ray *R, int j, double t, double s, 
   return z - G->d * (G->h[k] + m * (x - G->t[k]));
 }
 
+/* A root in (a, b) of the cubic with values fa, fb (of opposite signs) and
+ * rates ra, rb at a and b, by Newton on the cubic kept in its bracket
+ * (bisection where a step leaves it); the secant's root where the rates
+ * are not finite. */
+static double hermite_root(double a, double b, double fa, double fb, double ra, double rb) {
+  double h = b - a, t = fa != fb ? a - fa * h / (fb - fa) : 0.5 * (a + b);
+  if (!(t > a && t < b)) t = 0.5 * (a + b);
+  if (!(isfinite(ra) && isfinite(rb) && h > 0.0)) return t;
+  /* p(x) = fa + ma x + c2 x^2 + c3 x^3 on x in [0, 1]. */
+  double ma = ra * h, mb = rb * h, c2 = 3.0 * (fb - fa) - 2.0 * ma - mb, c3 = 2.0 * (fa - fb) + ma + mb;
+  double lo = 0.0, hi = 1.0, x = (t - a) / h;
+  int neg_lo = fa < 0.0;
+  for (int it = 0; it < 12; it++) {
+    double p = fa + x * (ma + x * (c2 + x * c3)), dp = ma + x * (2.0 * c2 + 3.0 * x * c3);
+    if (p == 0.0) break;
+    if ((p < 0.0) == neg_lo) lo = x;
+    else hi = x;
+    double xn = dp != 0.0 ? x - p / dp : 0.5 * (lo + hi);
+    if (!(xn > lo && xn < hi)) xn = 0.5 * (lo + hi);
+    int done = fabs(xn - x) <= 1e-12;
+    x = xn;
+    if (done) break;
+  }
+  t = a + x * h;
+  return t > a && t < b ? t : 0.5 * (a + b);
+}
+
 /* A root of event function j in [a, b], whose ends' values differ in
  * sign: Newton's method on the exact distance (its rate is known), kept
  * inside the bracket by bisection where a step would leave it. */
 static double quad_root(const elem *el, const groove *G, const ray *R, int j, double a, double b, double fa,
-                        double fb) {
-  /* From the secant's root: the functions are nearly linear over a
-   * bracket, so Newton needs two or three steps; once a step is below
-   * 1e-9 of the bracket the next is at rounding, so take it and stop. */
-  double t = fa != fb ? a - fa * (b - a) / (fb - fa) : 0.5 * (a + b), tol = 1e-9 * (b - a);
-  if (!(t > a && t < b)) t = 0.5 * (a + b);
+                        double fb, double ra, double rb) {
+  /* From the root of the cubic with the ends' values and rates (Hermite),
+   * found on the cubic itself by safeguarded Newton from the secant's: the
+   * functions are smooth over a bracket, so that start is within a small
+   * power of the bracket of the root and Newton on the exact distance
+   * needs one or two steps; once a step is below 1e-9 of the bracket the
+   * next is at rounding, so take it and stop. */
+  double t = hermite_root(a, b, fa, fb, ra, rb), tol = 1e-9 * (b - a);
   /* Each foot from the last one: the steps shrink, so do the feet's moves.
    * A Newton step of e leaves an error of about |f'' / (2 f')| e^2, f''
-   * read from the last two rates: where that is below rounding of t, the
-   * step is the last (it saves the evaluation that would only confirm it;
-   * near a double root f'' / f' is large and the rule waits). */
-  double hint = -1.0, t_prev = 0.0, r_prev = 0.0, width = b - a;
+   * read from the last two rates (at first, the nearer end's): where that
+   * is below rounding of t, the step is the last (it saves the evaluation
+   * that would only confirm it; near a double root f'' / f' is large and
+   * the rule waits). */
+  int near_a = t - a <= b - t;
+  double hint = -1.0, t_prev = near_a ? a : b, r_prev = near_a ? ra : rb, width = b - a;
   for (int it = 0, last = 0; it < 60 && !last; it++) {
     double ds, rate, s = quad_s(el, R, t, &ds, &hint), f = quad_fn(G, R, j, t, s, ds, &rate);
     if (f == 0.0) return t;
     if ((f > 0.0) == (fa > 0.0)) a = t, fa = f;
     else b = t;
     double tn = rate != 0.0 ? t - f / rate : 0.5 * (a + b);
+    if (tn == t) return t; /* the step is below rounding: t is the root (t is an end of the bracket now) */
     int newton = tn > a && tn < b;
     if (!newton) tn = 0.5 * (a + b);
     double step = fabs(tn - t);
     last = step <= tol || b - a <= 1e-15 * (1.0 + fabs(a));
-    if (!last && newton && it > 0 && step <= 1e-6 * width && t != t_prev && rate != 0.0) {
+    if (!last && newton && step <= 1e-6 * width && t != t_prev && rate != 0.0 && isfinite(r_prev)) {
       double curv = fabs((rate - r_prev) / (t - t_prev)) / (2.0 * fabs(rate));
       last = curv * step * step <= 1e-17 * (1.0 + fabs(tn));
     }
@@ -930,11 +962,11 @@ static double quad_root(const elem *el, const groove *G, const ray *R, int j, do
 static void convex_roots(events *E, const ray *R, const elem *el, const groove *G, int j, double ta, double fa,
                          double ra, double tb, double fb, double rb) {
   if ((fa > 0.0) != (fb > 0.0)) {
-    ev_add(E, quad_root(el, G, R, j, ta, tb, fa, fb));
+    ev_add(E, quad_root(el, G, R, j, ta, tb, fa, fb, ra, rb));
     return;
   }
   if (!((ra > 0.0) != (rb > 0.0) && (fa > 0.0) == (ra < 0.0))) return;
-  double x0 = ta, x1 = tb, f0 = fa, f1 = fb, r0 = ra, r1 = rb, fm = fa, m = ta;
+  double x0 = ta, x1 = tb, f0 = fa, f1 = fb, r0 = ra, r1 = rb, fm = fa, m = ta, rm_split = NAN;
   int split = 0;
   for (int it = 0; it < 40; it++) {
     /* f0 + r0 (x - x0) = f1 + r1 (x - x1) */
@@ -946,6 +978,7 @@ static void convex_roots(events *E, const ray *R, const elem *el, const groove *
     fm = quad_fn(G, R, j, m, sm, dsm, &rm);
     if ((fm > 0.0) != (fa > 0.0)) {
       split = 1;
+      rm_split = rm;
       break;
     }
     if ((rm > 0.0) == (r0 > 0.0)) x0 = m, f0 = fm, r0 = rm;
@@ -953,8 +986,8 @@ static void convex_roots(events *E, const ray *R, const elem *el, const groove *
     if (x1 - x0 <= 1e-15 * (1.0 + fabs(x0))) break;
   }
   if (split) {
-    ev_add(E, quad_root(el, G, R, j, ta, m, fa, fm));
-    ev_add(E, quad_root(el, G, R, j, m, tb, fm, fb));
+    ev_add(E, quad_root(el, G, R, j, ta, m, fa, fm, ra, rm_split));
+    ev_add(E, quad_root(el, G, R, j, m, tb, fm, fb, rm_split, rb));
   }
 }
 
@@ -1030,12 +1063,12 @@ static void ellipse_roots(events *E, const ray *R, const elem *el, const groove 
       double rmax = mx(mn(a.r, b.r - lo * (b.t - a.t)), mn(a.r + hi * (b.t - a.t), b.r));
       rmax = mx(rmax, mn(a.r + hi * (xh - a.t), b.r - lo * (b.t - xh)));
       if (rmin > 0.0 || rmax < 0.0) {
-        ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f));
+        ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f, a.r, b.r));
         continue;
       }
     }
     if (splits >= SPLITS || n + 2 > STACK || h <= 1e-12 * (1.0 + fabs(a.t))) {
-      if (change) ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f));
+      if (change) ev_add(E, quad_root(el, G, R, j, a.t, b.t, a.f, b.f, a.r, b.r));
       continue;
     }
     splits++;
