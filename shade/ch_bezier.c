@@ -17,12 +17,10 @@ void ch_bezier_eval(const double p[3][2], double t, double out[2]) {
   out[1] = a * p[0][1] + b * p[1][1] + c * p[2][1];
 }
 
-void ch_bezier_tangent(const double p[3][2], double t, double out[2]) {
-  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
-  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
+/* The unit tangent from B' = a + t b (a = p1 - p0, b = p2 - 2 p1 + p0). */
+static void tangent_from(const double a[2], const double b[2], const double chord[2], double scale, double t,
+                         double out[2]) {
   double d[2] = {a[0] + t * b[0], a[1] + t * b[1]};
-  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
-  double scale = ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
   double len2 = ch_dot2(d, d);
   if (len2 <= 1e-24 * scale) {
     /* The derivative vanishes: at an end whose control point coincides with
@@ -44,6 +42,23 @@ void ch_bezier_tangent(const double p[3][2], double t, double out[2]) {
   double inv = 1.0 / sqrt(len2);
   out[0] = d[0] * inv;
   out[1] = d[1] * inv;
+}
+
+void ch_bezier_tangent(const double p[3][2], double t, double out[2]) {
+  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
+  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
+  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
+  double scale = ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
+  tangent_from(a, b, chord, scale, t, out);
+}
+
+void ch_bezier_end_tangents(const double p[3][2], double t0[2], double t1[2]) {
+  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
+  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
+  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
+  double scale = ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
+  tangent_from(a, b, chord, scale, 0.0, t0);
+  tangent_from(a, b, chord, scale, 1.0, t1);
 }
 
 static double dist2_at(const double p[3][2], double t, const double q[2]) {

@@ -17,6 +17,9 @@ void ch_bezier_eval(const double p[3][2], double t, double out[2]);
  * gives (0, 0). */
 void ch_bezier_tangent(const double p[3][2], double t, double out[2]);
 
+/* ch_bezier_tangent at 0 and at 1 (the same values), sharing the work. */
+void ch_bezier_end_tangents(const double p[3][2], double t0[2], double t1[2]);
+
 /* Arc length of the quadratic (16-point Gauss-Legendre on its speed:
  * relative error below 1e-9 unless the segment folds back on itself). */
 double ch_bezier_length(const double p[3][2]);

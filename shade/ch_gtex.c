@@ -102,8 +102,7 @@ static void elem_frame(elem *E) {
     E->t0[0] = E->t1[0] = l > 0.0 ? d[0] / l : 0.0;
     E->t0[1] = E->t1[1] = l > 0.0 ? d[1] / l : 0.0;
   } else {
-    ch_bezier_tangent(E->p, 0.0, E->t0);
-    ch_bezier_tangent(E->p, 1.0, E->t1);
+    ch_bezier_end_tangents(E->p, E->t0, E->t1);
   }
 }
 
