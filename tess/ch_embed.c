@@ -49,6 +49,13 @@ static ch_status embed_finish(const ch_surface *surface, const ch_curve_set *set
     stats->min_h = fmin(stats->min_h, o->h[i]);
     stats->max_h = fmax(stats->max_h, o->h[i]);
   }
+  /* What each vertex is (face, st, h) is spent in its position: gone
+   * before the mesh's arrays are made. */
+  free(o->face);
+  free(o->st);
+  free(o->h);
+  o->face = NULL;
+  o->st = o->h = NULL;
   /* Normals are shared within a group. The pieces of a u groove between
    * its rims meet at lines where the surface is smooth (its slices exist
    * only so that facets follow P): one group for them all, so shading is
@@ -108,6 +115,26 @@ static ch_status over_cap(ch_error *err, const ch_embed_pilot *pilot, double cap
                       "triangles): too many curves meet in too small a place; fewer or wider curves, a higher cap, "
                       "or no embedding (--no-snap)",
                       cap, stage, n, base);
+}
+
+/* realloc to n elements of size (at least one), keeping *p where that fails. */
+static void shrink_array(void **p, size_t n, size_t size) {
+  void *q = *p ? realloc(*p, (n ? n : 1) * size) : NULL;
+  if (q) *p = q;
+}
+
+/* Gives back what the working mesh's arrays hold beyond their counts once
+ * refinement is over (they grew a quarter at a time, and the edges start
+ * at one per corner): the cut's parts then fit in it. */
+static void shrink_working_mesh(ch_refine_mesh *w) {
+  shrink_array((void **)&w->verts, (size_t)w->nverts, sizeof *w->verts);
+  shrink_array((void **)&w->tris, (size_t)w->ntris, sizeof *w->tris);
+  shrink_array((void **)&w->edges, (size_t)w->nedges, sizeof *w->edges);
+  shrink_array((void **)&w->tri_edge, 3 * (size_t)w->ntris, sizeof *w->tri_edge);
+  w->cap_verts = w->nverts;
+  w->cap_tris = w->ntris;
+  w->cap_edges = w->nedges;
+  w->cap_tri_edge = 3 * w->ntris;
 }
 
 /* ch_embed_run; a count-only run hands its cut to *kept if asked. */
@@ -284,6 +311,9 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.seconds_split += omp_get_wtime() - te;
   }
   double t1 = omp_get_wtime();
+  shrink_working_mesh(&w);
+  free(fresh); /* (the refinement's only) */
+  fresh = NULL;
 
   /* Output vertices: the working vertices, then the crossings' copies
    * (one, or two on a wall), numbered edge by edge and filled in parallel. */
@@ -371,9 +401,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     free(w.tris);
     ch_refine_free_edges(w.edges, w.nedges);
     free(w.tri_edge);
-    free(fresh);
     memset(&w, 0, sizeof w);
-    fresh = NULL;
     /* Joined in chunk order: each part's vertices and triangles land at
      * offsets known from the counts, so the copy runs in parallel into
      * arrays allocated once (appending them one by one grew the arrays by
@@ -472,6 +500,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     report(desc, pilot, stats.refine_rounds, "thinning", -1.0);
     int thinned = ch_cut_thin(&lb, tess, longest_edge, &o);
     if (thinned < 0) goto nomem;
+    ch_cut_out_shrink(&o); /* what thinning removed, back before the mesh is built */
     stats.thinned = thinned;
     stats.seconds_thin = omp_get_wtime() - tt;
   }
