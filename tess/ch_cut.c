@@ -434,15 +434,37 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
   return CH_OK;
 }
 
-/* Per-corner normals: the area-weighted mean of the face normals around a
+/* Corner k of triangle t's share of its vertex's normal, from the face's
+ * normal and its length (fn: 4 per triangle): the normal weighted by the
+ * corner's angle (Thurmer and Wuthrich), not by area: a vertex between
+ * slices of unequal width gets the mean of its two sides, not the wider
+ * one's normal. */
+static void corner_weight(const ch_cut_out *o, const double *fn, size_t t, int k, double out[3]) {
+  const int *v = &o->tri[3 * t];
+  const double *f = &fn[4 * t], fl = f[3];
+  double corner_angle = 0.0;
+  if (fl > 0.0) {
+    const double *a = &o->pos[3 * (size_t)v[k]], *b = &o->pos[3 * (size_t)v[(k + 1) % 3]];
+    const double *c = &o->pos[3 * (size_t)v[(k + 2) % 3]];
+    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
+    ch_cross3(u, w, x);
+    corner_angle = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, w)) / fl;
+  }
+  for (int i = 0; i < 3; i++) out[i] = f[i] * corner_angle;
+}
+
+/* Per-corner normals: the angle-weighted mean of the face normals around a
  * vertex among the triangles of the same group (piece, or wall), so they
  * are smooth inside a piece and split at its boundary.
  *
  * In parallel, with the numbering a serial pass over the corners in order
  * would give: each vertex walks its own corners (in triangle order, from a
- * counting sort), marks the corner where each of its UVs and normals is
- * born, and sums its normals in that order; the born corners' ranks (a
- * prefix sum) are the indices. */
+ * counting sort) and marks the corner where each of its UVs and normals is
+ * born; the born corners' ranks (a prefix sum) are the indices; then each
+ * vertex sums its normals in that order straight into the mesh's. The
+ * corners' weights are worked out where they are summed, from each face's
+ * normal and length (32 bytes a triangle): kept per corner, they were the
+ * largest array at the embedding's peak (72 bytes a triangle). */
 ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   size_t nc = 3 * (size_t)o->ntri, np = (size_t)(o->npos > 0 ? o->npos : 1);
@@ -456,10 +478,10 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   m->corner_normal = malloc((nc ? nc : 1) * sizeof *m->corner_normal);
   int *start = malloc((np + 1) * sizeof *start);        /* a vertex's corners in order */
   int *order = malloc((nc ? nc : 1) * sizeof *order);
-  double *weighted = malloc(3 * (nc ? nc : 1) * sizeof *weighted); /* face normal times corner weight */
   int *born = malloc((nc ? nc : 1) * sizeof *born); /* per corner: bit 0 a UV, bit 1 a normal born here */
-  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !weighted ||
-      !born)
+  double *fn = malloc(4 * (size_t)(o->ntri > 0 ? o->ntri : 1) * sizeof *fn); /* per face: normal, length */
+  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !born ||
+      !fn)
     goto nomem;
 #pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++) {
@@ -468,26 +490,10 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
     const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
     double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
     double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-    double fn[3];
-    ch_cross3(e1, e2, fn);
-    /* Weighted by the corner's angle (Thurmer and Wuthrich), not by area:
-     * a vertex between slices of unequal width gets the mean of its two
-     * sides, not the wider one's normal. */
-    double fl = sqrt(ch_dot3(fn, fn)), corner_angle[3] = {0, 0, 0};
-    if (fl > 0.0) {
-      const double *q[3] = {p0, p1, p2};
-      for (int k = 0; k < 3; k++) {
-        const double *a = q[k], *b = q[(k + 1) % 3], *c = q[(k + 2) % 3];
-        double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
-        ch_cross3(u, w, x);
-        corner_angle[k] = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, w)) / fl;
-      }
-    }
-    for (int k = 0; k < 3; k++) {
-      size_t c = 3 * (size_t)t + k;
-      m->corner_position[c] = v[k];
-      for (int i = 0; i < 3; i++) weighted[3 * c + i] = fn[i] * corner_angle[k];
-    }
+    double *f = &fn[4 * (size_t)t];
+    ch_cross3(e1, e2, f);
+    f[3] = sqrt(ch_dot3(f, f));
+    for (int k = 0; k < 3; k++) m->corner_position[3 * (size_t)t + k] = v[k];
   }
   m->face_start[o->ntri] = (int)nc;
   /* Corners by vertex, in corner order (a counting sort). */
@@ -500,9 +506,8 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
     for (size_t c = 0; c < nc; c++) order[fill[o->tri[c]]++] = (int)c;
   }
   /* Per vertex: where its UVs and normals are born (a UV is new unless it
-   * equals the vertex's first; a normal is new for each group), and the
-   * normals' sums, each kept at its born corner. corner_uv and
-   * corner_normal hold the born corner for now. */
+   * equals the vertex's first; a normal is new for each group).
+   * corner_uv and corner_normal hold the born corner for now. */
 #pragma omp parallel for schedule(dynamic, 1024)
   for (int p = 0; p < o->npos; p++) {
     int first = -1;
@@ -529,39 +534,50 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
       if (s < 0) {
         born[c] |= 2;
         s = c;
-        for (int k = 0; k < 3; k++) weighted[3 * (size_t)c + k] += 0.0; /* the sum starts from +0, as it did serially (-0 + 0 is +0) */
-      } else {
-        for (int k = 0; k < 3; k++) weighted[3 * (size_t)s + k] += weighted[3 * (size_t)c + k];
       }
       m->corner_normal[c] = s;
     }
   }
-  /* Ranks of the born corners: the indices (order then holds the UVs'
-   * ranks, born the normals', -1 where none is born). */
-  int nuv = 0, nslot = 0;
-  for (size_t c = 0; c < nc; c++) {
-    order[c] = (born[c] & 1) ? nuv++ : -1;
-    born[c] = (born[c] & 2) ? nslot++ : -1;
-  }
-  m->uvs = malloc(2 * (size_t)(nuv > 0 ? nuv : 1) * sizeof *m->uvs);
+  /* Ranks of the born normals (born then holds them, -1 where none is
+   * born; a UV is born where corner_uv points to its own corner). */
+  int nslot = 0;
+  for (size_t c = 0; c < nc; c++) born[c] = (born[c] & 2) ? nslot++ : -1;
   m->normals = malloc(3 * (size_t)(nslot > 0 ? nslot : 1) * sizeof *m->normals);
-  if (!m->uvs || !m->normals) goto nomem;
-  m->num_uvs = nuv;
+  if (!m->normals) goto nomem;
   m->num_normals = nslot;
-#pragma omp parallel for schedule(static)
-  for (size_t c = 0; c < nc; c++) {
-    if (order[c] >= 0) memcpy(&m->uvs[2 * (size_t)order[c]], &o->uv[2 * c], 2 * sizeof *m->uvs);
-    if (born[c] >= 0) {
-      const double *n = &weighted[3 * c];
-      double *out = &m->normals[3 * (size_t)born[c]], len = sqrt(ch_dot3(n, n));
-      if (len > 0.0) {
-        for (int i = 0; i < 3; i++) out[i] = n[i] / len;
-      } else {
-        out[0] = out[1] = 0.0;
-        out[2] = 1.0; /* only zero-area triangles here: any unit vector */
-      }
+  /* The sums, each vertex's corners in order: the born corner's weight
+   * plus +0 (the sum starts from +0, as it did serially: -0 + 0 is +0),
+   * then the others' of its group. */
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (int p = 0; p < o->npos; p++) {
+    for (int i = start[p]; i < start[p + 1]; i++) {
+      int c = order[i], s = m->corner_normal[c];
+      double wc[3], *sum = &m->normals[3 * (size_t)born[s]];
+      corner_weight(o, fn, (size_t)c / 3, c % 3, wc);
+      for (int k = 0; k < 3; k++) sum[k] = s == c ? wc[k] + 0.0 : sum[k] + wc[k];
     }
   }
+  free(fn);
+  fn = NULL;
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < nslot; i++) {
+    double *n = &m->normals[3 * (size_t)i], len = sqrt(ch_dot3(n, n));
+    if (len > 0.0) {
+      for (int k = 0; k < 3; k++) n[k] = n[k] / len;
+    } else {
+      n[0] = n[1] = 0.0;
+      n[2] = 1.0; /* only zero-area triangles here: any unit vector */
+    }
+  }
+  /* Ranks of the born UVs (order then holds them, -1 where none is born). */
+  int nuv = 0;
+  for (size_t c = 0; c < nc; c++) order[c] = m->corner_uv[c] == (int)c ? nuv++ : -1;
+  m->uvs = malloc(2 * (size_t)(nuv > 0 ? nuv : 1) * sizeof *m->uvs);
+  if (!m->uvs) goto nomem;
+  m->num_uvs = nuv;
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < nc; c++)
+    if (order[c] >= 0) memcpy(&m->uvs[2 * (size_t)order[c]], &o->uv[2 * c], 2 * sizeof *m->uvs);
 #pragma omp parallel for schedule(static)
   for (size_t c = 0; c < nc; c++) {
     m->corner_uv[c] = order[m->corner_uv[c]];
@@ -569,14 +585,13 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   }
   free(start);
   free(order);
-  free(weighted);
   free(born);
   return CH_OK;
 nomem:
   free(start);
   free(order);
-  free(weighted);
   free(born);
+  free(fn);
   m->positions = NULL; /* still o's */
   ch_mesh_free(m);
   return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
