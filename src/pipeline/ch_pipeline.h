@@ -36,7 +36,7 @@ enum { CH_DISPLACE_DEFAULT_TARGET = 520000, CH_DISPLACE_DEFAULT_RESOLUTION = 102
 /* The default cap of the embedding's triangles: 8 x the target plus 8M,
  * far above what drawn features need (the bundled sets: under 1.2 x the
  * target) and below what fills this class of machine (large runs take
- * 370-460 bytes of peak memory per triangle: about 5 GB at the cap of a
+ * 300-460 bytes of peak memory per triangle: under 4.5 GB at the cap of a
  * 130k target). */
 enum { CH_DISPLACE_DEFAULT_CAP_PER_TARGET = 8, CH_DISPLACE_DEFAULT_CAP_EXTRA = 8388608 };
 
