@@ -1232,6 +1232,19 @@ static void cell_events(events *E, const ray *R, cell *C) {
   for (int r = 0; r < C->ng; r++) {
     const groove *G = &C->g[r];
     const double reach = 0.5 * G->w * (1.0 + 1e-9) + 1e-12;
+    /* Where nothing raises, h is the least of 0 and every groove's value,
+     * so the ray is solid where it is below all of them: below a groove's
+     * deepest value it is below that groove wherever it is, and the
+     * groove's events there change nothing (the margin is far above
+     * rounding). */
+    double glo = lo0, ghi = hi0;
+    if (!C->raises && R->d[2] != 0.0) {
+      double tz = (G->lowest - 1e-9 * (1.0 + fabs(G->lowest)) - R->o[2]) / R->d[2];
+      if (R->d[2] < 0.0) ghi = mn(ghi, tz);
+      else glo = mx(glo, tz);
+      if (!(glo < ghi)) continue;
+    }
+    E->lo = glo, E->hi = ghi;
     for (int k = C->gfirst[r]; k < C->gfirst[r + 1]; k++) {
       elem *el = &C->e[k];
       /* Only where the ray is within the element's band can its events
@@ -1272,9 +1285,10 @@ static void cell_events(events *E, const ray *R, cell *C) {
         elem_tangent(el, 1.0, tg);
         events_end_line(E, R, el->p[2], tg);
       }
-      E->lo = lo0, E->hi = hi0;
+      E->lo = glo, E->hi = ghi;
     }
   }
+  E->lo = lo0, E->hi = hi0;
 }
 
 /* ---- the traversal (Algorithm 1) ---- */
