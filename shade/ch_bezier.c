@@ -44,19 +44,21 @@ static void tangent_from(const double a[2], const double b[2], const double chor
   out[1] = d[1] * inv;
 }
 
+/* a, b, the chord and the size tangent_from compares against. */
+static double tangent_setup(const double p[3][2], double a[2], double b[2], double chord[2]) {
+  a[0] = p[1][0] - p[0][0], a[1] = p[1][1] - p[0][1];
+  b[0] = p[2][0] - 2.0 * p[1][0] + p[0][0], b[1] = p[2][1] - 2.0 * p[1][1] + p[0][1];
+  chord[0] = p[2][0] - p[0][0], chord[1] = p[2][1] - p[0][1];
+  return ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
+}
+
 void ch_bezier_tangent(const double p[3][2], double t, double out[2]) {
-  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
-  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
-  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
-  double scale = ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
+  double a[2], b[2], chord[2], scale = tangent_setup(p, a, b, chord);
   tangent_from(a, b, chord, scale, t, out);
 }
 
 void ch_bezier_end_tangents(const double p[3][2], double t0[2], double t1[2]) {
-  double a[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
-  double b[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
-  double chord[2] = {p[2][0] - p[0][0], p[2][1] - p[0][1]};
-  double scale = ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord);
+  double a[2], b[2], chord[2], scale = tangent_setup(p, a, b, chord);
   tangent_from(a, b, chord, scale, 0.0, t0);
   tangent_from(a, b, chord, scale, 1.0, t1);
 }

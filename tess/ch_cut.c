@@ -478,7 +478,7 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   m->corner_normal = malloc((nc ? nc : 1) * sizeof *m->corner_normal);
   int *start = malloc((np + 1) * sizeof *start);        /* a vertex's corners in order */
   int *order = malloc((nc ? nc : 1) * sizeof *order);
-  int *born = malloc((nc ? nc : 1) * sizeof *born); /* per corner: bit 0 a UV, bit 1 a normal born here */
+  int *born = malloc((nc ? nc : 1) * sizeof *born); /* per corner: a normal is born here */
   double *fn = malloc(4 * (size_t)(o->ntri > 0 ? o->ntri : 1) * sizeof *fn); /* per face: normal, length */
   if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !born ||
       !fn)
@@ -514,9 +514,7 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
     for (int i = start[p]; i < start[p + 1]; i++) {
       int c = order[i];
       const double *uv = &o->uv[2 * (size_t)c];
-      born[c] = 0;
       if (first < 0 || o->uv[2 * (size_t)first] != uv[0] || o->uv[2 * (size_t)first + 1] != uv[1]) {
-        born[c] |= 1;
         m->corner_uv[c] = c;
         if (first < 0) first = c;
       } else {
@@ -526,22 +524,20 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
       int s = -1;
       for (int j = start[p]; j < i; j++) {
         int d = order[j];
-        if ((born[d] & 2) && o->group[d / 3] == g) {
+        if (born[d] && o->group[d / 3] == g) {
           s = d;
           break;
         }
       }
-      if (s < 0) {
-        born[c] |= 2;
-        s = c;
-      }
+      born[c] = s < 0;
+      if (s < 0) s = c;
       m->corner_normal[c] = s;
     }
   }
   /* Ranks of the born normals (born then holds them, -1 where none is
    * born; a UV is born where corner_uv points to its own corner). */
   int nslot = 0;
-  for (size_t c = 0; c < nc; c++) born[c] = (born[c] & 2) ? nslot++ : -1;
+  for (size_t c = 0; c < nc; c++) born[c] = born[c] ? nslot++ : -1;
   m->normals = malloc(3 * (size_t)(nslot > 0 ? nslot : 1) * sizeof *m->normals);
   if (!m->normals) goto nomem;
   m->num_normals = nslot;

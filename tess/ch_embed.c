@@ -117,6 +117,15 @@ static ch_status over_cap(ch_error *err, const ch_embed_pilot *pilot, double cap
                       cap, stage, n, base);
 }
 
+/* Frees the working mesh's arrays (and empties it). */
+static void free_working_mesh(ch_refine_mesh *w) {
+  free(w->verts);
+  free(w->tris);
+  ch_refine_free_edges(w->edges, w->nedges);
+  free(w->tri_edge);
+  memset(w, 0, sizeof *w);
+}
+
 /* realloc to n elements of size (at least one), keeping *p where that fails. */
 static void shrink_array(void **p, size_t n, size_t size) {
   void *q = *p ? realloc(*p, (n ? n : 1) * size) : NULL;
@@ -397,11 +406,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     /* The working mesh is done with once the parts are cut: its memory goes
      * before the join makes the output's arrays (it was a third of the
      * peak, the join's, when it went after). */
-    free(w.verts);
-    free(w.tris);
-    ch_refine_free_edges(w.edges, w.nedges);
-    free(w.tri_edge);
-    memset(&w, 0, sizeof w);
+    free_working_mesh(&w);
     /* Joined in chunk order: each part's vertices and triangles land at
      * offsets known from the counts, so the copy runs in parallel into
      * arrays allocated once (appending them one by one grew the arrays by
@@ -525,10 +530,7 @@ nomem:
 done:
   ch_cut_out_free(&o);
   ch_label_free(&lb);
-  free(w.verts);
-  free(w.tris);
-  ch_refine_free_edges(w.edges, w.nedges);
-  free(w.tri_edge);
+  free_working_mesh(&w);
   free(fresh);
   return st;
 }
