@@ -33,7 +33,7 @@ if [ $have_blender = 1 ]; then
 fi
 echo "base $base, curves $svg, $(nproc) threads"
 printf "| %-9s | %-10s | %-9s | %-10s | %-9s | %-9s | %-7s | %-9s | %-8s | %-9s | %s\n" "target" "chisel tris" "chisel s" \
-  "blender tris" "blender s" "(script s)" "ratio" "no-snap s" "snap / no-snap" "B / tri" "chisel stages"
+  "blender tris" "blender s" "(script s)" "ratio" "no-snap s" "snap / no-snap" "B / tri (above start)" "chisel stages"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for n in "${sizes[@]}"; do
   bl_tris=$n bl_s=nan bl_in=nan
@@ -54,7 +54,8 @@ for n in "${sizes[@]}"; do
   ch_s=$(echo "$t1 - $t0" | bc -l)
   ch_tris=$(grep -o 'displace [0-9]* triangles' "$dir/stats.txt" | grep -o '[0-9]*')
   stages=$(grep 'chisel: displace' "$dir/stats.txt" | sed 's/^chisel: displace [0-9]* triangles: //; s/; h in.*//')
-  bytes=$(grep -o '([0-9]* bytes per triangle)' "$dir/stats.txt" | grep -o '[0-9]*')
+  # the process's peak per triangle, and above what it held at start
+  bytes=$(grep -o '([0-9]* bytes per triangle; [0-9]* per triangle above' "$dir/stats.txt" | grep -o '[0-9]*' | paste -sd/)
   # the naive mesh of the same size, no embedding: what the embedding costs
   t0=$(now)
   "$build/chisel" displace "$base" "$svg" -o "$dir/chisel.obj" --target-tris "$bl_tris" --no-snap 2>/dev/null

@@ -8,6 +8,7 @@
 #include <strings.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "ch_exr.h"
 #include "ch_mesh.h"
@@ -142,7 +143,20 @@ static int check_files_with_tiles(const char *cmd, const cli_file *inputs, int n
   return rc;
 }
 
+/* The process's resident bytes now (Linux's /proc/self/statm; 0 where it
+ * cannot be read). */
+static double resident_bytes(void) {
+  FILE *f = fopen("/proc/self/statm", "r");
+  long size = 0, resident = 0;
+  int got = f ? fscanf(f, "%ld %ld", &size, &resident) : 0;
+  if (f) fclose(f);
+  return got == 2 ? (double)resident * (double)sysconf(_SC_PAGESIZE) : 0.0;
+}
+
 static int run(int argc, char **argv) {
+  /* What the program holds before it reads anything (its code and
+   * libraries, about 10 MB): not part of what each triangle costs. */
+  double start_bytes = resident_bytes();
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL, *png16 = NULL;
   const char *glb = NULL;
@@ -327,20 +341,22 @@ static int run(int argc, char **argv) {
     fprintf(stderr,
             "chisel: displace %d triangles: read %.0f ms, surface %.0f ms, h setup %.0f ms, %s %.0f ms "
             "(%d pass%s; kept: %d base triangles, %s %.0f ms), maps %.0f ms, write %.0f ms; h in [%.4g, %.4g]; "
-            "peak memory %.0f MB (%.0f bytes per triangle)\n",
+            "peak memory %.0f MB (%.0f bytes per triangle; %.0f per triangle above the %.0f MB the program held "
+            "at start)\n",
             result->num_faces, 1e3 * t->read, 1e3 * t->surface, 1e3 * t->height,
             no_snap ? "tessellate and displace" : "tessellate and embed", 1e3 * t->tessellate, r.passes,
             r.passes > 1 ? "es" : "", r.base_triangles, no_snap ? "displace" : "embed", 1e3 * t->displace,
             1e3 * t->maps, 1e3 * t_write, r.min_h, r.max_h, peak_bytes / 1e6,
-            result->num_faces > 0 ? peak_bytes / result->num_faces : 0.0);
+            result->num_faces > 0 ? peak_bytes / result->num_faces : 0.0,
+            result->num_faces > 0 ? fmax(0.0, peak_bytes - start_bytes) / result->num_faces : 0.0, start_bytes / 1e6);
     if (!no_snap)
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
-              "junctions, %d wall triangles, %d unresolved (%d on UV seams), u lines every %.2f deg, %d vertices thinned; refine %.0f ms "
+              "junctions, %d wall triangles, %d unresolved (%d on UV seams), u lines every %.2f deg, %d vertices thinned, %ld triangles added where h is smooth; refine %.0f ms "
               "(setup %.0f, labels %.0f, edges %.0f, crossings %.0f, classify %.0f, split %.0f), cut %.0f ms (thin "
               "%.0f), normals %.0f ms\n",
               e->refine_rounds, e->refined_edges, e->crossings, e->wall_points, e->junctions, e->wall_triangles,
-              e->unresolved, e->unresolved_at_seams, e->angle_deg, e->thinned, 1e3 * e->seconds_refine, 1e3 * e->seconds_setup,
+              e->unresolved, e->unresolved_at_seams, e->angle_deg, e->thinned, e->densified, 1e3 * e->seconds_refine, 1e3 * e->seconds_setup,
               1e3 * e->seconds_labels, 1e3 * e->seconds_edges, 1e3 * e->seconds_crossings, 1e3 * e->seconds_classify,
               1e3 * e->seconds_split, 1e3 * e->seconds_cut, 1e3 * e->seconds_thin, 1e3 * e->seconds_normals);
   }
@@ -383,6 +399,7 @@ static int run(int argc, char **argv) {
     cJSON_AddNumberToObject(sec, "write", t_write);
     cJSON_AddNumberToObject(o, "peak_memory_bytes", peak_bytes);
     cJSON_AddNumberToObject(o, "peak_bytes_per_triangle", result->num_faces > 0 ? peak_bytes / result->num_faces : 0.0);
+    cJSON_AddNumberToObject(o, "start_memory_bytes", start_bytes);
     if (r.snapped) {
       cJSON *ej = cJSON_AddObjectToObject(o, "embed");
       cJSON_AddNumberToObject(ej, "refine_rounds", e->refine_rounds);
@@ -400,6 +417,7 @@ static int run(int argc, char **argv) {
         for (int k = 0; k < 4; k++) cJSON_AddItemToArray(b, cJSON_CreateNumber(e->unresolved_box[k]));
       }
       cJSON_AddNumberToObject(ej, "thinned", e->thinned);
+      cJSON_AddNumberToObject(ej, "densified", (double)e->densified);
       cJSON_AddNumberToObject(ej, "angle_deg", e->angle_deg);
       cJSON_AddNumberToObject(ej, "seconds_refine", e->seconds_refine);
       cJSON_AddNumberToObject(ej, "seconds_cut", e->seconds_cut);

@@ -10,6 +10,7 @@
 
 #include "ch_embed.h"
 #include "ch_error.h"
+#include "ch_height.h"
 #include "ch_label_internal.h"
 #include "ch_mesh.h"
 #include "ch_refine_internal.h"
@@ -67,6 +68,14 @@ int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h);
  * height); 0, or -1 when out of memory. */
 int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
                    uint64_t group);
+
+/* Adds about `extra` triangles (2 per split) where no groove or wall is,
+ * by longest-edge bisection of the triangles of pieces where h is h_step
+ * alone (smooth inside, read at the new points by ch_height_eval), in at most
+ * max_rounds rounds; o's positions must be evaluated. Returns how many it
+ * added (fewer where the quiet part runs out), -1 when out of memory, -2
+ * when the surface does not evaluate a new vertex. */
+long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_out *o, long extra, int max_rounds);
 
 /* Thins o's groove layers (ch_thin.h) and drops the vertices it frees;
  * returns how many, -1 when out of memory. */

@@ -92,6 +92,8 @@ typedef struct ch_embed_stats {
                               h jumps across the seam, which the shared
                               vertex cannot follow */
   int thinned;             /* vertices the thinning of the grooves' layers removed */
+  long densified;          /* triangles ch_embed_to_target added after the cut
+                              where no feature is, to reach its target */
   double angle_deg;        /* the angle step of the u lines the run used */
   long triangles;          /* output triangles (a pilot of ch_embed_to_target
                               counts before the cleanup, which removes a

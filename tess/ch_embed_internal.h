@@ -49,6 +49,8 @@ typedef struct ch_embed_pilot {
                             edge (ch_embed_to_target sets the target's, so
                             the lines do not change between its runs) */
   int run;               /* 1, 2, ...: the run number progress reports */
+  int full;              /* with count_only: a full run whose cut the caller
+                            finishes (progress does not call it a pilot) */
 } ch_embed_pilot;
 
 /* ch_embed_build with the pilot knobs (NULL: as ch_embed_build). Same

@@ -27,6 +27,7 @@
 
 #include "accuracy.h"
 #include "ch_curves.h"
+#include "ch_cut_internal.h"
 #include "ch_embed.h"
 #include "ch_embed_internal.h"
 #include "ch_height.h"
@@ -633,7 +634,91 @@ static void test_unresolved_at_seams(void) {
   }
 }
 
+/* ch_cut_densify on the plain tessellation of the torus (curved, closed,
+ * UV seams), with a step circle's h: every split adds two triangles, the
+ * mesh stays closed and unfolded, and each new vertex is the surface at
+ * its (face, st) plus h there along N, its UV the surface's. */
+static void test_densify(void) {
+  scene s;
+  REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
+  const ch_mesh *m = &s.tess.mesh;
+  ch_cut_out o;
+  memset(&o, 0, sizeof o);
+  o.npos = o.cap_pos = m->num_positions;
+  o.ntri = o.cap_tri = m->num_faces;
+  o.face = malloc((size_t)o.npos * sizeof *o.face);
+  o.st = malloc(2 * (size_t)o.npos * sizeof *o.st);
+  o.h = malloc((size_t)o.npos * sizeof *o.h);
+  o.tri = malloc(3 * (size_t)o.ntri * sizeof *o.tri);
+  o.group = calloc((size_t)o.ntri, sizeof *o.group);
+  o.uv = malloc(6 * (size_t)o.ntri * sizeof *o.uv);
+  REQUIRE(o.face && o.st && o.h && o.tri && o.group && o.uv);
+  for (int v = 0; v < o.npos; v++) {
+    o.face[v] = s.tess.vertex_face[v];
+    memcpy(&o.st[2 * (size_t)v], &s.tess.vertex_st[2 * (size_t)v], 2 * sizeof *o.st);
+    double uv[2];
+    REQUIRE(ch_surface_eval_uv(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], uv) == CH_OK);
+    o.h[v] = ch_height_eval(&s.height, uv[0], uv[1]);
+  }
+  for (int f = 0; f < o.ntri; f++)
+    for (int k = 0; k < 3; k++) {
+      int c = m->face_start[f] + k;
+      o.tri[3 * (size_t)f + k] = m->corner_position[c];
+      memcpy(&o.uv[6 * (size_t)f + 2 * k], &m->uvs[2 * (size_t)m->corner_uv[c]], 2 * sizeof *o.uv);
+    }
+  ch_error err = {0};
+  REQUIRE(ch_cut_evaluate_positions(s.surface, &o, &err) == CH_OK);
+  int npos0 = o.npos, ntri0 = o.ntri;
+  /* more than one round gives (edges whose ends' (s,t) are in two base
+   * faces are not split: about half of them at 52 triangles per face) */
+  long want = ntri0 / 2 * 2 / 3 * 2;
+  long added = ch_cut_densify(s.surface, &s.height, &o, want, 4);
+  printf("  %d triangles, %ld asked for, %ld added\n", ntri0, want, added);
+  CHECK_MSG(added == want, "%ld added of %ld", added, want);
+  CHECK(o.ntri == ntri0 + added && o.npos == npos0 + added / 2);
+  /* closed: every directed edge has its reverse */
+  ch_mesh dm;
+  memset(&dm, 0, sizeof dm);
+  dm.num_faces = o.ntri;
+  dm.num_corners = 3 * o.ntri;
+  dm.num_positions = o.npos;
+  dm.positions = o.pos;
+  dm.corner_position = o.tri;
+  int *starts = malloc((size_t)o.ntri * sizeof *starts);
+  REQUIRE(starts);
+  for (int f = 0; f < o.ntri; f++) starts[f] = 3 * f;
+  dm.face_start = starts;
+  long border, inner;
+  open_edges(&dm, &border, &inner);
+  CHECK_MSG(border + inner == 0, "%ld open edges", border + inner);
+  free(starts);
+  int off = 0, folded = 0, uv_off = 0;
+  for (int v = npos0; v < o.npos; v++) {
+    ch_surface_point sp;
+    REQUIRE(ch_surface_eval(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], &sp) == CH_OK);
+    double h = ch_height_eval(&s.height, sp.uv[0], sp.uv[1]);
+    for (int k = 0; k < 3; k++) off += fabs(sp.position[k] + h * sp.normal[k] - o.pos[3 * (size_t)v + k]) > 1e-12;
+  }
+  for (int t = 0; t < o.ntri; t++) {
+    const double *a = &o.uv[6 * (size_t)t], *b = a + 2, *c = a + 4;
+    folded += (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]) <= 0.0;
+    for (int k = 0; k < 3; k++) {
+      int v = o.tri[3 * (size_t)t + k];
+      if (v < npos0) continue;
+      double uv[2];
+      REQUIRE(ch_surface_eval_uv(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], uv) == CH_OK);
+      uv_off += fabs(uv[0] - a[2 * k]) > 1e-12 || fabs(uv[1] - a[2 * k + 1]) > 1e-12;
+    }
+  }
+  CHECK_MSG(off == 0, "%d coordinates of new vertices off the displaced surface", off);
+  CHECK_MSG(uv_off == 0, "%d corners of new vertices off the surface's UV", uv_off);
+  CHECK_MSG(folded == 0, "%d triangles folded over in UV", folded);
+  ch_cut_out_free(&o);
+  scene_free(&s);
+}
+
 int main(void) {
+  RUN(test_densify);
   RUN(test_unresolved_at_seams);
   RUN(test_many_grooves_through_a_point);
   RUN(test_straight_features_are_edges);
