@@ -170,6 +170,10 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       break;
     }
     size_t np = (size_t)o->npos + (size_t)take, nt = (size_t)o->ntri + 2 * (size_t)take;
+    if (np >= INT32_MAX / 3 || nt >= INT32_MAX / 6) { /* (the indices the cut allows) */
+      free(s);
+      break;
+    }
     if (grow((void **)&o->face, np, sizeof *o->face) || grow((void **)&o->st, 2 * np, sizeof *o->st) ||
         grow((void **)&o->h, np, sizeof *o->h) || grow((void **)&o->pos, 3 * np, sizeof *o->pos) ||
         grow((void **)&o->tri, 3 * nt, sizeof *o->tri) || grow((void **)&o->group, nt, sizeof *o->group) ||
