@@ -230,3 +230,244 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
   }
   return added;
 }
+
+/* ---- the other way: fewer triangles where h is smooth -------------------- */
+
+/* Vertex -> triangles, in triangle order (CSR). */
+typedef struct vertex_fans {
+  int *start; /* npos + 1 */
+  int *tri;   /* 3 ntri */
+} vertex_fans;
+
+static int fans_build(const ch_cut_out *o, vertex_fans *f) {
+  f->start = calloc((size_t)o->npos + 1, sizeof *f->start);
+  f->tri = malloc(3 * (size_t)(o->ntri > 0 ? o->ntri : 1) * sizeof *f->tri);
+  if (!f->start || !f->tri) return -1;
+  for (size_t c = 0; c < 3 * (size_t)o->ntri; c++) f->start[o->tri[c] + 1]++;
+  for (int v = 0; v < o->npos; v++) f->start[v + 1] += f->start[v];
+  int *fill = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *fill);
+  if (!fill) return -1;
+  memcpy(fill, f->start, (size_t)o->npos * sizeof *fill);
+  for (int t = 0; t < o->ntri; t++)
+    for (int k = 0; k < 3; k++) f->tri[fill[o->tri[3 * (size_t)t + k]]++] = t;
+  free(fill);
+  return 0;
+}
+
+static void fans_free(vertex_fans *f) {
+  free(f->start);
+  free(f->tri);
+}
+
+static int corner_of(const ch_cut_out *o, int t, int v) {
+  for (int k = 0; k < 3; k++)
+    if (o->tri[3 * (size_t)t + k] == v) return k;
+  return -1;
+}
+
+/* Whether v sits inside one plain piece, off UV seams, its triangles one
+ * closed fan (each next corner is another's previous once). */
+static int interior_plain(const ch_cut_out *o, const vertex_fans *f, int v) {
+  int n = f->start[v + 1] - f->start[v];
+  if (n < 3 || n > 32) return 0;
+  const int *ts = &f->tri[f->start[v]];
+  uint64_t group = o->group[ts[0]];
+  if (!plain(group)) return 0;
+  const double *uv0 = &o->uv[6 * (size_t)ts[0] + 2 * (size_t)corner_of(o, ts[0], v)];
+  int next[32], prev[32];
+  for (int i = 0; i < n; i++) {
+    int t = ts[i], k = corner_of(o, t, v);
+    if (o->group[t] != group) return 0;
+    const double *uv = &o->uv[6 * (size_t)t + 2 * (size_t)k];
+    if (uv[0] != uv0[0] || uv[1] != uv0[1]) return 0;
+    next[i] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
+    prev[i] = o->tri[3 * (size_t)t + (size_t)(k + 2) % 3];
+  }
+  for (int i = 0; i < n; i++) { /* each next is exactly one other's prev */
+    int m = 0;
+    for (int j = 0; j < n; j++) m += prev[j] == next[i];
+    if (m != 1) return 0;
+  }
+  return 1;
+}
+
+/* Twice the UV area of triangle t with corner k's UV replaced by uv. */
+static double uv_area_with(const ch_cut_out *o, int t, int k, const double uv[2]) {
+  double c[3][2];
+  memcpy(c, &o->uv[6 * (size_t)t], sizeof c);
+  c[k][0] = uv[0];
+  c[k][1] = uv[1];
+  return (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
+}
+
+static void tri_normal(const ch_cut_out *o, int t, int k, int with, double n[3]) {
+  const double *p[3];
+  for (int i = 0; i < 3; i++) p[i] = &o->pos[3 * (size_t)o->tri[3 * (size_t)t + i]];
+  if (k >= 0) p[k] = &o->pos[3 * (size_t)with];
+  double a[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+  double b[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+  ch_cross3(a, b, n);
+}
+
+/* Whether collapsing v into its neighbour u keeps the mesh as it should:
+ * u and v share exactly the two neighbours across edge u-v (the link
+ * condition), and every triangle left keeps its UV orientation and turns
+ * its normal by under 20 degrees. */
+static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
+  int nv = f->start[v + 1] - f->start[v], nu = f->start[u + 1] - f->start[u], shared = 0;
+  const int *tv = &f->tri[f->start[v]], *tu = &f->tri[f->start[u]];
+  /* v's neighbours (its fan is closed: each is one triangle's next
+   * corner), and how many of them u's triangles hold */
+  for (int i = 0; i < nv; i++) {
+    int k = corner_of(o, tv[i], v), w = o->tri[3 * (size_t)tv[i] + (size_t)(k + 1) % 3];
+    if (w == u) continue;
+    for (int j = 0; j < nu; j++)
+      if (corner_of(o, tu[j], w) >= 0) {
+        shared++;
+        break;
+      }
+  }
+  if (shared != 2) return 0;
+  const double *uvu = NULL;
+  for (int i = 0; i < nv && !uvu; i++) {
+    int k = corner_of(o, tv[i], u);
+    if (k >= 0) uvu = &o->uv[6 * (size_t)tv[i] + 2 * (size_t)k];
+  }
+  if (!uvu) return 0;
+  for (int i = 0; i < nv; i++) {
+    int t = tv[i];
+    if (corner_of(o, t, u) >= 0) continue; /* removed */
+    int k = corner_of(o, t, v);
+    double before = uv_area_with(o, t, k, &o->uv[6 * (size_t)t + 2 * (size_t)k]), after = uv_area_with(o, t, k, uvu);
+    if (!(after > 1e-3 * before)) return 0;
+    double n0[3], n1[3];
+    tri_normal(o, t, -1, 0, n0);
+    tri_normal(o, t, k, u, n1);
+    if (!(ch_dot3(n0, n1) > 0.94 * sqrt(ch_dot3(n0, n0) * ch_dot3(n1, n1)))) return 0;
+  }
+  return 1;
+}
+
+typedef struct collapse {
+  double length2;
+  int v, u;
+} collapse;
+
+static int shortest_first(const void *a, const void *b) {
+  const collapse *x = a, *y = b;
+  if (x->length2 != y->length2) return x->length2 < y->length2 ? -1 : 1;
+  if (x->v != y->v) return x->v < y->v ? -1 : 1;
+  return x->u < y->u ? -1 : x->u > y->u;
+}
+
+long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds) {
+  long removed = 0;
+  for (int round = 0; round < max_rounds && removed + 1 < fewer; round++) {
+    vertex_fans f = {0};
+    collapse *c = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *c);
+    unsigned char *touched = calloc((size_t)(o->npos > 0 ? o->npos : 1), 1);
+    int *remap = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *remap);
+    if (!c || !touched || !remap || fans_build(o, &f)) {
+      free(c), free(touched), free(remap), fans_free(&f);
+      return -1;
+    }
+    /* Every vertex by its shortest edge (in parallel), then in that order,
+     * shortest first, those inside a plain piece whose fan no collapse
+     * taken before touched, with their shortest allowed edge, until
+     * enough: the checks run only on the vertices tried. */
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < o->npos; v++) {
+      double bl = INFINITY;
+      for (int i = f.start[v]; i < f.start[v + 1] && interior_plain(o, &f, v); i++) {
+        int t = f.tri[i], k = corner_of(o, t, v), u = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
+        bl = fmin(bl, dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)u]));
+      }
+      c[v] = (collapse){bl, v, -1};
+    }
+    qsort(c, (size_t)o->npos, sizeof *c, shortest_first);
+    long take = 0, want = (fewer - removed) / 2;
+    for (int i = 0; i < o->npos && take < want; i++) {
+      if (!(c[i].length2 < INFINITY)) break; /* (the rest are not inside plain pieces) */
+      int v = c[i].v, ok = !touched[v];
+      for (int j = f.start[v]; j < f.start[v + 1] && ok; j++)
+        for (int a = 0; a < 3; a++) ok &= !touched[o->tri[3 * (size_t)f.tri[j] + a]];
+      if (!ok) continue;
+      /* its edges shortest first (ties: the lower vertex), the first allowed */
+      int n = f.start[v + 1] - f.start[v], us[32], u = -1;
+      double ls[32];
+      for (int a = 0; a < n; a++) {
+        int t = f.tri[f.start[v] + a], k = corner_of(o, t, v);
+        us[a] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
+        ls[a] = dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)us[a]]);
+      }
+      for (int a = 1; a < n; a++)
+        for (int b = a; b > 0 && (ls[b] < ls[b - 1] || (ls[b] == ls[b - 1] && us[b] < us[b - 1])); b--) {
+          double tl = ls[b];
+          int tu = us[b];
+          ls[b] = ls[b - 1], us[b] = us[b - 1];
+          ls[b - 1] = tl, us[b - 1] = tu;
+        }
+      for (int a = 0; a < n && u < 0; a++)
+        if (collapse_ok(o, &f, v, us[a])) u = us[a];
+      if (u < 0) continue;
+      for (int j = f.start[v]; j < f.start[v + 1]; j++)
+        for (int a = 0; a < 3; a++) touched[o->tri[3 * (size_t)f.tri[j] + a]] = 1;
+      c[take++] = (collapse){0.0, v, u};
+    }
+    if (take == 0) {
+      free(c), free(touched), free(remap), fans_free(&f);
+      break;
+    }
+    /* v's triangles: the two on edge u-v go, the others take u (and its
+     * UV in this chart) in v's place; v goes. */
+    for (int v = 0; v < o->npos; v++) remap[v] = v;
+    for (long i = 0; i < take; i++) {
+      int v = c[i].v, u = c[i].u;
+      const double *uvu = NULL;
+      for (int j = f.start[v]; j < f.start[v + 1] && !uvu; j++) {
+        int k = corner_of(o, f.tri[j], u);
+        if (k >= 0) uvu = &o->uv[6 * (size_t)f.tri[j] + 2 * (size_t)k];
+      }
+      double uv[2] = {uvu[0], uvu[1]};
+      for (int j = f.start[v]; j < f.start[v + 1]; j++) {
+        int t = f.tri[j];
+        if (corner_of(o, t, u) >= 0) {
+          o->tri[3 * (size_t)t] = -1; /* removed */
+          continue;
+        }
+        int k = corner_of(o, t, v);
+        o->tri[3 * (size_t)t + k] = u;
+        memcpy(&o->uv[6 * (size_t)t + 2 * (size_t)k], uv, sizeof uv);
+      }
+      remap[v] = -1;
+    }
+    /* Compact: vertices in order, triangles in order. */
+    int np = 0;
+    for (int v = 0; v < o->npos; v++) {
+      if (remap[v] < 0) continue;
+      remap[v] = np;
+      if (np != v) {
+        o->face[np] = o->face[v];
+        memcpy(&o->st[2 * (size_t)np], &o->st[2 * (size_t)v], 2 * sizeof *o->st);
+        o->h[np] = o->h[v];
+        memcpy(&o->pos[3 * (size_t)np], &o->pos[3 * (size_t)v], 3 * sizeof *o->pos);
+      }
+      np++;
+    }
+    int nt = 0;
+    for (int t = 0; t < o->ntri; t++) {
+      if (o->tri[3 * (size_t)t] < 0) continue;
+      for (int k = 0; k < 3; k++) o->tri[3 * (size_t)nt + k] = remap[o->tri[3 * (size_t)t + k]];
+      if (nt != t) {
+        o->group[nt] = o->group[t];
+        memcpy(&o->uv[6 * (size_t)nt], &o->uv[6 * (size_t)t], 6 * sizeof *o->uv);
+      }
+      nt++;
+    }
+    removed += o->ntri - nt;
+    o->npos = np;
+    o->ntri = nt;
+    free(c), free(touched), free(remap), fans_free(&f);
+  }
+  return removed;
+}

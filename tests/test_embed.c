@@ -31,6 +31,7 @@
 #include "ch_embed.h"
 #include "ch_embed_internal.h"
 #include "ch_height.h"
+#include "ch_math.h"
 #include "ch_mesh.h"
 #include "ch_surface.h"
 #include "ch_test.h"
@@ -638,9 +639,10 @@ static void test_unresolved_at_seams(void) {
  * UV seams), with a step circle's h: every split adds two triangles, the
  * mesh stays closed and unfolded, and each new vertex is the surface at
  * its (face, st) plus h there along N, its UV the surface's. */
-static void test_densify(void) {
-  scene s;
-  REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
+/* The plain tessellation of scene s as a cut's output (one plain piece),
+ * positions evaluated. */
+static void cut_out_of_tessellation(scene *sc, ch_cut_out *out) {
+  scene s = *sc;
   const ch_mesh *m = &s.tess.mesh;
   ch_cut_out o;
   memset(&o, 0, sizeof o);
@@ -668,6 +670,42 @@ static void test_densify(void) {
     }
   ch_error err = {0};
   REQUIRE(ch_cut_evaluate_positions(s.surface, &o, &err) == CH_OK);
+  *out = o;
+}
+
+/* Directed edges without their reverse in a cut's output. */
+static long cut_open_edges(const ch_cut_out *o) {
+  ch_mesh dm;
+  memset(&dm, 0, sizeof dm);
+  dm.num_faces = o->ntri;
+  dm.num_corners = 3 * o->ntri;
+  dm.num_positions = o->npos;
+  dm.positions = o->pos;
+  dm.corner_position = o->tri;
+  int *starts = malloc((size_t)(o->ntri > 0 ? o->ntri : 1) * sizeof *starts);
+  if (!starts) return -1;
+  for (int f = 0; f < o->ntri; f++) starts[f] = 3 * f;
+  dm.face_start = starts;
+  long border, inner;
+  open_edges(&dm, &border, &inner);
+  free(starts);
+  return border + inner;
+}
+
+static int cut_folded(const ch_cut_out *o) {
+  int folded = 0;
+  for (int t = 0; t < o->ntri; t++) {
+    const double *a = &o->uv[6 * (size_t)t], *b = a + 2, *c = a + 4;
+    folded += (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]) <= 0.0;
+  }
+  return folded;
+}
+
+static void test_densify(void) {
+  scene s;
+  REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
+  ch_cut_out o;
+  cut_out_of_tessellation(&s, &o);
   int npos0 = o.npos, ntri0 = o.ntri;
   /* more than one round gives (edges whose ends' (s,t) are in two base
    * faces are not split: about half of them at 52 triangles per face) */
@@ -676,22 +714,8 @@ static void test_densify(void) {
   printf("  %d triangles, %ld asked for, %ld added\n", ntri0, want, added);
   CHECK_MSG(added == want, "%ld added of %ld", added, want);
   CHECK(o.ntri == ntri0 + added && o.npos == npos0 + added / 2);
-  /* closed: every directed edge has its reverse */
-  ch_mesh dm;
-  memset(&dm, 0, sizeof dm);
-  dm.num_faces = o.ntri;
-  dm.num_corners = 3 * o.ntri;
-  dm.num_positions = o.npos;
-  dm.positions = o.pos;
-  dm.corner_position = o.tri;
-  int *starts = malloc((size_t)o.ntri * sizeof *starts);
-  REQUIRE(starts);
-  for (int f = 0; f < o.ntri; f++) starts[f] = 3 * f;
-  dm.face_start = starts;
-  long border, inner;
-  open_edges(&dm, &border, &inner);
-  CHECK_MSG(border + inner == 0, "%ld open edges", border + inner);
-  free(starts);
+  long open = cut_open_edges(&o); /* closed: every directed edge has its reverse */
+  CHECK_MSG(open == 0, "%ld open edges", open);
   int off = 0, folded = 0, uv_off = 0;
   for (int v = npos0; v < o.npos; v++) {
     ch_surface_point sp;
@@ -699,9 +723,9 @@ static void test_densify(void) {
     double h = ch_height_eval(&s.height, sp.uv[0], sp.uv[1]);
     for (int k = 0; k < 3; k++) off += fabs(sp.position[k] + h * sp.normal[k] - o.pos[3 * (size_t)v + k]) > 1e-12;
   }
+  folded = cut_folded(&o);
   for (int t = 0; t < o.ntri; t++) {
-    const double *a = &o.uv[6 * (size_t)t], *b = a + 2, *c = a + 4;
-    folded += (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]) <= 0.0;
+    const double *a = &o.uv[6 * (size_t)t];
     for (int k = 0; k < 3; k++) {
       int v = o.tri[3 * (size_t)t + k];
       if (v < npos0) continue;
@@ -717,8 +741,55 @@ static void test_densify(void) {
   scene_free(&s);
 }
 
+/* ch_cut_coarsen on the same: every collapse takes two triangles and a
+ * vertex, the mesh stays closed and unfolded, every vertex left is used
+ * and still where it was (at its (face, st), displaced by its h), and no
+ * triangle's normal turns over. */
+static void test_coarsen(void) {
+  scene s;
+  REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
+  ch_cut_out o;
+  cut_out_of_tessellation(&s, &o);
+  int npos0 = o.npos, ntri0 = o.ntri;
+  long want = ntri0 / 10 * 2;
+  long removed = ch_cut_coarsen(&o, want, 6);
+  printf("  %d triangles, %ld fewer asked for, %ld removed\n", ntri0, want, removed);
+  CHECK_MSG(removed == want, "%ld removed of %ld", removed, want);
+  CHECK(o.ntri == ntri0 - removed && o.npos == npos0 - removed / 2);
+  long open = cut_open_edges(&o);
+  CHECK_MSG(open == 0, "%ld open edges", open);
+  CHECK_MSG(cut_folded(&o) == 0, "%d triangles folded over in UV", cut_folded(&o));
+  char *used = calloc((size_t)o.npos, 1);
+  REQUIRE(used);
+  int off = 0, unused = 0, turned = 0;
+  for (size_t c = 0; c < 3 * (size_t)o.ntri; c++) used[o.tri[c]] = 1;
+  for (int v = 0; v < o.npos; v++) {
+    unused += !used[v];
+    ch_surface_point sp;
+    REQUIRE(ch_surface_eval(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], &sp) == CH_OK);
+    for (int k = 0; k < 3; k++) off += fabs(sp.position[k] + o.h[v] * sp.normal[k] - o.pos[3 * (size_t)v + k]) > 1e-12;
+  }
+  for (int t = 0; t < o.ntri; t++) { /* the face normal against the surface's at the first corner */
+    const double *p0 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t]], *p1 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t + 1]];
+    const double *p2 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t + 2]];
+    double a[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, b[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]}, n[3];
+    ch_cross3(a, b, n);
+    int v = o.tri[3 * (size_t)t];
+    ch_surface_point sp;
+    REQUIRE(ch_surface_eval(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], &sp) == CH_OK);
+    turned += ch_dot3(n, sp.normal) <= 0.0;
+  }
+  CHECK_MSG(unused == 0, "%d vertices no triangle uses", unused);
+  CHECK_MSG(off == 0, "%d coordinates of vertices off the displaced surface", off);
+  CHECK_MSG(turned == 0, "%d triangles facing into the surface", turned);
+  free(used);
+  ch_cut_out_free(&o);
+  scene_free(&s);
+}
+
 int main(void) {
   RUN(test_densify);
+  RUN(test_coarsen);
   RUN(test_unresolved_at_seams);
   RUN(test_many_grooves_through_a_point);
   RUN(test_straight_features_are_edges);
