@@ -1,15 +1,17 @@
-/* ch_densify: more triangles away from the grooves and walls, after the
- * cut (see ch_cut_internal.h).
+/* ch_densify: more or fewer triangles away from the grooves and walls,
+ * after the cut (see ch_cut_internal.h).
  *
- * Where a run of the embedding falls short of its target (its base count
- * came from a model of what the features add), the rest goes to the parts
- * of the mesh where h is smooth, rather than to a run at a larger base
- * that cuts every feature again: there a
- * triangle's longest edge is split where it is also the longest of the
- * triangle across it (longest-edge bisection on terminal edges, Rivara
- * 1984), longest edges first. On a tessellation of quads cut in two that
- * splits the diagonals, then the quads' sides (a 4-8 mesh), so the
- * triangles keep their shapes and no vertex hangs in another's edge. */
+ * Where a run of the embedding misses its target (its base count came from
+ * a model of what the features add), the difference is made up where h is
+ * smooth, rather than by another run at another base that cuts every
+ * feature again. More: a triangle's longest edge is split where it is
+ * also the longest of the triangle across it (longest-edge bisection on
+ * terminal edges, Rivara 1984), longest edges first; on a tessellation of
+ * quads cut in two that splits the diagonals, then the quads' sides (a
+ * 4-8 mesh), so the triangles keep their shapes and no vertex hangs in
+ * another's edge. Fewer: shortest edges first, a vertex collapses into a
+ * neighbour that keeps its place on the surface, where the link condition
+ * holds (Dey et al. 1999) and no triangle turns over. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
