@@ -615,8 +615,8 @@ typedef struct target_runs {
   ch_mesh cur, best;
   ch_embed_stats cur_stats, best_stats;
   embed_kept kept; /* the last pilot's cut */
-  long extra;      /* > 0: the count a CH_COUNT_FINISH may add triangles
-                      towards where no feature is */
+  long extra;      /* > 0: the count a CH_COUNT_FINISH may add or remove
+                      triangles towards where h is smooth */
   /* The closest run is dropped when another starts (two meshes at once
    * were a third of the peak memory where the first full run missed):
    * the last run is the closest whenever the search lands, and where it
@@ -690,8 +690,9 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     r->d.normal_tolerance_deg = step;
   }
   /* A full run is cut first and finished below, so that where its count
-   * falls short of the target it can take the rest where no feature is
-   * (ch_cut_densify) rather than run again at a larger base. */
+   * misses the target it can make up the difference where h is smooth
+   * (ch_cut_densify, ch_cut_coarsen) rather than run again at another
+   * base. */
   r->pilot.count_only = 1;
   r->pilot.full = rq->kind == CH_COUNT_FULL;
   r->pilot.run = rq->run;
