@@ -47,7 +47,8 @@ static int longest_first(const void *a, const void *b) {
 }
 
 static double dist2(const double *a, const double *b) {
-  double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  double d[3];
+  ch_sub3(b, a, d);
   return ch_dot3(d, d);
 }
 
@@ -55,13 +56,22 @@ static double dist2(const double *a, const double *b) {
  * so h at a new point inside it is h there. */
 static int plain(uint64_t group) { return group != WALL_GROUP && (group >> 32) == 0; }
 
+/* Twice triangle t's area vector (its normal times twice its area), with
+ * corner k (>= 0) moved to vertex `with`. */
+static void tri_normal(const ch_cut_out *o, int t, int k, int with, double n[3]) {
+  const double *p[3];
+  for (int i = 0; i < 3; i++) p[i] = &o->pos[3 * (size_t)o->tri[3 * (size_t)t + i]];
+  if (k >= 0) p[k] = &o->pos[3 * (size_t)with];
+  double a[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+  double b[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+  ch_cross3(a, b, n);
+}
+
 /* Twice triangle t's area, squared. */
 static double area2(const ch_cut_out *o, size_t t) {
-  const double *a = &o->pos[3 * (size_t)o->tri[3 * t]], *b = &o->pos[3 * (size_t)o->tri[3 * t + 1]];
-  const double *c = &o->pos[3 * (size_t)o->tri[3 * t + 2]];
-  double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
-  ch_cross3(u, w, x);
-  return ch_dot3(x, x);
+  double n[3];
+  tri_normal(o, (int)t, -1, 0, n);
+  return ch_dot3(n, n);
 }
 
 /* The corner of triangle t whose outgoing edge is its longest (ties: the
@@ -300,15 +310,6 @@ static double uv_area_with(const ch_cut_out *o, int t, int k, const double uv[2]
   c[k][0] = uv[0];
   c[k][1] = uv[1];
   return (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
-}
-
-static void tri_normal(const ch_cut_out *o, int t, int k, int with, double n[3]) {
-  const double *p[3];
-  for (int i = 0; i < 3; i++) p[i] = &o->pos[3 * (size_t)o->tri[3 * (size_t)t + i]];
-  if (k >= 0) p[k] = &o->pos[3 * (size_t)with];
-  double a[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-  double b[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-  ch_cross3(a, b, n);
 }
 
 /* Whether collapsing v into its neighbour u keeps the mesh as it should:

@@ -615,8 +615,8 @@ typedef struct target_runs {
   ch_mesh cur, best;
   ch_embed_stats cur_stats, best_stats;
   embed_kept kept; /* the last pilot's cut */
-  long extra;      /* > 0: the count a CH_COUNT_FINISH may add or remove
-                      triangles towards where h is smooth */
+  long finish_target; /* > 0: the count a CH_COUNT_FINISH may add or
+                         remove triangles towards where h is smooth */
   /* The closest run is dropped when another starts (two meshes at once
    * were a third of the peak memory where the first full run missed):
    * the last run is the closest whenever the search lands, and where it
@@ -653,7 +653,7 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   }
   if (rq->kind == CH_COUNT_FINISH) {
     r->cur_stats = r->kept.stats;
-    st = embed_finish(r->surface, r->height, &r->kept.o, r->extra, &r->cur_stats, &r->cur, r->err);
+    st = embed_finish(r->surface, r->height, &r->kept.o, r->finish_target, &r->cur_stats, &r->cur, r->err);
     ch_cut_out_free(&r->kept.o);
     memset(&r->kept, 0, sizeof r->kept);
     if (!st) rp->count = (double)r->cur_stats.triangles;
@@ -710,11 +710,11 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   rp->count = (double)r->cur_stats.triangles;
   if (rq->kind == CH_COUNT_FULL) {
     /* The warp places the triangles where its camera sees them: not here. */
-    r->extra = r->d.warp ? 0 : r->target;
+    r->finish_target = r->d.warp ? 0 : r->target;
     ch_count_request finish = *rq;
     finish.kind = CH_COUNT_FINISH;
     st = target_run(r, &finish, rp);
-    r->extra = 0;
+    r->finish_target = 0;
     if (st) return st;
   }
   return CH_OK;

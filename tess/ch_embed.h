@@ -93,7 +93,8 @@ typedef struct ch_embed_stats {
                               vertex cannot follow */
   int thinned;             /* vertices the thinning of the grooves' layers removed */
   long densified;          /* triangles ch_embed_to_target added after the cut
-                              where no feature is, to reach its target */
+                              where h is smooth, to reach its target
+                              (negative: removed there) */
   double angle_deg;        /* the angle step of the u lines the run used */
   long triangles;          /* output triangles (a pilot of ch_embed_to_target
                               counts before the cleanup, which removes a

@@ -701,6 +701,16 @@ static int cut_folded(const ch_cut_out *o) {
   return folded;
 }
 
+/* Coordinates of vertex v of o off the displaced surface at its (face,
+ * st), displaced by h. */
+static int off_surface(const scene *s, const ch_cut_out *o, int v, double h) {
+  ch_surface_point sp;
+  if (ch_surface_eval(s->surface, o->face[v], o->st[2 * (size_t)v], o->st[2 * (size_t)v + 1], &sp)) return 3;
+  int off = 0;
+  for (int k = 0; k < 3; k++) off += fabs(sp.position[k] + h * sp.normal[k] - o->pos[3 * (size_t)v + k]) > 1e-12;
+  return off;
+}
+
 static void test_densify(void) {
   scene s;
   REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
@@ -718,10 +728,9 @@ static void test_densify(void) {
   CHECK_MSG(open == 0, "%ld open edges", open);
   int off = 0, folded = 0, uv_off = 0;
   for (int v = npos0; v < o.npos; v++) {
-    ch_surface_point sp;
-    REQUIRE(ch_surface_eval(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], &sp) == CH_OK);
-    double h = ch_height_eval(&s.height, sp.uv[0], sp.uv[1]);
-    for (int k = 0; k < 3; k++) off += fabs(sp.position[k] + h * sp.normal[k] - o.pos[3 * (size_t)v + k]) > 1e-12;
+    double uv[2];
+    REQUIRE(ch_surface_eval_uv(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], uv) == CH_OK);
+    off += off_surface(&s, &o, v, ch_height_eval(&s.height, uv[0], uv[1]));
   }
   folded = cut_folded(&o);
   for (int t = 0; t < o.ntri; t++) {
@@ -765,9 +774,7 @@ static void test_coarsen(void) {
   for (size_t c = 0; c < 3 * (size_t)o.ntri; c++) used[o.tri[c]] = 1;
   for (int v = 0; v < o.npos; v++) {
     unused += !used[v];
-    ch_surface_point sp;
-    REQUIRE(ch_surface_eval(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], &sp) == CH_OK);
-    for (int k = 0; k < 3; k++) off += fabs(sp.position[k] + o.h[v] * sp.normal[k] - o.pos[3 * (size_t)v + k]) > 1e-12;
+    off += off_surface(&s, &o, v, o.h[v]);
   }
   for (int t = 0; t < o.ntri; t++) { /* the face normal against the surface's at the first corner */
     const double *p0 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t]], *p1 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t + 1]];
