@@ -114,12 +114,19 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
     }
   if (nc == 0) return 0;
   qsort(cand, nc, sizeof *cand, cmp_pair);
+  /* Only the candidates' ends are ever read or merged into (map sends a
+   * vertex to another end), so only theirs get incident faces: a list per
+   * vertex of a mesh of millions took most of the time. */
   vlist *inc = calloc((size_t)np, sizeof *inc);
-  unsigned char *dead = calloc((size_t)nf, 1);
+  unsigned char *dead = calloc((size_t)nf, 1), *end = calloc((size_t)np, 1);
   int *map = malloc((size_t)np * sizeof *map);
-  int *na = NULL, *nb = NULL, capa = 0, capb = 0, collapsed = 0, oom = !inc || !dead || !map;
+  int *na = NULL, *nb = NULL, capa = 0, capb = 0, collapsed = 0, oom = !inc || !dead || !map || !end;
+  for (size_t i = 0; i < nc && !oom; i++) end[cand[i][0]] = end[cand[i][1]] = 1;
   for (int f = 0; f < nf && !oom; f++)
-    for (int k = 0; k < 3 && !oom; k++) oom |= vlist_push(&inc[m->corner_position[3 * (size_t)f + k]], f);
+    for (int k = 0; k < 3 && !oom; k++) {
+      int v = m->corner_position[3 * (size_t)f + k];
+      if (end[v]) oom |= vlist_push(&inc[v], f);
+    }
   for (int v = 0; v < np && !oom; v++) map[v] = v;
   for (size_t i = 0; i < nc && !oom; i++) {
     if (i > 0 && cand[i][0] == cand[i - 1][0] && cand[i][1] == cand[i - 1][1]) continue;
@@ -238,9 +245,11 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
   free(na);
   free(nb);
   free(cand);
-  if (inc)
-    for (int v = 0; v < np; v++) free(inc[v].f);
+  if (inc && end)
+    for (int v = 0; v < np; v++)
+      if (end[v]) free(inc[v].f);
   free(inc);
+  free(end);
   if (oom) {
     free(dead);
     free(map);
