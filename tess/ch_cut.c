@@ -169,7 +169,7 @@ static void junction_point(const cut_context *cx, const ch_refine_node *nodes, c
     }
     ch_refine_lerp2(inner[km], inner[k], 0.5 * (lo + hi), q);
     const double *x = nodes[idx[pos[k]]].uv;
-    double d[2] = {q[0] - x[0], q[1] - x[1]}, len_d = hypot(d[0], d[1]);
+    double d[2] = {q[0] - x[0], q[1] - x[1]}, len_d = ch_dist2d(d[0], d[1]);
     if (!(len_d > 1e-15)) continue;
     double nx = -d[1] / len_d, ny = d[0] / len_d, dot = nx * x[0] + ny * x[1];
     A[0] += nx * nx;
@@ -635,7 +635,7 @@ static int edge_grid_build(thin_context *x, const ch_tess_result *tess, double f
     if (!(cx >= 0.0 && cx < 1.0 && cy >= 0.0 && cy < 1.0)) continue;
     double longest = 0.0;
     for (int k = 0; k < 3; k++)
-      longest = fmax(longest, hypot(q[(k + 1) % 3][0] - q[k][0], q[(k + 1) % 3][1] - q[k][1]));
+      longest = fmax(longest, ch_dist2d(q[(k + 1) % 3][0] - q[k][0], q[(k + 1) % 3][1] - q[k][1]));
     int cell = (int)(cy * EDGE_GRID) * EDGE_GRID + (int)(cx * EDGE_GRID);
     sum[2 * cell] += longest;
     sum[2 * cell + 1] += 1.0;
@@ -708,14 +708,14 @@ static int exact_normal(thin_context *x, int c, int k, int v, const double uv[2]
     double u, cp[2], *g = x->gradient[v];
     ch_bezier_closest(sg->p, sg->is_line, uv, &u);
     ch_bezier_eval(sg->p, u, cp);
-    double r = hypot(uv[0] - cp[0], uv[1] - cp[1]);
+    double r = ch_dist2d(uv[0] - cp[0], uv[1] - cp[1]);
     if (r > 1e-12) {
       g[0] = (d < 0.0 ? -1.0 : 1.0) * (uv[0] - cp[0]) / r;
       g[1] = (d < 0.0 ? -1.0 : 1.0) * (uv[1] - cp[1]) / r;
     } else { /* on the curve: its left normal */
       double tg[2];
       ch_bezier_tangent(sg->p, u, tg);
-      double l = hypot(tg[0], tg[1]);
+      double l = ch_dist2d(tg[0], tg[1]);
       g[0] = l > 0.0 ? -tg[1] / l : 0.0;
       g[1] = l > 0.0 ? tg[0] / l : 0.0;
     }

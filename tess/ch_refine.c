@@ -143,7 +143,7 @@ double ch_refine_edge_length(const ch_refine_mesh *w, const ch_refine_edge *e) {
   double a[2], b[2];
   ch_refine_edge_point(w, e, 0.0, a, NULL);
   ch_refine_edge_point(w, e, 1.0, b, NULL);
-  return hypot(b[0] - a[0], b[1] - a[1]);
+  return ch_dist2d(b[0] - a[0], b[1] - a[1]);
 }
 
 /* Signed distance from uv to step curve c over c's segments in the step
@@ -409,7 +409,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
     e->cross = NULL;
     return 0;
   }
-  double len = hypot(pb[0] - pa[0], pb[1] - pa[1]);
+  double len = ch_dist2d(pb[0] - pa[0], pb[1] - pa[1]);
   int n = (int)ceil(len / delta);
   /* At least the midpoint: short edges cross lines one after the other,
    * which the ends' labels show; a midpoint catches most slivers a
@@ -821,7 +821,7 @@ static int coarse_at_cap(const ch_label_ctx *lb, const double c[2], double longe
         double half = 0.5 * lb->set->curves[sg->curve].width;
         const double *q = sg->p[end == 0 ? 0 : 2];
         if (longest > lb->cap_angle * ch_label_local_factor(lb, q) * half &&
-            hypot(c[0] - q[0], c[1] - q[1]) <= half + longest &&
+            ch_dist2d(c[0] - q[0], c[1] - q[1]) <= half + longest &&
             ch_grid_cell_holds(&lb->groove_grid, ch_groove_field_boxes(&lb->height->grooves) + 4 * (size_t)s, c[0], c[1]))
           return 1;
       }
@@ -870,7 +870,7 @@ int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int
   if (ch_label_quiet(lb, T->uv[0]) && ch_label_quiet(lb, T->uv[1]) && ch_label_quiet(lb, T->uv[2])) return 0;
   double longest = 0.0;
   for (int k = 0; k < 3; k++)
-    longest = fmax(longest, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+    longest = fmax(longest, ch_dist2d(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
   const double centre[2] = {(T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0,
                             (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0};
   /* (the extra rounds of a warped mesh, only_uncut: what cannot be cut yet, nothing else) */

@@ -11,6 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_math.h"
+
 enum { MAX_RING = 48, PASSES = 3 };
 
 typedef struct thin {
@@ -114,7 +116,7 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
     int x = r->nxt[i];
     if (x == w || x == y1 || x == y2) continue;
     const double *ux = vertex_uv_in(th, r->tri[i], x), mid[2] = {0.5 * (ux[0] + uw[0]), 0.5 * (ux[1] + uw[1])};
-    if (hypot(ux[0] - uw[0], ux[1] - uw[1]) > th->rules->max_edge(th->rules->ctx, mid)) return 0;
+    if (ch_dist2d(ux[0] - uw[0], ux[1] - uw[1]) > th->rules->max_edge(th->rules->ctx, mid)) return 0;
   }
   int g = mark_neighbours(th, w, in);
   if (!g) return -1;
@@ -125,7 +127,7 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
     if (x != y1 && x != y2 && th->stamp[x] == g) return 0;
     const double *ux = vertex_uv_in(th, t, x), *uy = vertex_uv_in(th, t, y);
     double before = cross2(uv_v, ux, uy), after = cross2(uw, ux, uy);
-    double lx = hypot(ux[0] - uw[0], ux[1] - uw[1]), ly = hypot(uy[0] - uw[0], uy[1] - uw[1]);
+    double lx = ch_dist2d(ux[0] - uw[0], ux[1] - uw[1]), ly = ch_dist2d(uy[0] - uw[0], uy[1] - uw[1]);
     /* keeps its orientation, and is not a needle of no angle */
     if (!(after * before > 0.0) || fabs(after) <= 1e-9 * lx * ly) return 0;
     if (th->key[w] >= 0 && th->key[w] == th->key[x] && th->key[x] == th->key[y]) return 0;
@@ -223,7 +225,7 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
     double d[MAX_RING];
     for (int i = 0; i < r.n; i++) {
       const double *ux = vertex_uv_in(th, r.tri[i], r.nxt[i]);
-      double di = hypot(ux[0] - u[0], ux[1] - u[1]);
+      double di = ch_dist2d(ux[0] - u[0], ux[1] - u[1]);
       int j = nc++;
       while (j > 0 && d[j - 1] > di) {
         d[j] = d[j - 1];
@@ -326,7 +328,7 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
     if (th.family[t] >= 0)
       for (int k = 0; k < 3; k++, edges++) {
         const double *a = &uv[6 * (size_t)t + 2 * k], *b = &uv[6 * (size_t)t + 2 * ((k + 1) % 3)];
-        sum += hypot(b[0] - a[0], b[1] - a[1]);
+        sum += ch_dist2d(b[0] - a[0], b[1] - a[1]);
       }
   int tiles = (int)fmin(64.0, fmax(2.0, floor(edges > 0 ? 0.125 * edges / sum : 2.0))); /* 8 mean edges */
   int ntiles = tiles * tiles;
