@@ -172,18 +172,22 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
           double ed = 0.0, tn[3] = {0, 0, 1};
           int ec = -1, es = out ? 0 : exact_side(su->set, &ix, q, &ed, &ec);
           int groove = ec >= 0 && su->set->curves[ec].kind == CH_CURVE_GROOVE;
-          ngc += !out && groove;
-          if (!out) ch_truth_normal(su->truth, q, tn);
-          int side_counts = !out && ed > 1e-9; /* points on a curve have no side */
+          /* Points on a curve have no side, and on a crease or wall no
+           * normal (the two sides' differ; a crop centred on a 45 degree
+           * line puts a whole diagonal of pixel centres on it): both
+           * figures leave them out. */
+          int side_counts = !out && ed > 1e-9;
           counted += side_counts;
+          ngc += side_counts && groove;
+          if (side_counts) ch_truth_normal(su->truth, q, tn);
           for (int m = 0; m < NM; m++) {
-            if (out) {
+            if (!side_counts) {
               nerr[m][at] = -1.0f;
               continue;
             }
             ch_featmap_sample s;
             eval_method(&mm, m, q[0], q[1], &s);
-            if (side_counts && s.side != es) w[m]++;
+            if (s.side != es) w[m]++;
             double dot = s.normal[0] * tn[0] + s.normal[1] * tn[1] + s.normal[2] * tn[2];
             double a = acos(dot > 1.0 ? 1.0 : dot < -1.0 ? -1.0 : dot) * 180.0 / CH_PI;
             nerr[m][at] = (float)a;
@@ -195,7 +199,7 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
       for (int m = 0; m < NM; m++) wrong[m] += w[m], nsum[m] += ns[m], ngs[m] += gs[m];
     }
     for (int m = 0; m < NM; m++) {
-      /* out-of-square pixels were marked -1: sort and skip them */
+      /* pixels out of the square or on a curve were marked -1: sort and skip them */
       qsort(nerr[m], total, sizeof(float), cmp_float);
       size_t first = 0;
       while (first < total && nerr[m][first] < 0.0f) first++;
