@@ -77,12 +77,14 @@ void ch_refine_free_edges(ch_refine_edge *edges, int n) {
  * then updates them in place (ch_refine_split). */
 ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
   size_t n = 3 * (size_t)w->ntris;
-  int *start = calloc((size_t)w->nverts + 1, sizeof *start);
+  int nv = w->nverts;
+  int *start = calloc((size_t)nv + 1, sizeof *start), *fill = malloc(((size_t)nv + 1) * sizeof *fill);
   int(*entry)[2] = malloc(n * sizeof *entry); /* other vertex, corner */
   w->edges = malloc(n * sizeof *w->edges);
   w->tri_edge = malloc(n * sizeof *w->tri_edge);
-  if (!start || !entry || !w->edges || !w->tri_edge) {
+  if (!start || !fill || !entry || !w->edges || !w->tri_edge) {
     free(start);
+    free(fill);
     free(entry);
     free(w->edges);
     free(w->tri_edge);
@@ -90,35 +92,59 @@ ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
     w->tri_edge = NULL;
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %zu mesh edges", n);
   }
+  /* Corners by their edge's lower vertex (a counting sort, in parallel:
+   * each bucket is then sorted by (other vertex, corner), so the order
+   * the slots were taken in does not matter), then per vertex its edges
+   * counted, numbered by a prefix sum and filled: the same edges, in the
+   * same order, as one serial pass in corner order (a 20M-triangle run
+   * spent seconds here on one core). */
+#pragma omp parallel for schedule(static)
   for (size_t c = 0; c < n; c++) {
     int a = w->tris[c / 3].v[c % 3], b = w->tris[c / 3].v[(c % 3 + 1) % 3];
+#pragma omp atomic
     start[(a < b ? a : b) + 1]++;
   }
-  for (int v = 0; v < w->nverts; v++) start[v + 1] += start[v];
-  for (size_t c = 0; c < n; c++) { /* corners in order: runs stay in corner order */
+  for (int v = 0; v < nv; v++) start[v + 1] += start[v];
+  memcpy(fill, start, ((size_t)nv + 1) * sizeof *fill);
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < n; c++) {
     int a = w->tris[c / 3].v[c % 3], b = w->tris[c / 3].v[(c % 3 + 1) % 3];
-    int lo = a < b ? a : b, hi = a < b ? b : a;
-    int *slot = entry[start[lo]++];
-    slot[0] = hi;
-    slot[1] = (int)c;
+    int lo = a < b ? a : b, hi = a < b ? b : a, at;
+#pragma omp atomic capture
+    at = fill[lo]++;
+    entry[at][0] = hi;
+    entry[at][1] = (int)c;
   }
-  for (int v = w->nverts; v > 0; v--) start[v] = start[v - 1];
-  start[0] = 0;
-  int ne = 0;
-  for (int a = 0; a < w->nverts; a++) {
-    int s0 = start[a], s1 = start[a + 1];
-    for (int p = s0 + 1; p < s1; p++) /* by other vertex, stable */
-      for (int q = p; q > s0 && entry[q - 1][0] > entry[q][0]; q--) {
+  /* fill[a]: a's edges (after sorting its bucket), then their first index */
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int a = 0; a < nv; a++) {
+    int s0 = start[a], s1 = start[a + 1], count = 0;
+    for (int p = s0 + 1; p < s1; p++) /* by (other vertex, corner) */
+      for (int q = p; q > s0 && (entry[q - 1][0] > entry[q][0] ||
+                                 (entry[q - 1][0] == entry[q][0] && entry[q - 1][1] > entry[q][1]));
+           q--) {
         int t0 = entry[q][0], t1 = entry[q][1];
         entry[q][0] = entry[q - 1][0];
         entry[q][1] = entry[q - 1][1];
         entry[q - 1][0] = t0;
         entry[q - 1][1] = t1;
       }
-    for (int i = s0; i < s1;) {
+    for (int i = s0; i < s1; i++) count += i == s0 || entry[i][0] != entry[i - 1][0];
+    fill[a] = count;
+  }
+  int ne = 0;
+  for (int a = 0; a < nv; a++) {
+    int c = fill[a];
+    fill[a] = ne;
+    ne += c;
+  }
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int a = 0; a < nv; a++) {
+    int s1 = start[a + 1], k = fill[a];
+    for (int i = start[a]; i < s1;) {
       int j = i + 1;
       while (j < s1 && entry[j][0] == entry[i][0]) j++;
-      ch_refine_edge *e = &w->edges[ne];
+      ch_refine_edge *e = &w->edges[k];
       memset(e, 0, sizeof *e);
       e->a = a;
       e->b = entry[i][0];
@@ -126,8 +152,8 @@ ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
       e->k = entry[i][1] % 3;
       e->mid = -1;
       e->ncross = -1; /* not computed */
-      for (int p = i; p < j; p++) w->tri_edge[entry[p][1]] = ne;
-      ne++;
+      for (int p = i; p < j; p++) w->tri_edge[entry[p][1]] = k;
+      k++;
       i = j;
     }
   }
@@ -135,6 +161,7 @@ ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
   w->cap_edges = (int)n;
   w->cap_tri_edge = (int)n;
   free(start);
+  free(fill);
   free(entry);
   return CH_OK;
 }
