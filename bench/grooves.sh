@@ -13,6 +13,8 @@
 # the targets per set (grooves' class mismatch at most 2x the snapped
 # mesh's and 10x below relief mapping's at the next memory up, README).
 # usage: bench/grooves.sh [BUILD_DIR] [OUT_DIR] [SET ...]
+# CHISEL_REUSE_STUDY=1 keeps a set's study already in OUT_DIR and only
+# tabulates it again.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 . "$here/bench/study_scene.sh"
@@ -42,9 +44,13 @@ for set in "${sets[@]}"; do
     done
   done
   study_scene "$svg" "$plane" "$grooves$relief" >"$dir/scene.json"
-  rm -rf "$dir/study"
-  echo "grooves.sh: $set" >&2
-  "$chisel" study "$dir/scene.json" -o "$dir/study" >"$dir/study.txt"
+  if [ -n "${CHISEL_REUSE_STUDY:-}" ] && [ -s "$dir/study/summary.csv" ]; then
+    echo "grooves.sh: $set (the study already there)" >&2
+  else
+    rm -rf "$dir/study"
+    echo "grooves.sh: $set" >&2
+    "$chisel" study "$dir/scene.json" -o "$dir/study" >"$dir/study.txt"
+  fi
   # Per view and method: class mismatch without the pixels no per-pixel
   # method on the base can see (rays passing the base's outline).
   for f in "$dir"/study/*.exr; do
@@ -61,7 +67,7 @@ for set in "${sets[@]}"; do
     FNR == 1 { file++ }
     file == 1 && /^texture method / { sub(":", "", $3); bytes[$3] = $(NF - 1) }
     file == 1 && NF == 12 && $1 != "view" { rate[$2] += $12; nr[$2]++ }
-    file == 2 { inside[$2] += $5; nin[$2]++; if ($1 ~ /^graze/) { ginside[$2] += $5; ngin[$2]++ } }
+    file == 2 { inside[$2] += $5; ishadow[$2] += $7; nin[$2]++; if ($1 ~ /^graze/) { ginside[$2] += $5; gishadow[$2] += $7; ngin[$2]++ } }
     file == 3 && FNR > 1 {
       split($0, f, ",");
       m = f[2]; if (!(m in n)) order[++nm] = m;
@@ -71,18 +77,19 @@ for set in "${sets[@]}"; do
     END {
       for (i = 1; i <= nm; i++) {
         m = order[i];
-        printf "%-13s %-12s %10s %8.4f %8.4f %8.3f %8.4f %9.2e %7.2f %8.5f | %8.4f %8.4f %8.3f %8.4f | %6.2f\n", set, m,
+        printf "%-13s %-12s %10s %8.4f %8.4f %8.3f %8.4f %9.2e %7.2f %8.5f | %8.4f %8.4f %8.3f %8.4f | %6.2f | %8.4f %8.4f\n", set, m,
                (m in bytes) ? bytes[m] : "-", cls[m] / n[m], nin[m] ? inside[m] / nin[m] : 0, grv[m] / n[m], sh[m] / n[m],
                dep[m] / n[m], p95[m] / n[m], ssim[m] / n[m], gcls[m] / ng[m], ngin[m] ? ginside[m] / ngin[m] : 0,
-               ggrv[m] / ng[m], gsh[m] / ng[m], nr[m] ? rate[m] / nr[m] : 0
+               ggrv[m] / ng[m], gsh[m] / ng[m], nr[m] ? rate[m] / nr[m] : 0, nin[m] ? ishadow[m] / nin[m] : 0,
+               ngin[m] ? gishadow[m] / ngin[m] : 0
       }
     }' "$dir/study.txt" "$dir/silhouette.txt" "$dir/study/summary.csv"
 done >"$out/table.txt"
 {
-  printf '%-13s %-12s %10s %8s %8s %8s %8s %9s %7s %8s | %8s %8s %8s %8s | %6s\n' set method bytes class% inside% \
-    groove% shadow% depth n_p95 ssim class% inside% groove% shadow% Mrays/s
-  printf '%-13s %-12s %10s %8s %8s %8s %8s %9s %7s %8s | %8s %8s %8s %8s | %6s\n' "" "" "" "(all" "" views ")" "" "" "" \
-    "(grazing" "" views ")" ""
+  printf '%-13s %-12s %10s %8s %8s %8s %8s %9s %7s %8s | %8s %8s %8s %8s | %6s | %8s %8s\n' set method bytes class% inside% \
+    groove% shadow% depth n_p95 ssim class% inside% groove% shadow% Mrays/s shadow% shadow%
+  printf '%-13s %-12s %10s %8s %8s %8s %8s %9s %7s %8s | %8s %8s %8s %8s | %6s | %8s %8s\n' "" "" "" "(all" "" views ")" "" "" "" \
+    "(grazing" "" views ")" "" "(inside:" "grazing)"
   cat "$out/table.txt"
 } | tee "$out/table_with_header.txt"
 # Targets: grooves' class mismatch at most 2x the snapped mesh's and 10x
@@ -92,7 +99,7 @@ echo
 echo "targets (grooves G vs snapped131k, and vs relief at the smallest R with at least G's bytes):"
 awk '
   { m = $2; set = $1; key = set SUBSEP m; b[key] = $3; c[key] = $4; in_[key] = $5; s[key] = $7; gc[key] = $12
-    gin[key] = $13; gs[key] = $15; r[key] = $17; sets[set] = 1 }
+    gin[key] = $13; gs[key] = $15; r[key] = $17; insh[key] = $19; sets[set] = 1 }
   function verdict(x) { return x ? "met" : "NOT met" }
   END {
     for (set in sets)
@@ -101,10 +108,11 @@ awk '
         rel = ""; for (R = 512; R <= 4096; R *= 2) { k = set SUBSEP "relief" R; if (rel == "" && (k in b) && b[k] + 0 >= b[g] + 0) rel = k }
         if (rel == "") rel = set SUBSEP "relief4096";
         split(rel, rr, SUBSEP);
-        printf "%-12s G=%-3d class %.4f%% (inside the base %.4f%%) vs snapped %.4f%%: %s (inside: %s); vs %s %.4f%%: %s; grazing %.4f%% (inside %.4f%%) vs %.4f%% / %.4f%%: %s (inside: %s), %s; shadow %.4f%% vs %.4f%% / %.4f%%: %s, %s; rate %.2fx the mesh\n",
+        printf "%-12s G=%-3d class %.4f%% (inside the base %.4f%%) vs snapped %.4f%%: %s (inside: %s); vs %s %.4f%%: %s; grazing %.4f%% (inside %.4f%%) vs %.4f%% / %.4f%%: %s (inside: %s), %s; shadow %.4f%% (inside %.4f%%) vs %.4f%% / %.4f%%: %s (inside: %s), %s; rate %.2fx the mesh\n",
                rr[1], G, c[g], in_[g], c[sn], verdict(c[g] <= 2 * c[sn] + 1e-9), verdict(in_[g] <= 2 * in_[sn] + 1e-9), rr[2], c[rel],
                verdict(10 * c[g] <= c[rel]), gc[g], gin[g], gc[sn], gc[rel], verdict(gc[g] <= 2 * gc[sn] + 1e-9),
                verdict(gin[g] <= 2 * gin[sn] + 1e-9), verdict(10 * gc[g] <= gc[rel]),
-               s[g], s[sn], s[rel], verdict(s[g] <= 2 * s[sn] + 1e-9), verdict(10 * s[g] <= s[rel]), (r[sn] > 0 ? r[g] / r[sn] : 0)
+               s[g], insh[g], s[sn], s[rel], verdict(s[g] <= 2 * s[sn] + 1e-9), verdict(insh[g] <= 2 * insh[sn] + 1e-9),
+               verdict(10 * s[g] <= s[rel]), (r[sn] > 0 ? r[g] / r[sn] : 0)
       }
   }' "$out/table.txt" | sort

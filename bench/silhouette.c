@@ -1,10 +1,13 @@
 /* chisel-silhouette TRUTH.exr METHOD.exr: for two study renders of one view
- * (V.truth.exr, V.M.exr), the pixels the truth sees and the method does not
- * (coverage 0: rays that pass the base mesh's outline, such as those under
- * the plane's edge into a groove left open at the square's border, which no
- * per-pixel method on the base sees), and the class mismatch without them
- * (all pixels, the truth's groove pixels), as ch_metrics counts it. One
- * line: pixels silhouette_misses class_pct groove_pct. */
+ * (V.truth.exr, V.M.exr), the pixels where the truth sees more than the
+ * method (a larger coverage: samples whose rays pass the base mesh's
+ * outline, such as those under the plane's edge into a groove left open
+ * at the square's border, which no per-pixel method on the base sees; a
+ * pixel on the border has some of its samples there), and the class and
+ * shadow mismatch without them (all pixels, the truth's groove pixels; the
+ * shadow over the pixels both hit), as ch_metrics counts them. One line:
+ * pixels silhouette_misses class_pct groove_pct shadow_pct. */
+#include <math.h>
 #include <stdio.h>
 
 #include "ch_exr.h"
@@ -36,15 +39,20 @@ int main(int argc, char **argv) {
   }
   const float *ca = plane(&a, CH_RENDER_CLASS), *cb = plane(&b, CH_RENDER_CLASS);
   const float *va = plane(&a, CH_RENDER_COVERAGE), *vb = plane(&b, CH_RENDER_COVERAGE);
-  if (!ca || !cb || !va || !vb || a.width != b.width || a.height != b.height) {
+  const float *sa = plane(&a, CH_RENDER_SHADOW), *sb = plane(&b, CH_RENDER_SHADOW);
+  if (!ca || !cb || !va || !vb || !sa || !sb || a.width != b.width || a.height != b.height) {
     fprintf(stderr, "chisel-silhouette: not two study renders of one view\n");
     return 2;
   }
-  long n = (long)a.width * a.height, miss = 0, kept = 0, bad = 0, groove = 0, groove_bad = 0;
+  long n = (long)a.width * a.height, miss = 0, kept = 0, bad = 0, groove = 0, groove_bad = 0, both = 0, shadow_bad = 0;
   for (long p = 0; p < n; p++) {
-    if (va[p] > 0.0f && vb[p] == 0.0f) {
+    if (va[p] > vb[p]) {
       miss++;
       continue;
+    }
+    if (va[p] > 0.0f && vb[p] > 0.0f) {
+      both++;
+      shadow_bad += fabs((double)sa[p] - sb[p]) > 0.5;
     }
     kept++;
     int ta = (int)ca[p], tb = (int)cb[p];
@@ -53,7 +61,8 @@ int main(int argc, char **argv) {
     groove += g;
     groove_bad += g && ta != tb;
   }
-  printf("%ld %ld %.6f %.6f\n", n, miss, kept ? 100.0 * bad / kept : 0.0, groove ? 100.0 * groove_bad / groove : 0.0);
+  printf("%ld %ld %.6f %.6f %.6f\n", n, miss, kept ? 100.0 * bad / kept : 0.0, groove ? 100.0 * groove_bad / groove : 0.0,
+         both ? 100.0 * shadow_bad / both : 0.0);
   ch_image_free(&a);
   ch_image_free(&b);
   return 0;
