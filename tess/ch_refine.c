@@ -597,15 +597,23 @@ ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *er
   int n0 = w->ntris, e0 = w->nedges;
   int *first = malloc(((size_t)n0 + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
   if (!first) return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  /* Children beyond the first (inner edges alike) per parent, then their
+   * offsets: the masks in parallel (a serial scan of every triangle each
+   * round took seconds at 20M triangles), the prefix sum after. */
+#pragma omp parallel for schedule(static)
+  for (int t = 0; t < n0; t++) {
+    int mask = split_mask(w, t);
+    first[t] = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+  }
   long added = 0;
   for (int t = 0; t < n0; t++) {
+    int c = first[t];
     first[t] = (int)added;
-    int mask = split_mask(w, t);
-    added += (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1); /* children beyond the first; inner edges alike */
-    if (n0 + added >= INT32_MAX / 3 || e0 + added >= INT32_MAX / 3) {
-      free(first);
-      return ch_error_set(err, CH_ERR_NOMEM, "refinement would make too many triangles");
-    }
+    added += c;
+  }
+  if (n0 + added >= INT32_MAX / 3 || e0 + added >= INT32_MAX / 3) {
+    free(first);
+    return ch_error_set(err, CH_ERR_NOMEM, "refinement would make too many triangles");
   }
   int n = n0 + (int)added, cap_edge_index = w->cap_tri_edge;
   unsigned char *fr = realloc(*fresh, (size_t)(n > 0 ? n : 1));
@@ -718,6 +726,7 @@ ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *er
     }
   }
   /* The split edges are gone from the mesh. */
+#pragma omp parallel for schedule(static)
   for (int i = 0; i < e0; i++) {
     ch_refine_edge *e = &w->edges[i];
     if (e->mid < 0 || !e->cross) continue;
