@@ -80,8 +80,9 @@ ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
   int nv = w->nverts;
   int *start = calloc((size_t)nv + 1, sizeof *start), *fill = malloc(((size_t)nv + 1) * sizeof *fill);
   int(*entry)[2] = malloc(n * sizeof *entry); /* other vertex, corner */
+  size_t cap_index = n > 3 * (size_t)w->cap_tris ? n : 3 * (size_t)w->cap_tris; /* the triangles' room too */
   w->edges = malloc(n * sizeof *w->edges);
-  w->tri_edge = malloc(n * sizeof *w->tri_edge);
+  w->tri_edge = malloc(cap_index * sizeof *w->tri_edge);
   if (!start || !fill || !entry || !w->edges || !w->tri_edge) {
     free(start);
     free(fill);
@@ -159,7 +160,7 @@ ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
   }
   w->nedges = ne;
   w->cap_edges = (int)n;
-  w->cap_tri_edge = (int)n;
+  w->cap_tri_edge = (int)cap_index;
   free(start);
   free(fill);
   free(entry);
