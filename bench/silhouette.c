@@ -61,8 +61,8 @@ int main(int argc, char **argv) {
     groove += g;
     groove_bad += g && ta != tb;
   }
-  printf("%ld %ld %.6f %.6f %.6f\n", n, miss, kept ? 100.0 * bad / kept : 0.0, groove ? 100.0 * groove_bad / groove : 0.0,
-         both ? 100.0 * shadow_bad / both : 0.0);
+  printf("%ld %ld %.6f %.6f %.6f\n", n, miss, kept ? 100.0 * bad / kept : 0.0,
+         groove ? 100.0 * groove_bad / groove : 0.0, both ? 100.0 * shadow_bad / both : 0.0);
   ch_image_free(&a);
   ch_image_free(&b);
   return 0;

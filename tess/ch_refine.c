@@ -859,7 +859,8 @@ static int coarse_at_cap(const ch_label_ctx *lb, const double c[2], double longe
         const double *q = sg->p[end == 0 ? 0 : 2];
         if (longest > lb->cap_angle * ch_label_local_factor(lb, q) * half &&
             ch_dist2d(c[0] - q[0], c[1] - q[1]) <= half + longest &&
-            ch_grid_cell_holds(&lb->groove_grid, ch_groove_field_boxes(&lb->height->grooves) + 4 * (size_t)s, c[0], c[1]))
+            ch_grid_cell_holds(&lb->groove_grid, ch_groove_field_boxes(&lb->height->grooves) + 4 * (size_t)s, c[0],
+                               c[1]))
           return 1;
       }
   return 0;
