@@ -21,11 +21,12 @@ int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q
     /* The side is the sign of B'(t) x d: B' need not be unit (nor a sqrt
      * spent on it) unless it vanishes, where ch_bezier_tangent picks the
      * direction (a point of a degenerate quadratic). */
-    double a[2] = {s->p[1][0] - s->p[0][0], s->p[1][1] - s->p[0][1]};
-    double b[2] = {s->p[2][0] - 2.0 * s->p[1][0] + s->p[0][0], s->p[2][1] - 2.0 * s->p[1][1] + s->p[0][1]};
-    double chord[2] = {s->p[2][0] - s->p[0][0], s->p[2][1] - s->p[0][1]}, v[2] = {a[0] + t * b[0], a[1] + t * b[1]};
-    if (ch_dot2(v, v) > 1e-24 * (ch_dot2(a, a) + ch_dot2(b, b) + ch_dot2(chord, chord)))
-      return ch_cross2(v, d) >= 0.0 ? 1 : -1;
+    const double(*p)[2] = s->p;
+    double ax = p[1][0] - p[0][0], ay = p[1][1] - p[0][1];
+    double bx = p[2][0] - 2.0 * p[1][0] + p[0][0], by = p[2][1] - 2.0 * p[1][1] + p[0][1];
+    double cx = p[2][0] - p[0][0], cy = p[2][1] - p[0][1], vx = ax + t * bx, vy = ay + t * by;
+    if (vx * vx + vy * vy > 1e-24 * ((ax * ax + ay * ay) + (bx * bx + by * by) + (cx * cx + cy * cy)))
+      return vx * d[1] - vy * d[0] >= 0.0 ? 1 : -1;
     ch_bezier_tangent(s->p, t, here);
     return ch_cross2(here, d) >= 0.0 ? 1 : -1;
   }
