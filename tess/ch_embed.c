@@ -356,7 +356,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       refine[t] = (unsigned char)((!fresh || fresh[t]) && ch_refine_needed(&lb, &w, t, round >= 8, round));
     double te = omp_get_wtime();
     stats.seconds_classify += te - td;
-    int split = 0;
+    int split = 0, first_new = w.nverts;
     for (int t = 0; t < w.ntris; t++)
       for (int k = 0; k < 3 && refine[t]; k++) {
         int i = w.tri_edge[3 * (size_t)t + k];
@@ -368,6 +368,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         split++;
       }
     free(refine);
+    ch_refine_locate_new(&w, first_new);
     if (!split) break;
     if ((double)w.ntris + 2.0 * split > cap) {
       st = over_cap(err, pilot, cap, "refinement round", round + 1, tm->num_faces);

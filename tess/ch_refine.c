@@ -544,8 +544,7 @@ int ch_refine_add_midpoint(ch_refine_mesh *w, int i) {
     return -1;
   ch_refine_edge *e = &w->edges[i];
   ch_refine_vert *v = &w->verts[w->nverts];
-  ch_refine_edge_point(w, e, 0.5, v->uv, v->st);
-  ch_refine_locate_st(w->surface, w->tris[e->tri].face, v->uv, v->st);
+  ch_refine_edge_point(w, e, 0.5, v->uv, v->st); /* (s,t) interpolated: ch_refine_locate_new */
   v->face = w->tris[e->tri].face;
   v->label = 0;
   e->mid = w->nverts++;
@@ -560,6 +559,11 @@ int ch_refine_add_midpoint(ch_refine_mesh *w, int i) {
     e->half[j] = w->nedges++;
   }
   return 0;
+}
+
+void ch_refine_locate_new(ch_refine_mesh *w, int from) {
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int v = from; v < w->nverts; v++) ch_refine_locate_st(w->surface, w->verts[v].face, w->verts[v].uv, w->verts[v].st);
 }
 
 /* A corner of a child triangle: a corner of its parent (tag 0-2) or the

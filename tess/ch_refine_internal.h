@@ -125,8 +125,14 @@ double ch_refine_edge_length(const ch_refine_mesh *w, const ch_refine_edge *e);
 
 /* New vertex at the midpoint of edge i (in its canonical triangle's
  * chart), and the edge's two halves: half[0] from a to it, half[1] from b
- * (their canonical triangles are set when the triangles split). */
+ * (their canonical triangles are set when the triangles split). Its (s,t)
+ * is interpolated along the edge until ch_refine_locate_new finds it. */
 int ch_refine_add_midpoint(ch_refine_mesh *w, int i); /* -1: out of memory */
+
+/* The exact (s,t) of vertices from..nverts-1 in their faces
+ * (ch_refine_locate_st), in parallel: numbering the midpoints is serial,
+ * finding them on the surface need not be. */
+void ch_refine_locate_new(ch_refine_mesh *w, int from);
 
 /* Splits every triangle with midpoints on its edges (red: 4 children,
  * green: 2 or 3), in parallel: the first child takes the parent's slot,
