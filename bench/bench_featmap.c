@@ -6,7 +6,9 @@
  *   around the point), for featnorm with and without the fallback,
  *   featnorm-linear, msdf at the same R and at equal bytes, and bilinear
  *   (the signed distance's sign; the conventional normal map), R = 64 to
- *   1024, on every bundled set and every torture class;
+ *   1024, on every bundled set and every torture class (pixels exactly
+ *   on a curve, where there is no side and on a crease no normal, are
+ *   left out of both);
  * - bytes per texel; build time at 1024^2 and 4096^2; evaluation speed in
  *   Msamples/s on all threads.
  * usage: bench_featmap [MODELS_DIR] [--res 64,128,...] [--crops N] [--sets a,b]
