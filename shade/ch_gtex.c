@@ -172,16 +172,24 @@ typedef struct groove {
   int priority, curve;
   int ellipse;          /* the u profile: -sqrt(1 - 4 t^2) */
   int n;                /* polyline points */
-  double t[CH_GTEX_MAX_PROFILE_POINTS], h[CH_GTEX_MAX_PROFILE_POINTS];
+  const float *pts;     /* their (t, P): read from the data texture where
+                           used, as a shader would (a copy per groove was
+                           most of what loading a cell cost) */
   int nb;               /* break values of t: points, 0 and +-1/2 */
-  double brk[CH_GTEX_MAX_PROFILE_POINTS + 3];
-  unsigned char jump[CH_GTEX_MAX_PROFILE_POINTS + 3]; /* P jumps there */
+  const float *brk;     /* (in the texture too) */
+  int mask;             /* bit k: P jumps at break k */
   int raises, carves;   /* d P takes positive, negative values */
   double lowest;        /* the least value of d P (0 included) */
   int asym;             /* P(t) != P(-t): the side matters */
   int monotone;         /* carved, symmetric, P <= 0 and not falling as |t|
                            grows: d P(s / w) grows with |s| (v, u, box) */
 } groove;
+
+/* A cross-section's point i (t, P), break k and whether P jumps there. */
+#define PT(G, i) ((double)(G)->pts[2 * (i)])
+#define PH(G, i) ((double)(G)->pts[2 * (i) + 1])
+#define BRK(G, k) ((double)(G)->brk[k])
+#define JUMP(G, k) (((G)->mask >> (k)) & 1)
 
 static double prof_eval(const groove *G, double t);
 
@@ -195,15 +203,17 @@ static void load_groove(const ch_gtex *g, int k, groove *G) {
   /* The cross-section's block (written by profile_block). */
   const float *ph = texel(g, prof), *pts = ph + 8; /* two points a texel */
   G->ellipse = (int)ph[0] == PROFILE_ELLIPSE;
-  int n = G->n = (int)ph[1], nb = G->nb = (int)ph[2];
+  int n = G->n = (int)ph[1];
+  G->nb = (int)ph[2];
   const float *brk = pts + 4 * ((n + 1) / 2);
   /* Derived at build time (groove_derive), kept in the groove's texel. */
   int flags = (int)b[2], mask = (int)b[3];
   G->asym = (flags & 1) != 0;
   G->raises = (flags & 2) != 0;
   G->carves = (flags & 4) != 0;
-  for (int i = 0; i < n; i++) G->t[i] = pts[2 * i], G->h[i] = pts[2 * i + 1];
-  for (int k = 0; k < nb; k++) G->brk[k] = brk[k], G->jump[k] = (mask >> k) & 1;
+  G->pts = pts;
+  G->brk = brk;
+  G->mask = mask;
   double pmin = ph[4], pmax = ph[5];
   G->lowest = G->d > 0.0 ? G->d * pmin : G->d * pmax;
   G->monotone = (int)ph[3] && !G->asym && G->d > 0.0;
@@ -249,11 +259,11 @@ static void groove_derive(groove *G, int *flags, int *mask) {
   int asym = 0;
   *mask = 0;
   for (int k = 0; k < G->nb; k++) {
-    double b = G->brk[k], e = 1e-9;
+    double b = BRK(G, k), e = 1e-9;
     if (fabs(prof_eval(G, b - e) - prof_eval(G, b + e)) > 1e-6) *mask |= 1 << k;
     asym |= fabs(prof_eval(G, b) - prof_eval(G, -b)) > 1e-12 || fabs(prof_eval(G, b + e) - prof_eval(G, -b - e)) > 1e-9;
   }
-  for (int i = 0; i < G->n; i++) pmin = G->h[i] < pmin ? G->h[i] : pmin, pmax = G->h[i] > pmax ? G->h[i] : pmax;
+  for (int i = 0; i < G->n; i++) pmin = PH(G, i) < pmin ? PH(G, i) : pmin, pmax = PH(G, i) > pmax ? PH(G, i) : pmax;
   if (G->ellipse) pmin = -1.0;
   int raises = G->d > 0.0 ? pmax > 0.0 : pmin < 0.0, carves = G->d > 0.0 ? pmin < 0.0 : pmax > 0.0;
   *flags = asym | raises << 1 | carves << 2;
@@ -265,14 +275,14 @@ static void groove_derive(groove *G, int *flags, int *mask) {
 static double prof_eval(const groove *G, double t) {
   if (G->ellipse) return fabs(t) < 0.5 ? -sqrt(1.0 - 4.0 * t * t) : 0.0;
   int n = G->n;
-  if (n < 1 || t <= G->t[0] || t >= G->t[n - 1]) return 0.0;
+  if (n < 1 || t <= PT(G, 0) || t >= PT(G, n - 1)) return 0.0;
   int exact = 0;
   double best = 0.0;
   for (int i = 0; i < n; i++)
-    if (G->t[i] == t && (!exact || fabs(G->h[i]) < fabs(best))) best = G->h[i], exact = 1;
+    if (PT(G, i) == t && (!exact || fabs(PH(G, i)) < fabs(best))) best = PH(G, i), exact = 1;
   if (exact) return best;
   for (int i = 0; i + 1 < n; i++)
-    if (t > G->t[i] && t < G->t[i + 1]) return G->h[i] + (t - G->t[i]) / (G->t[i + 1] - G->t[i]) * (G->h[i + 1] - G->h[i]);
+    if (t > PT(G, i) && t < PT(G, i + 1)) return PH(G, i) + (t - PT(G, i)) / (PT(G, i + 1) - PT(G, i)) * (PH(G, i + 1) - PH(G, i));
   return 0.0;
 }
 
@@ -280,7 +290,7 @@ static double prof_eval(const groove *G, double t) {
 static double prof_slope(const groove *G, double t) {
   if (G->ellipse) return fabs(t) < 0.5 ? 4.0 * t / sqrt(1.0 - 4.0 * t * t) : 0.0;
   for (int i = 0; i + 1 < G->n; i++)
-    if (t >= G->t[i] && t < G->t[i + 1]) return (G->h[i + 1] - G->h[i]) / (G->t[i + 1] - G->t[i]);
+    if (t >= PT(G, i) && t < PT(G, i + 1)) return (PH(G, i + 1) - PH(G, i)) / (PT(G, i + 1) - PT(G, i));
   return 0.0;
 }
 
@@ -735,8 +745,8 @@ static void events_line(events *E, const ray *R, const elem *el, const groove *G
 #define LINE_KEEP(t) (a0 + a1 * (t) >= -eps && a0 + a1 * (t) <= L + eps && fabs(s0 + s1 * (t)) <= 0.5 * w + eps)
   E->wall_now = 1;
   for (int k = 0; k < G->nb; k++)
-    if ((all_breaks || G->jump[k]) && s1 != 0.0) {
-      double t = (G->brk[k] * w - s0) / s1;
+    if ((all_breaks || JUMP(G, k)) && s1 != 0.0) {
+      double t = (BRK(G, k) * w - s0) / s1;
       if (LINE_KEEP(t)) ev_add(E, t);
     }
   E->wall_now = 0;
@@ -748,10 +758,10 @@ static void events_line(events *E, const ray *R, const elem *el, const groove *G
     return;
   }
   for (int k = 0; k + 1 < G->n; k++) {
-    if (!(G->t[k + 1] > G->t[k])) continue; /* vertical: a break */
-    double m = (G->h[k + 1] - G->h[k]) / (G->t[k + 1] - G->t[k]);
+    if (!(PT(G, k + 1) > PT(G, k))) continue; /* vertical: a break */
+    double m = (PH(G, k + 1) - PH(G, k)) / (PT(G, k + 1) - PT(G, k));
     /* z0 + z1 t = d (h_k + m ((s0 + s1 t) / w - t_k)) */
-    double a = z0 - d * (G->h[k] + m * (s0 / w - G->t[k])), b = z1 - d * m * s1 / w;
+    double a = z0 - d * (PH(G, k) + m * (s0 / w - PT(G, k))), b = z1 - d * m * s1 / w;
     if (b != 0.0 && LINE_KEEP(-a / b)) ev_add(E, -a / b);
   }
 #undef LINE_KEEP
@@ -783,9 +793,9 @@ static void events_point(events *E, const ray *R, const double P[2], const doubl
   E->wall_now = 1;
   for (int k = 0; k < G->nb; k++) {
     /* Circles r = |b| w, each radius once. */
-    int seen = G->brk[k] == 0.0 || !(all_breaks || G->jump[k]);
-    for (int j = 0; j < k && !seen; j++) seen = fabs(G->brk[j]) == fabs(G->brk[k]);
-    double rr = G->brk[k] * w;
+    int seen = BRK(G, k) == 0.0 || !(all_breaks || JUMP(G, k));
+    for (int j = 0; j < k && !seen; j++) seen = fabs(BRK(G, j)) == fabs(BRK(G, k));
+    double rr = BRK(G, k) * w;
     if (seen) continue;
     int n = quadratic_roots(a, b, c - rr * rr, r);
     for (int i = 0; i < n; i++)
@@ -800,10 +810,10 @@ static void events_point(events *E, const ray *R, const double P[2], const doubl
     return;
   }
   for (int k = 0; k + 1 < G->n; k++) {
-    if (!(G->t[k + 1] > G->t[k])) continue;
-    double m = (G->h[k + 1] - G->h[k]) / (G->t[k + 1] - G->t[k]);
+    if (!(PT(G, k + 1) > PT(G, k))) continue;
+    double m = (PH(G, k + 1) - PH(G, k)) / (PT(G, k + 1) - PT(G, k));
     /* (z - K)^2 = M r^2 with K = d (h_k - m t_k), M = (d m / w)^2 */
-    double K = d * (G->h[k] - m * G->t[k]), M = (d * m / w) * (d * m / w), e0 = z0 - K;
+    double K = d * (PH(G, k) - m * PT(G, k)), M = (d * m / w) * (d * m / w), e0 = z0 - K;
     int n = quadratic_roots(z1 * z1 - M * a, 2.0 * z1 * e0 - M * b, e0 * e0 - M * c, r);
     for (int i = 0; i < n; i++)
       if (POINT_KEEP(r[i])) ev_add(E, r[i]);
@@ -869,7 +879,7 @@ static double quad_s(const elem *el, const ray *R, double t, double *rate, doubl
 static double quad_fn(const groove *G, const ray *R, int j, double t, double s, double ds, double *rate) {
   if (j < G->nb) {
     *rate = ds;
-    return s - G->brk[j] * G->w;
+    return s - BRK(G, j) * G->w;
   }
   double x = s / G->w, z = R->o[2] + t * R->d[2];
   if (G->ellipse) {
@@ -878,9 +888,9 @@ static double quad_fn(const groove *G, const ray *R, int j, double t, double s, 
     return zd * zd + 4.0 * x * x - 1.0;
   }
   int k = j - G->nb;
-  double m = (G->h[k + 1] - G->h[k]) / (G->t[k + 1] - G->t[k]);
+  double m = (PH(G, k + 1) - PH(G, k)) / (PT(G, k + 1) - PT(G, k));
   *rate = R->d[2] - G->d * m * ds / G->w;
-  return z - G->d * (G->h[k] + m * (x - G->t[k]));
+  return z - G->d * (PH(G, k) + m * (x - PT(G, k)));
 }
 
 /* A root in (a, b) of the cubic with values fa, fb (of opposite signs) and
@@ -1109,13 +1119,13 @@ static void events_quad_range(events *E, const ray *R, const elem *el, const gro
     hint = -1.0; /* (samples far apart: the chord's projection is the better start) */
     double sb = quad_s(el, R, tb, &dsb, &hint);
     for (int j = 0; j < nf; j++) {
-      if (j < G->nb && !(all_breaks || G->jump[j])) continue;
+      if (j < G->nb && !(all_breaks || JUMP(G, j))) continue;
       if (j >= G->nb && !G->ellipse) {
         int k = j - G->nb;
-        if (!(G->t[k + 1] > G->t[k])) continue;
-        if (G->h[k + 1] == G->h[k]) {
+        if (!(PT(G, k + 1) > PT(G, k))) continue;
+        if (PH(G, k + 1) == PH(G, k)) {
           /* A flat facet: z = d h_k, whatever the distance. */
-          if (i == 1) E->wall_now = 0, ev_linear(E, R->o[2] - G->d * G->h[k], R->d[2]);
+          if (i == 1) E->wall_now = 0, ev_linear(E, R->o[2] - G->d * PH(G, k), R->d[2]);
           continue;
         }
       }
@@ -1644,7 +1654,7 @@ int ch_gtex_intersect(const ch_gtex *g, const double org[3], const double dir[3]
         if (at_end && G->asym) {
           int on_circle = 0;
           for (int k = 0; k < G->nb; k++)
-            on_circle |= G->jump[k] && G->brk[k] != 0.0 && fabs(fabs(s) - fabs(G->brk[k]) * G->w) <= 1e-6 * G->w;
+            on_circle |= JUMP(G, k) && BRK(G, k) != 0.0 && fabs(fabs(s) - fabs(BRK(G, k)) * G->w) <= 1e-6 * G->w;
           if (!on_circle) {
             double tg[2];
             elem_tangent(el, tau <= 0.0 ? 0.0 : 1.0, tg);
@@ -1693,7 +1703,7 @@ static void prof_range(const groove *G, double a, double b, double *lo, double *
   double l = mn(pa, pb), h = mx(pa, pb);
   const double eps = 1e-12;
   for (int k = 0; k < G->nb; k++) {
-    double c = G->brk[k];
+    double c = BRK(G, k);
     if (!(c >= a && c <= b)) continue;
     double ts[3] = {c, mx(a, c - eps), mn(b, c + eps)};
     for (int j = 0; j < 3; j++) {
@@ -2050,7 +2060,7 @@ int ch_gtex_region(const ch_gtex *g, const double at[2], const double dir[3], co
       ps[np] = -0.5 * cos(th) * G0.w, pz[np++] = -G0.d * sin(th);
     }
   } else {
-    for (int k = 0; k < G0.n; k++) ps[np] = G0.t[k] * G0.w, pz[np++] = G0.d * G0.h[k];
+    for (int k = 0; k < G0.n; k++) ps[np] = PT(&G0, k) * G0.w, pz[np++] = G0.d * PH(&G0, k);
   }
   ps[np] = far, pz[np++] = 0.0;
   /* View and light in the cross-section, walked in the direction the rays
