@@ -328,7 +328,8 @@ int main(int argc, char **argv) {
           printf("  targets at R 256, 16x: wrong side %.4f%% (< 0.1%%: %s), bilinear / featnorm %.1fx (>= 10x: %s), "
                  "msdf at equal bytes %.4f%% (featnorm fewer: %s); normal mean %.3f vs bilinear %.3f (<= 1/10: %s)\n",
                  w[M_FN], w[M_FN] < 0.1 ? "met" : "NOT met", w[M_FN] > 0 ? w[M_BIL] / w[M_FN] : INFINITY,
-                 w[M_BIL] >= 10 * w[M_FN] ? "met" : "NOT met", w[M_MSDF_EQ], w[M_FN] < w[M_MSDF_EQ] ? "met" : "NOT met",
+                 w[M_BIL] >= 10 * w[M_FN] ? "met" : "NOT met", w[M_MSDF_EQ],
+                 w[M_FN] < w[M_MSDF_EQ] ? "met" : w[M_FN] == 0.0 ? "none wrong on either" : "NOT met",
                  nm[M_FN], nm[M_BIL], nm[M_FN] <= 0.1 * nm[M_BIL] ? "met" : "NOT met");
         }
         fflush(stdout);
