@@ -17,29 +17,37 @@ void ch_bezier_eval(const double p[3][2], double t, double out[2]) {
   out[1] = a * p[0][1] + b * p[1][1] + c * p[2][1];
 }
 
-/* The unit tangent from B' = a + t b (a = p1 - p0, b = p2 - 2 p1 + p0). */
+/* The direction of B' = a + t b (a = p1 - p0, b = p2 - 2 p1 + p0), not
+ * normalised; 0 when the curve has none (a point). */
+static int direction_from(const double a[2], const double b[2], const double chord[2], double scale, double t,
+                          double d[2]) {
+  d[0] = a[0] + t * b[0], d[1] = a[1] + t * b[1];
+  if (ch_dot2(d, d) > 1e-24 * scale) return 1;
+  /* The derivative vanishes: at an end whose control point coincides with
+   * it the curve leaves (or arrives) along the chord; at the turning point
+   * of a folded, collinear quadratic the chord is one of the two equally
+   * valid directions. */
+  if (ch_dot2(chord, chord) > 0.0) {
+    d[0] = chord[0], d[1] = chord[1];
+    return 1;
+  }
+  if (ch_dot2(b, b) > 0.0) {
+    d[0] = b[0], d[1] = b[1];
+    return 1;
+  }
+  d[0] = d[1] = 0.0;
+  return 0;
+}
+
+/* The unit tangent: direction_from's, normalised. */
 static void tangent_from(const double a[2], const double b[2], const double chord[2], double scale, double t,
                          double out[2]) {
-  double d[2] = {a[0] + t * b[0], a[1] + t * b[1]};
-  double len2 = ch_dot2(d, d);
-  if (len2 <= 1e-24 * scale) {
-    /* The derivative vanishes: at an end whose control point coincides with
-     * it the curve leaves (or arrives) along the chord; at the turning point
-     * of a folded, collinear quadratic the chord is one of the two equally
-     * valid directions. */
-    if (ch_dot2(chord, chord) > 0.0) {
-      d[0] = chord[0];
-      d[1] = chord[1];
-    } else if (ch_dot2(b, b) > 0.0) {
-      d[0] = b[0];
-      d[1] = b[1];
-    } else {
-      out[0] = out[1] = 0.0;
-      return;
-    }
-    len2 = ch_dot2(d, d);
+  double d[2];
+  if (!direction_from(a, b, chord, scale, t, d)) {
+    out[0] = out[1] = 0.0;
+    return;
   }
-  double inv = 1.0 / sqrt(len2);
+  double inv = 1.0 / sqrt(ch_dot2(d, d));
   out[0] = d[0] * inv;
   out[1] = d[1] * inv;
 }
@@ -55,6 +63,11 @@ static double tangent_setup(const double p[3][2], double a[2], double b[2], doub
 void ch_bezier_tangent(const double p[3][2], double t, double out[2]) {
   double a[2], b[2], chord[2], scale = tangent_setup(p, a, b, chord);
   tangent_from(a, b, chord, scale, t, out);
+}
+
+void ch_bezier_direction(const double p[3][2], double t, double out[2]) {
+  double a[2], b[2], chord[2], scale = tangent_setup(p, a, b, chord);
+  direction_from(a, b, chord, scale, t, out);
 }
 
 void ch_bezier_end_tangents(const double p[3][2], double t0[2], double t1[2]) {

@@ -17,6 +17,10 @@ void ch_bezier_eval(const double p[3][2], double t, double out[2]);
  * gives (0, 0). */
 void ch_bezier_tangent(const double p[3][2], double t, double out[2]);
 
+/* ch_bezier_tangent before it is made unit (the same direction, so the
+ * same sides; for sign tests that need no sqrt). */
+void ch_bezier_direction(const double p[3][2], double t, double out[2]);
+
 /* ch_bezier_tangent at 0 and at 1 (the same values), sharing the work. */
 void ch_bezier_end_tangents(const double p[3][2], double t0[2], double t1[2]);
 

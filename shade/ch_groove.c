@@ -18,16 +18,8 @@ int ch_curve_side(const ch_curve_set *set, int segment, double t, const double q
   d[0] = q[0] - c[0];
   d[1] = q[1] - c[1];
   if (t > 0.0 && t < 1.0) {
-    /* The side is the sign of B'(t) x d: B' need not be unit (nor a sqrt
-     * spent on it) unless it vanishes, where ch_bezier_tangent picks the
-     * direction (a point of a degenerate quadratic). */
-    const double(*p)[2] = s->p;
-    double ax = p[1][0] - p[0][0], ay = p[1][1] - p[0][1];
-    double bx = p[2][0] - 2.0 * p[1][0] + p[0][0], by = p[2][1] - 2.0 * p[1][1] + p[0][1];
-    double cx = p[2][0] - p[0][0], cy = p[2][1] - p[0][1], vx = ax + t * bx, vy = ay + t * by;
-    if (vx * vx + vy * vy > 1e-24 * ((ax * ax + ay * ay) + (bx * bx + by * by) + (cx * cx + cy * cy)))
-      return vx * d[1] - vy * d[0] >= 0.0 ? 1 : -1;
-    ch_bezier_tangent(s->p, t, here);
+    /* The sign of B'(t) x d: B' need not be unit. */
+    ch_bezier_direction(s->p, t, here);
     return ch_cross2(here, d) >= 0.0 ? 1 : -1;
   }
   int at_start = t <= 0.0;
