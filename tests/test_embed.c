@@ -726,13 +726,13 @@ static void test_densify(void) {
   CHECK(o.ntri == ntri0 + added && o.npos == npos0 + added / 2);
   long open = cut_open_edges(&o); /* closed: every directed edge has its reverse */
   CHECK_MSG(open == 0, "%ld open edges", open);
-  int off = 0, folded = 0, uv_off = 0;
+  int off = 0, uv_off = 0;
   for (int v = npos0; v < o.npos; v++) {
     double uv[2];
     REQUIRE(ch_surface_eval_uv(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], uv) == CH_OK);
     off += off_surface(&s, &o, v, ch_height_eval(&s.height, uv[0], uv[1]));
   }
-  folded = cut_folded(&o);
+  int folded = cut_folded(&o);
   for (int t = 0; t < o.ntri; t++) {
     const double *a = &o.uv[6 * (size_t)t];
     for (int k = 0; k < 3; k++) {
@@ -767,7 +767,8 @@ static void test_coarsen(void) {
   CHECK(o.ntri == ntri0 - removed && o.npos == npos0 - removed / 2);
   long open = cut_open_edges(&o);
   CHECK_MSG(open == 0, "%ld open edges", open);
-  CHECK_MSG(cut_folded(&o) == 0, "%d triangles folded over in UV", cut_folded(&o));
+  int folded = cut_folded(&o);
+  CHECK_MSG(folded == 0, "%d triangles folded over in UV", folded);
   char *used = calloc((size_t)o.npos, 1);
   REQUIRE(used);
   int off = 0, unused = 0, turned = 0;
@@ -779,7 +780,9 @@ static void test_coarsen(void) {
   for (int t = 0; t < o.ntri; t++) { /* the face normal against the surface's at the first corner */
     const double *p0 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t]], *p1 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t + 1]];
     const double *p2 = &o.pos[3 * (size_t)o.tri[3 * (size_t)t + 2]];
-    double a[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]}, b[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]}, n[3];
+    double a[3], b[3], n[3];
+    ch_sub3(p1, p0, a);
+    ch_sub3(p2, p0, b);
     ch_cross3(a, b, n);
     int v = o.tri[3 * (size_t)t];
     ch_surface_point sp;
