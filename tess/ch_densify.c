@@ -62,8 +62,9 @@ static void tri_normal(const ch_cut_out *o, int t, int k, int with, double n[3])
   const double *p[3];
   for (int i = 0; i < 3; i++) p[i] = &o->pos[3 * (size_t)o->tri[3 * (size_t)t + i]];
   if (k >= 0) p[k] = &o->pos[3 * (size_t)with];
-  double a[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-  double b[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+  double a[3], b[3];
+  ch_sub3(p[1], p[0], a);
+  ch_sub3(p[2], p[0], b);
   ch_cross3(a, b, n);
 }
 
