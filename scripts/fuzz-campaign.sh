@@ -18,7 +18,7 @@ cd "$(dirname "$0")/.."
 runs=${1:-1000000}
 shift || true
 targets=("$@")
-all=(fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl fuzz_exr fuzz_dci)
+all=(fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl fuzz_exr fuzz_dci fuzz_featmap fuzz_scene)
 [ ${#targets[@]} -gt 0 ] || targets=("${all[@]}")
 max_len=${MAX_LEN:-8192}
 max_secs=${MAX_SECS:-0}
@@ -35,6 +35,8 @@ seeds_of() {
   fuzz_mesh_*) local d=build-fuzz/seeds/${1#fuzz_mesh_}; mkdir -p "$d"
     cp tests/data/mesh/*."${1#fuzz_mesh_}" "$d"/ 2>/dev/null || true; echo "$d" ;;
   fuzz_exr | fuzz_dci) echo tests/data/exr tests/data/dci ;;
+  fuzz_featmap) echo tests/data/featmap tests/data/fuzz/fuzz_featmap ;;
+  fuzz_scene) echo tests/data/study ;;
   esac
 }
 out=build-fuzz/campaign

@@ -212,7 +212,9 @@ static int at_end(cursor *c) {
 static ch_status parse_curves(const char *txt, const char *name, ch_featmap *m, ch_error *err) {
   cursor c = {txt};
   long n;
-  if (!next_int(&c, 1, 1 << 24, &n))
+  /* A curve is at least five numbers of two characters each: a count the
+   * text cannot hold is refused before anything is allocated for it. */
+  if (!next_int(&c, 1, 1 << 24, &n) || (size_t)n > strlen(txt) / 10)
     return ch_error_set(err, CH_ERR_INPUT, "%s: bad curve table (count)", name);
   m->curves = calloc((size_t)n, sizeof *m->curves);
   if (!m->curves) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory for %ld curves", name, n);
@@ -246,7 +248,9 @@ static ch_status parse_curves(const char *txt, const char *name, ch_featmap *m, 
 static ch_status parse_pieces(const char *txt, const char *name, ch_featmap *m, ch_error *err) {
   cursor c = {txt};
   long n;
-  if (!next_int(&c, 0, 1 << 24, &n)) return ch_error_set(err, CH_ERR_INPUT, "%s: bad piece table (count)", name);
+  /* fourteen numbers a piece */
+  if (!next_int(&c, 0, 1 << 24, &n) || (size_t)n > strlen(txt) / 28)
+    return ch_error_set(err, CH_ERR_INPUT, "%s: bad piece table (count)", name);
   m->pieces = calloc((size_t)(n > 0 ? n : 1), sizeof *m->pieces);
   if (!m->pieces) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory for %ld pieces", name, n);
   m->num_pieces = (int)n;

@@ -408,6 +408,32 @@ static void test_threads_and_file(void) {
     errors += ch_featmap_read_exr_memory(data, len, "cut.exr", &t, &tm, &e) == CH_ERR_INPUT;
   }
   CHECK(errors == tried);
+  /* A table claiming more curves (or pieces) than its text can hold is
+   * refused before it is allocated (2^24 curves would be 17 GB). */
+  static const char *const tables[2] = {"chisel:featmap-curves", "chisel:featmap-pieces"};
+  for (int t = 0; t < 2; t++) {
+    size_t key = strlen(tables[t]) + 1;
+    char *at = NULL;
+    for (size_t k = 0; !at && k + key <= size; k++)
+      if (!memcmp(data + k, tables[t], key)) at = data + k;
+    REQUIRE(at != NULL);
+    char *value = at + strlen(tables[t]) + 1 + strlen("string") + 1 + 4;
+    int32_t len;
+    memcpy(&len, value - 4, 4);
+    REQUIRE(len >= 8 && value + len <= data + size);
+    char *saved = malloc((size_t)len);
+    REQUIRE(saved != NULL);
+    memcpy(saved, value, (size_t)len);
+    memset(value, ' ', (size_t)len);
+    memcpy(value, "16777216", 8);
+    ch_featmap t2;
+    ch_msdf tm;
+    ch_error e = {0};
+    CHECK(ch_featmap_read_exr_memory(data, size, "big.exr", &t2, &tm, &e) == CH_ERR_INPUT &&
+          strstr(e.message, "(count)"));
+    memcpy(value, saved, (size_t)len);
+    free(saved);
+  }
   free(data);
   ch_featmap_free(&a);
   ch_featmap_free(&b);
