@@ -382,7 +382,8 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds) {
 #pragma omp parallel for schedule(static)
     for (int v = 0; v < o->npos; v++) {
       double bl = INFINITY;
-      for (int i = f.start[v]; i < f.start[v + 1] && interior_plain(o, &f, v); i++) {
+      int inside = interior_plain(o, &f, v);
+      for (int i = f.start[v]; i < f.start[v + 1] && inside; i++) {
         int t = f.tri[i], k = corner_of(o, t, v), u = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
         bl = fmin(bl, dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)u]));
       }
