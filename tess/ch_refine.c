@@ -922,6 +922,19 @@ int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int
   int m = ch_refine_gather_nodes(w, t, nodes);
   if (m < 0) return round < DENSE_ROUNDS;
   if (ch_refine_classify(nodes, m) == CUT_COMPLEX) return 1;
+  /* A chord with both ends on one edge: the piece between them pokes in
+   * through that edge and out through another between two of its samples
+   * (missed there), or in and out again; either way the chord runs along
+   * the edge and cuts off a piece of no area (relief's roof near its
+   * corner: walls along the edge, edges of three faces). Where h jumps
+   * there, split down to the junction size, as at a step corner; below,
+   * and where h is continuous (a sliver, removed with the short edges),
+   * it is cut as it is: splitting on left pieces no cut resolves. */
+  for (int i = 0; i < m; i++)
+    if (nodes[i].corner < 0 && nodes[i].pair > i && nodes[nodes[i].pair].edge == nodes[i].edge &&
+        !(fabs(nodes[i].hprev - nodes[i].hnext) <= lb->wall_tol) &&
+        longest > lb->junction_size * ch_label_local_factor(lb, nodes[i].uv))
+      return 1;
   if (only_uncut) return 0;
   /* Junctions are placed by estimate: keep their triangles small. */
   for (int i = 0; i < m; i++)

@@ -449,6 +449,35 @@ static void test_cap_walls(void) {
   }
 }
 
+/* A step curve's sharp corner whose wedge crosses a triangle's edge twice
+ * and leaves through another edge between two of that edge's samples
+ * (relief's roof, at bases of 700 to 1300 triangles): the crossings on the
+ * first edge must not pair into a chord along it, whose walls stood on
+ * the edge with three faces on it. */
+static void test_corner_wedge_walls(void) {
+  char path[1024];
+  snprintf(path, sizeof path, "%s/curves/relief.svg", CHISEL_MODELS);
+  int bad = 0, runs = 0;
+  for (long tris = 700; tris <= 1300; tris += 50) {
+    scene s;
+    REQUIRE(scene_load(&s, "plane", NULL, path, CH_SCHEME_BILINEAR, tris));
+    ch_mesh out;
+    ch_error err = {0};
+    ch_mesh_report rep;
+    REQUIRE(ch_embed_build(s.surface, &s.tess, &s.height, NULL, &out, NULL, &err) == CH_OK);
+    REQUIRE(ch_mesh_validate_displaced(&out, "relief", &rep, &err) == CH_OK);
+    if (rep.num_nonmanifold_edges > 0) {
+      fprintf(stderr, "  relief over %d base triangles: %d non-manifold edges\n", s.tess.mesh.num_faces,
+              rep.num_nonmanifold_edges);
+      bad++;
+    }
+    runs++;
+    ch_mesh_free(&out);
+    scene_free(&s);
+  }
+  CHECK_MSG(bad == 0, "%d of %d bases with non-manifold edges", bad, runs);
+}
+
 /* The view-dependent warp: a close camera over the plane. For steps
  * (walls on the curves, also with the DCI diffused in warped UV) the warped
  * mesh leaves only its chords' slivers, finer than the unwarped one's; for glyphs at 130k triangles the visible
@@ -808,6 +837,7 @@ int main(void) {
   RUN(test_u_lines_follow_normals);
   RUN(test_thinning);
   RUN(test_cap_walls);
+  RUN(test_corner_wedge_walls);
   RUN(test_accuracy_vs_uniform);
   RUN(test_warped);
   TEST_MAIN_END();
