@@ -109,8 +109,21 @@ static int node_copy(const ch_refine_node *n, uint64_t piece) {
   return piece == n->lnext ? n->copy_next : n->copy_prev;
 }
 
+/* Whether the UV triangle a, b, c has no area (three points on a line, up
+ * to the rounding of points placed along an edge). */
+static int flat_uv(const double *a, const double *b, const double *c) {
+  double u[2] = {b[0] - a[0], b[1] - a[1]}, v[2] = {c[0] - a[0], c[1] - a[1]};
+  double cross = u[0] * v[1] - u[1] * v[0];
+  return fabs(cross) <= 1e-10 * fmax(u[0] * u[0] + u[1] * u[1], v[0] * v[0] + v[1] * v[1]);
+}
+
 /* Emits the region bounded by nodes idx[0..len) (counter-clockwise, convex)
- * as a fan; its piece is the one after a node along the triangle's boundary. */
+ * as a fan; its piece is the one after a node along the triangle's
+ * boundary. The fan starts at the first node whose fan has no triangle
+ * without area: where a line runs along an edge (a groove's rim on a UV
+ * seam), three nodes of the region lie on that edge, and a fan from one
+ * end of them made a sliver that joined the other chart's into edges of
+ * three faces once copies of one point were welded. */
 static int emit_region(const ch_refine_node *nodes, int m, const int *idx, int len, ch_cut_out *o) {
   uint64_t piece = nodes[idx[0]].lnext;
   for (int i = 0; i < len; i++)
@@ -118,10 +131,22 @@ static int emit_region(const ch_refine_node *nodes, int m, const int *idx, int l
       piece = nodes[idx[i]].lnext;
       break;
     }
-  int v0 = node_copy(&nodes[idx[0]], piece), bad = 0;
-  for (int i = 1; i + 1 < len; i++)
-    bad |= ch_cut_out_tri(o, v0, node_copy(&nodes[idx[i]], piece), node_copy(&nodes[idx[i + 1]], piece),
-                          nodes[idx[0]].uv, nodes[idx[i]].uv, nodes[idx[i + 1]].uv, piece);
+  int apex = 0;
+  for (int a = 0; a < len && len > 3; a++) {
+    int flat = 0;
+    for (int i = 1; i + 1 < len && !flat; i++)
+      flat = flat_uv(nodes[idx[a]].uv, nodes[idx[(a + i) % len]].uv, nodes[idx[(a + i + 1) % len]].uv);
+    if (!flat) {
+      apex = a;
+      break;
+    }
+  }
+  const ch_refine_node *n0 = &nodes[idx[apex]];
+  int v0 = node_copy(n0, piece), bad = 0;
+  for (int i = 1; i + 1 < len; i++) {
+    const ch_refine_node *n1 = &nodes[idx[(apex + i) % len]], *n2 = &nodes[idx[(apex + i + 1) % len]];
+    bad |= ch_cut_out_tri(o, v0, node_copy(n1, piece), node_copy(n2, piece), n0->uv, n1->uv, n2->uv, piece);
+  }
   return bad;
 }
 
