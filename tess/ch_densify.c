@@ -389,10 +389,14 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds) {
       }
       c[v] = (collapse){bl, v, -1};
     }
-    qsort(c, (size_t)o->npos, sizeof *c, shortest_first);
+    /* (only the vertices inside plain pieces are sorted: on spiral at 2.1M
+     * a seventh of them, and sorting all was 40% of each round) */
+    int nc = 0;
+    for (int v = 0; v < o->npos; v++)
+      if (c[v].length2 < INFINITY) c[nc++] = c[v];
+    qsort(c, (size_t)nc, sizeof *c, shortest_first);
     long take = 0, want = (fewer - removed) / 2;
-    for (int i = 0; i < o->npos && take < want; i++) {
-      if (!(c[i].length2 < INFINITY)) break; /* (the rest are not inside plain pieces) */
+    for (int i = 0; i < nc && take < want; i++) {
       int v = c[i].v, ok = !touched[v];
       for (int j = f.start[v]; j < f.start[v + 1] && ok; j++)
         for (int a = 0; a < 3; a++) ok &= !touched[o->tri[3 * (size_t)f.tri[j] + a]];
