@@ -1,18 +1,23 @@
 /* ch_count: the count model. Decides the base triangle counts at which a
  * tessellation plus a feature embedding (ch_embed_to_target) land near a
  * target output count, knowing only what each run returns: the base count
- * the tessellation gave and the output count the embedding made.
+ * the tessellation gave, the output count the embedding made, and what it
+ * added at each refinement level of its edges.
  *
- * Why a model: what the cut adds grows like the number of edges the feature
- * lines cross, so like sqrt(base), plus what does not grow with the base
- * (refinement at junctions and ends, the rims' slices of u grooves):
- * out = base + c0 + c1 sqrt(base). Cheap count-only "pilot" runs at 1/64
- * and 1/16 of the target measure c0 and c1; the next run uses the base
- * count that model predicts, and more follow the secant through the last
- * two runs (or a power model where thinning makes the count bumpy). Where
- * the model says the u lines would take more than 7/8 of the target, their
- * angle step is coarsened (by 1.5, up to 4 times) and the pilots rerun. A
- * pilot that lands within 4% is finished from its cut, not run again.
+ * Why levels: the cut adds about two triangles per boundary point on an
+ * edge and the refinement two per split edge. On the base's own edges
+ * (level 0) their number grows like the feature lines' length over the
+ * edge length, so like sqrt(base); on edges the refinement made, d
+ * halvings below the base (level d), they serve features of a fixed size
+ * (junctions, ends, lines closer than an edge), whose refinement stays
+ * while the base is coarser than that size and grows with the base once
+ * it is finer: by max(1, sqrt(k) / 2^d) where the base grows by k. One
+ * cheap count-only "pilot" run at 1/16 of the target measures those; the
+ * next run uses the base count they predict, and more follow the secant
+ * through the last two runs. Where the model says the u lines would take
+ * more than 7/8 of the target, their angle step is coarsened (by 1.5, up
+ * to 4 times) and the pilot reruns. A pilot that lands within 4% is
+ * finished from its cut, not run again.
  *
  * The model runs nothing itself: it calls back, so it can be driven by
  * analytic count functions in a test as well as by the real embedding. */
@@ -44,11 +49,17 @@ typedef struct ch_count_request {
   int run;         /* PILOT, FULL: 1, 2, ...: the number of this run */
 } ch_count_request;
 
+enum { CH_COUNT_LEVELS = 16 };
 typedef struct ch_count_reply {
   double base;  /* PILOT, FULL: the base triangle count the tessellation gave */
   double count; /* PILOT, FINISH, FULL: the output triangle count */
   int over_cap; /* PILOT, FULL: the run stopped at the embedding's cap on
                    triangles (no mesh; the error is in the caller's hands) */
+  /* PILOT, FULL: the triangles the run added at each refinement level
+   * (level 0: in the base's own triangles, growing like sqrt(base); the
+   * last level takes the finer ones too); all 0 says that what the
+   * features add does not grow with the base. */
+  double level_added[CH_COUNT_LEVELS];
 } ch_count_reply;
 
 /* One run (or a FINISH/KEEP) as the request says; returns CH_OK, or an
@@ -61,6 +72,10 @@ typedef struct ch_count_desc {
                       asks for fewer; a target below it is raised to it) */
   int can_coarsen; /* the angle step may be coarsened: it is the default
                       one and there are grooves it shapes */
+  double feature_margin; /* full runs aim this share of what the features
+                            add above the target (0: at it), for a caller
+                            that brings a run within 15% over it back to it
+                            where h is smooth */
   int has_u;       /* some groove has a u profile (its lines follow the
                       angle step; without them, a first pilot well over the
                       target goes to the coarsest step at once) */
@@ -90,15 +105,13 @@ typedef struct ch_count_result {
  * Allocates nothing; reentrant (state lives on the stack and in ctx). */
 ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, ch_count_result *result);
 
-/* The base count b with b + c0 + c1 sqrt(b) = target (bisection over
- * [1, target]; 1 if no b above 1 gives less). Pure. */
-double ch_count_model_base(double target, double c0, double c1);
-
-/* The base count b with b + f2 (b / b2)^p = target, p the power through
- * (b1, f1) and (b2, f2) clamped to [0, 1]: what the features add at two
- * runs taken as a power of the base. Pure. */
-double ch_count_power_base(double target, double b1, double f1, double b2, double f2);
-
+/* The output count a run at `base` would give by the level model of
+ * `run` (see above): base + what run added, each level's part grown by
+ * its factor; rises with base. Pure. */
+double ch_count_level_predict(const ch_count_reply *run, double base);
+/* The base count b at which ch_count_level_predict(run, b) = target
+ * (bisection over [1, target]; 1 if no b above 1 gives less). Pure. */
+double ch_count_level_base(double target, const ch_count_reply *run);
 #ifdef __cplusplus
 }
 #endif

@@ -200,6 +200,16 @@ static void shrink_working_mesh(ch_refine_mesh *w) {
 }
 
 /* ch_embed_run; a count-only run hands its cut to *kept if asked. */
+/* An edge's refinement level (ch_embed_stats): 0 for the tessellation's
+ * own edges (both ends its vertices: a split never joins two of them),
+ * else the rounded number of halvings from the mean edge, at least 1. */
+static int edge_level(const ch_refine_mesh *w, const ch_refine_edge *e, int base_verts, double mean_edge) {
+  if (e->b < base_verts) return 0; /* (a < b) */
+  double len = ch_refine_edge_length(w, e);
+  long d = len > 0.0 ? lround(log2(mean_edge / len)) : CH_EMBED_LEVELS;
+  return d < 1 ? 1 : d >= CH_EMBED_LEVELS ? CH_EMBED_LEVELS - 1 : (int)d;
+}
+
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                            const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
                            ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {
@@ -361,6 +371,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       for (int k = 0; k < 3 && refine[t]; k++) {
         int i = w.tri_edge[3 * (size_t)t + k];
         if (w.edges[i].mid >= 0 || ch_refine_edge_length(&w, &w.edges[i]) < MIN_SPLIT_LENGTH) continue;
+        stats.splits_at_level[edge_level(&w, &w.edges[i], tm->num_positions, mean_edge)]++;
         if (ch_refine_add_midpoint(&w, i)) {
           free(refine);
           goto nomem;
@@ -393,6 +404,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     for (int i = 0; i < w.nedges; i++) {
       first[i] = (int)total;
       const ch_refine_edge *e = &w.edges[i];
+      if (e->ncross > 0) stats.crossings_at_level[edge_level(&w, e, tm->num_positions, mean_edge)] += e->ncross;
       for (int c = 0; c < e->ncross; c++) total += fabs(e->cross[c].ha - e->cross[c].hb) <= tol ? 1 : 2;
       if (total >= INT32_MAX / 3) {
         free(first);
@@ -715,6 +727,9 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   if (st) return st;
   rp->base = r->cur_tess.mesh.num_faces;
   rp->count = (double)r->cur_stats.triangles;
+  for (int d = 0; d < CH_EMBED_LEVELS; d++) /* (two triangles for each) */
+    rp->level_added[d < CH_COUNT_LEVELS ? d : CH_COUNT_LEVELS - 1] +=
+        2.0 * (r->cur_stats.crossings_at_level[d] + r->cur_stats.splits_at_level[d]);
   if (rq->kind == CH_COUNT_FULL) {
     /* The warp places the triangles where its camera sees them: not here. */
     r->finish_target = r->d.warp ? 0 : r->target;
@@ -746,7 +761,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   if (target < fewest) r.target = target = fewest;
   /* The angle step shapes only grooves (their u lines, the caps of open
    * ends, the thinning's normals): with step curves alone a coarser one
-   * changes nothing, and each coarsening would rerun the pilots (1000
+   * changes nothing, and each coarsening would rerun the pilot (1000
    * small loops: four times, for the same answer). */
   int has_grooves = 0, has_u = 0;
   for (int c = 0; c < height->set->num_curves; c++) {
@@ -754,14 +769,21 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     has_grooves |= cv->kind == CH_CURVE_GROOVE;
     has_u |= cv->kind == CH_CURVE_GROOVE && cv->profile.kind == CH_PROFILE_U;
   }
+  /* Full runs aim above the target by 12% of what the features add,
+   * and embed_finish takes that back where h is smooth: near the features
+   * the base is then as fine as a larger target's. Over the plane that
+   * kept L1 at or below what runs aimed at the target gave (glyphs at
+   * 2.1M: 10% lower), for the coarsening's time. Under a warp the finish
+   * leaves the count as it is: no margin. */
   ch_count_desc cd = {.target = target,
                       .fewest = fewest,
                       .can_coarsen = !(r.d.normal_tolerance_deg > 0.0) && has_grooves,
-                      .has_u = has_u};
+                      .has_u = has_u,
+                      .feature_margin = r.d.warp ? 0.0 : 0.12};
   ch_count_result res;
   st = ch_count_search(&cd, target_run, &r, &res);
   if (!st && r.best_dropped) { /* a later run missed more: the closest again */
-    ch_count_reply again = {0, 0, 0};
+    ch_count_reply again = {0};
     if (!(st = target_run(&r, &r.best_request, &again))) {
       ch_count_request keep = r.best_request;
       keep.kind = CH_COUNT_KEEP;

@@ -77,6 +77,7 @@ typedef struct ch_embed_desc {
                               calling thread) */
 } ch_embed_desc;
 
+enum { CH_EMBED_LEVELS = 16 };
 typedef struct ch_embed_stats {
   int refine_rounds, refined_edges;
   int crossings;           /* boundary points on edges */
@@ -104,6 +105,11 @@ typedef struct ch_embed_stats {
   /* parts of seconds_refine: */
   double seconds_setup, seconds_labels, seconds_edges, seconds_crossings, seconds_classify, seconds_split;
   double seconds_thin;     /* part of seconds_cut */
+  /* Boundary points and split edges by the refinement level of their edge
+   * (0: the tessellation's own edges; d: about 2^-d of its mean edge, the
+   * last level taking the finer ones too): what ch_embed_to_target's count
+   * model grows (ch_count.h). */
+  int crossings_at_level[CH_EMBED_LEVELS], splits_at_level[CH_EMBED_LEVELS];
 } ch_embed_stats;
 
 /* The default normal_tolerance_deg for a reference edge e (UV). */
@@ -119,17 +125,15 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
                          const ch_embed_desc *desc, ch_mesh *out, ch_embed_stats *stats, ch_error *err);
 
 /* Tessellates surface and embeds the features so that the output lands
- * within 5% of target_triangles where the base mesh allows: what the cut
- * adds grows like the number of edges the feature lines cross, so like
- * sqrt(base), plus what does not grow with the base (refinement at
- * junctions and ends, the rims' slices); pilot runs at 1/64 and 1/16 of
- * the target measure both terms, the next run uses the base count that
- * model predicts, and more follow the secant through the last two runs.
- * Where the model says the u lines would take more than 7/8 of the
- * target, their angle step is coarsened (by 1.5, up to 4 times) and the
- * pilots rerun. A pilot that lands is finished from its cut (not run
- * again). ch_count_search (ch_count.h) decides the runs. The run closest
- * to the target is kept: tess receives its tessellation (free it with
+ * within 5% of target_triangles where the base mesh allows: a pilot run at
+ * 1/16 of the target counts what the features add at each refinement
+ * level, the next run uses the base count that predicts, and more follow
+ * the secant through the last two runs (ch_count.h). Where the model says
+ * the u lines would take more than 7/8 of the target, their angle step is
+ * coarsened (by 1.5, up to 4 times) and the pilot reruns. A pilot that
+ * lands is finished from its cut (not run again); a full run within 15%
+ * adds or removes triangles where h is smooth. The run closest to the
+ * target is kept: tess receives its tessellation (free it with
  * ch_tess_free), out its embedded mesh; passes the number of embedding
  * runs, pilots and reruns after a coarsening included. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,

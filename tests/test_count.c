@@ -2,9 +2,13 @@
  * place of the embedding, so that what it should find can be worked out by
  * hand:
  *
- * - out = b + c0 + c1 sqrt(b), its own model: the two pilots measure c0
- *   and c1 exactly, so the first full run lands (3 runs), at the base the
- *   equation gives; a small target (no pilots: secant steps) lands too.
+ * - out = b + c0 + c1 sqrt(b), with c1 sqrt(b) added on the base's own
+ *   edges (level 0) and c0 on finer ones: the level model exactly, so the
+ *   pilot measures it and the first full run lands (2 runs), at the base
+ *   the equation gives; a small target (no pilot) lands too.
+ * - the level model's growth, by hand: what level d added grows by
+ *   max(1, sqrt(k) / 2^d) where the base grows by k; and a margin: the
+ *   run aims that share of what the features add above the target.
  * - a bumpy, non-monotonic count (features growing like b^0.8 with a
  *   ripple, as the thinning gives): within 5% in at most 8 runs.
  * - features alone over the target (out = b + 200000 for 60000): out of
@@ -65,6 +69,11 @@ static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply 
       rp->base = fake_base(rq->base);
       f->last_full = fake_count(f, rp->base, rq->coarsenings);
       rp->count = rq->kind == CH_COUNT_PILOT ? floor(f->last_full * 1.003) : f->last_full;
+      /* what grows with the base is added on its own edges (level 0); the
+       * rest, at junctions and ends, on finer ones */
+      rp->level_added[0] = fake_count(f, rp->base, rq->coarsenings) - rp->base - (f->kind == SQRT_MODEL ? f->c0 : 0.0);
+      if (f->kind == OVER) rp->level_added[0] = 0.0;
+      rp->level_added[5] = f->kind == SQRT_MODEL ? f->c0 : 0.0;
       if (f->cap > 0.0 && rp->count > f->cap) { /* stopped: no mesh, nothing to keep */
         rp->count = 0.0;
         rp->over_cap = 1;
@@ -113,16 +122,59 @@ static void test_sqrt_model(void) {
     long t = targets[i];
     ch_count_result r = search(&f, t, 1, 1);
     CHECK_MSG(fabs(r.count - (double)t) <= 0.05 * (double)t, "target %ld: %.0f", t, r.count);
-    /* with pilots the first full run lands; without (a small target) the
-     * secant from a run at the target itself */
-    CHECK_MSG(r.runs <= (t >= 60000 ? 3 : 6), "target %ld: %d runs", t, r.runs);
+    /* with the pilot the first full run lands; without (a small target)
+     * the level model of a run at the target itself, then secant steps */
+    CHECK_MSG(r.runs <= (t >= 60000 ? 2 : 6), "target %ld: %d runs", t, r.runs);
     CHECK(r.coarsenings == 0);
-    if (t >= 60000) { /* the base solves b + 3000 + 40 sqrt(b) = t, to the pilots' 0.3% and the base's 0.4% */
-      double b = ch_count_model_base((double)t, 3000.0, 40.0);
-      CHECK_NEAR(b + 3000.0 + 40.0 * sqrt(b), (double)t, 1e-6 * (double)t);
+    if (t >= 60000) { /* the base solves b + 3000 + 40 sqrt(b) = t, to the pilot's 0.3% and the base's 0.4% */
+      double lo = 1.0, hi = (double)t;
+      while (hi - lo > 1e-3) {
+        double mid = 0.5 * (lo + hi);
+        *(mid + 3000.0 + 40.0 * sqrt(mid) < (double)t ? &lo : &hi) = mid;
+      }
+      double b = lo;
       CHECK_MSG(fabs((double)r.base - b) <= 0.02 * b, "target %ld: base %ld, model %.0f", t, r.base, b);
     }
   }
+}
+
+static void test_level_model(void) {
+  /* a pilot at base 10000 that counted 30000: 8000 added on the base's
+   * edges, 4000 at level 1, 2000 at level 3, the other 6000 at no level */
+  ch_count_reply r = {.base = 10000.0, .count = 30000.0};
+  r.level_added[0] = 8000.0;
+  r.level_added[1] = 4000.0;
+  r.level_added[3] = 2000.0;
+  CHECK_NEAR(ch_count_level_predict(&r, 10000.0), 30000.0, 1e-9);
+  /* k = 16: sqrt(k) = 4; level 0 x4, level 1 x2, level 3 x1 */
+  CHECK_NEAR(ch_count_level_predict(&r, 160000.0), 160000.0 + 20000.0 + 8000.0 * 3.0 + 4000.0 * 1.0, 1e-6);
+  /* k = 256: sqrt(k) = 16; level 3 x2 */
+  CHECK_NEAR(ch_count_level_predict(&r, 2560000.0), 2560000.0 + 20000.0 + 8000.0 * 15.0 + 4000.0 * 7.0 + 2000.0 * 1.0,
+             1e-6);
+  /* k = 1/4: level 0 x1/2, the finer levels stay */
+  CHECK_NEAR(ch_count_level_predict(&r, 2500.0), 2500.0 + 20000.0 - 4000.0, 1e-9);
+  /* and back: the base for a target */
+  double b = ch_count_level_base(208000.0, &r);
+  CHECK_NEAR(ch_count_level_predict(&r, b), 208000.0, 1e-6 * 208000.0);
+  CHECK_NEAR(b, 160000.0, 1.0);
+}
+
+/* A margin: the full run aims above the target by that share of what the
+ * features add (b + 3000 + 40 sqrt(b) at 520000: 30972 at b = 489028,
+ * so 12% of it is 3716 above). */
+static void test_margin(void) {
+  fake f = {.kind = SQRT_MODEL,
+            .c0 = 3000.0,
+            .c1 = 40.0,
+            .fewest = 200,
+            .kept = -1.0,
+            .min_full = INFINITY,
+            .last = CH_COUNT_KEEP};
+  ch_count_desc d = {.target = 520000, .fewest = 200, .feature_margin = 0.12};
+  ch_count_result r;
+  CHECK(ch_count_search(&d, fake_run, &f, &r) == CH_OK);
+  CHECK(f.bad == 0 && r.runs == 2);
+  CHECK_MSG(fabs(r.count - 523716.0) <= 0.005 * 520000.0, "kept %.0f", r.count);
 }
 
 static void test_bumpy(void) {
@@ -166,9 +218,11 @@ static void test_u_lines(void) {
 
 /* A cap on the runs' triangles: features alone at 200000 for a target of
  * 60000 pass a cap of 202000 at the first run (the pilot at base 3750):
- * the search starts again at a quarter of it (937, no pilots: 200937,
- * under the cap), goes down by its secant and keeps the fewest base's
- * run (200200), four runs in all, none above 3750 again; under a cap of
+ * the search starts again at a quarter of it (937, no pilot: 200937,
+ * under the cap), goes down by the level model of that run (all of the
+ * features' count at no level: it does not shrink with the base) to the
+ * fewest base and keeps its run (200200), three runs in all, none above
+ * 3750 again; under a cap of
  * 150000 every run is over it, down to the fewest base: CH_ERR_INPUT,
  * after 3750, 937, 234 and 200. A cap no run reaches changes nothing. */
 static void test_cap(void) {
@@ -177,7 +231,7 @@ static void test_cap(void) {
   ch_count_result r;
   CHECK(ch_count_search(&d, fake_run, &f, &r) == CH_OK);
   CHECK(f.bad == 0);
-  CHECK_MSG(r.runs == 4, "%d runs", r.runs);
+  CHECK_MSG(r.runs == 3, "%d runs", r.runs);
   CHECK_MSG(r.base == 200, "base %ld", r.base);
   CHECK_NEAR(f.kept, fake_base(200) + 200000.0, 1e-9);
   fake g = {.kind = OVER, .fewest = 200, .kept = -1.0, .min_full = INFINITY, .last = CH_COUNT_KEEP, .cap = 150000.0};
@@ -209,7 +263,9 @@ static void test_error_stops(void) {
 }
 
 int main(void) {
+  RUN(test_level_model);
   RUN(test_sqrt_model);
+  RUN(test_margin);
   RUN(test_bumpy);
   RUN(test_out_of_reach);
   RUN(test_u_lines);
