@@ -175,6 +175,21 @@ static void test_margin(void) {
   CHECK(ch_count_search(&d, fake_run, &f, &r) == CH_OK);
   CHECK(f.bad == 0 && r.runs == 2);
   CHECK_MSG(fabs(r.count - 523716.0) <= 0.005 * 520000.0, "kept %.0f", r.count);
+  /* A caller that cannot take the margin back (this one never does): with
+   * features at 43% of the target (b + 3000 + 400 sqrt(b): 222k at b =
+   * 298k) a margin of 0.2 puts the first full run 8.5% over; then the
+   * search aims at the target itself and lands, in 3 runs. */
+  fake g = {.kind = SQRT_MODEL,
+            .c0 = 3000.0,
+            .c1 = 400.0,
+            .fewest = 200,
+            .kept = -1.0,
+            .min_full = INFINITY,
+            .last = CH_COUNT_KEEP};
+  d.feature_margin = 0.2;
+  CHECK(ch_count_search(&d, fake_run, &g, &r) == CH_OK);
+  CHECK_MSG(g.bad == 0 && r.runs == 3, "%d runs", r.runs);
+  CHECK_MSG(fabs(r.count - 520000.0) <= 0.05 * 520000.0, "kept %.0f", r.count);
 }
 
 static void test_bumpy(void) {
