@@ -93,11 +93,12 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
       break;
     }
     const ch_count_reply measured = rp; /* (a FINISH below replies its count in rp) */
-    /* A full run over the target by less than the 15% the caller takes
-     * back that still missed: the caller could not take it back (few
-     * smooth parts: ornament on the tablet at 520k), so no margin from
-     * here on (aimed over again, the secants went round the aim: 9 runs). */
-    if (!count_only && rp.count > 1.05 * (double)target && rp.count <= 1.15 * (double)target) margin = 0.0;
+    /* A full run over the target by less than the caller takes back that
+     * still missed: the caller could not take it back (few smooth parts:
+     * ornament on the tablet at 520k), so no margin from here on (aimed
+     * over again, the secants went round the aim: 9 runs). */
+    if (!count_only && rp.count > 1.05 * (double)target && rp.count <= (1.0 + desc->take_back) * (double)target)
+      margin = 0.0;
     /* (what the features add at the base for the target, by this run's model) */
     double aim = (double)target + margin * fmax(0.0, (double)target - ch_count_level_base((double)target, &measured));
     double nb = rp.base, no = rp.count, miss = fabs(no - (double)target);

@@ -72,10 +72,12 @@ typedef struct ch_count_desc {
                       asks for fewer; a target below it is raised to it) */
   int can_coarsen; /* the angle step may be coarsened: it is the default
                       one and there are grooves it shapes */
+  double take_back;      /* the caller brings a full run within this share
+                            of the target back to it (where h is smooth);
+                            0: it does not */
   double feature_margin; /* full runs aim this share of what the features
                             add above the target (0: at it), for a caller
-                            that brings a run within 15% over it back to it
-                            where h is smooth */
+                            that takes runs back */
   int has_u;       /* some groove has a u profile (its lines follow the
                       angle step; without them, a first pilot well over the
                       target goes to the coarsest step at once) */

@@ -113,8 +113,7 @@ static int node_copy(const ch_refine_node *n, uint64_t piece) {
  * to the rounding of points placed along an edge). */
 static int flat_uv(const double *a, const double *b, const double *c) {
   double u[2] = {b[0] - a[0], b[1] - a[1]}, v[2] = {c[0] - a[0], c[1] - a[1]};
-  double cross = u[0] * v[1] - u[1] * v[0];
-  return fabs(cross) <= 1e-10 * fmax(u[0] * u[0] + u[1] * u[1], v[0] * v[0] + v[1] * v[1]);
+  return fabs(ch_cross2(u, v)) <= 1e-10 * fmax(ch_dot2(u, u), ch_dot2(v, v));
 }
 
 /* Emits the region bounded by nodes idx[0..len) (counter-clockwise, convex)

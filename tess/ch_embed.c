@@ -779,6 +779,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
                       .fewest = fewest,
                       .can_coarsen = !(r.d.normal_tolerance_deg > 0.0) && has_grooves,
                       .has_u = has_u,
+                      .take_back = r.d.warp ? 0.0 : DENSIFY_SHARE,
                       .feature_margin = r.d.warp ? 0.0 : 0.12};
   ch_count_result res;
   st = ch_count_search(&cd, target_run, &r, &res);

@@ -170,7 +170,7 @@ static void test_margin(void) {
             .kept = -1.0,
             .min_full = INFINITY,
             .last = CH_COUNT_KEEP};
-  ch_count_desc d = {.target = 520000, .fewest = 200, .feature_margin = 0.12};
+  ch_count_desc d = {.target = 520000, .fewest = 200, .take_back = 0.15, .feature_margin = 0.12};
   ch_count_result r;
   CHECK(ch_count_search(&d, fake_run, &f, &r) == CH_OK);
   CHECK(f.bad == 0 && r.runs == 2);
