@@ -12,7 +12,8 @@
  * - bytes per texel; build time at 1024^2 and 4096^2; evaluation speed in
  *   Msamples/s on all threads.
  * usage: bench_featmap [MODELS_DIR] [--res 64,128,...] [--crops N] [--sets a,b]
- *                      [--no-accuracy] [--no-time] [--no-speed] [--max-build R] */
+ *                      [--no-accuracy] [--no-time] [--no-speed] [--max-build R]
+ *                      [--dci-res N]  (the DCI behind h_step and the truth: 1024) */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -224,10 +225,10 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
   return 0;
 }
 
-static int setup_init(setup *su, const ch_curve_set *set, ch_error *err) {
+static int setup_init(setup *su, const ch_curve_set *set, int dci_res, ch_error *err) {
   memset(su, 0, sizeof *su);
   su->set = set;
-  ch_height_desc hd = {.dci_resolution = 1024, .step_method = CH_RECON_EXACT};
+  ch_height_desc hd = {.dci_resolution = dci_res, .step_method = CH_RECON_EXACT};
   if (ch_height_init(&su->height, set, &hd, err)) return -1;
   ch_truth_desc td = {.grid = 64};
   if (ch_truth_create(&su->height, &td, &su->truth, err)) return -1;
@@ -264,7 +265,7 @@ static int parse_list(const char *s, int *out, int max) {
 int main(int argc, char **argv) {
   const char *models = "models";
   int res[8] = {64, 128, 256, 512, 1024}, nres = 5, crops = 100, do_acc = 1, do_time = 1, do_speed = 1;
-  int max_build = 4096;
+  int max_build = 4096, dci_res = 1024;
   const char *only = NULL;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--res") && i + 1 < argc) nres = parse_list(argv[++i], res, 8);
@@ -274,6 +275,8 @@ int main(int argc, char **argv) {
     else if (!strcmp(argv[i], "--no-time")) do_time = 0;
     else if (!strcmp(argv[i], "--no-speed")) do_speed = 0;
     else if (!strcmp(argv[i], "--max-build") && i + 1 < argc) max_build = atoi(argv[++i]);
+    else if (!strcmp(argv[i], "--dci-res") && i + 1 < argc)
+      dci_res = atoi(argv[++i]);
     else models = argv[i];
   }
   static const char *bundled[] = {"glyphs", "ornament", "frame", "relief", "star", "spiral", "bricks", "panels",
@@ -299,7 +302,7 @@ int main(int argc, char **argv) {
         return 1;
       }
       setup su;
-      if (setup_init(&su, &set, &err)) {
+      if (setup_init(&su, &set, dci_res, &err)) {
         fprintf(stderr, "%s: %s\n", path, err.message);
         return 1;
       }
@@ -419,7 +422,7 @@ int main(int argc, char **argv) {
     ch_curve_set set;
     if (ch_curves_read_svg(path, &set, &err)) return 1;
     setup su;
-    if (setup_init(&su, &set, &err)) return 1;
+    if (setup_init(&su, &set, dci_res, &err)) return 1;
     int R = 1024;
     methods mm;
     memset(&mm, 0, sizeof mm);

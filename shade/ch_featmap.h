@@ -34,6 +34,7 @@
 #include "ch_error.h"
 #include "ch_exr.h"
 #include "ch_image.h"
+#include "ch_stepsing.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -140,6 +141,9 @@ typedef struct ch_featmap_desc {
                                within their curve's profile band (plus 1.5 cells) keep
                                their exact gradient: the smoothing acts away from the
                                features only, where b(d) = 1 hides it */
+  int no_singular;          /* keep h_step's whole gradient in the base samples, even
+                               near the step curves' ends and crossings (see
+                               ch_featmap.singular) */
   int no_normal_map;        /* skip the conventional normal map (and its time) */
   int normal_supersample;   /* its samples per texel side (box filter): 0: 2 */
   const struct ch_height *height; /* h for the base and conventional normal maps where
@@ -181,8 +185,31 @@ typedef struct ch_featmap {
   int num_pieces;
   ch_featmap_curve *curves;
   int num_curves;
+  /* Beyond the papers: where step curves end or cross, h_step's gradient
+   * goes like 1/r (ch_stepsing.h), which no lattice follows. The base
+   * samples within CH_FEATMAP_SINGULAR_R1 cells of such a point leave
+   * out its term, windowed (ch_stepsing_window from R0 to R1 cells), and
+   * evaluation adds it back exactly: sg_near names, per lattice point,
+   * the point whose term its sample leaves out (-1: none); NULL when
+   * there are none. */
+  ch_stepsing_point *singular;
+  int num_singular;
+  int32_t *sg_near;
   ch_featmap_stats stats;
 } ch_featmap;
+
+#define CH_FEATMAP_SINGULAR_R0 3.0
+#define CH_FEATMAP_SINGULAR_R1 6.0
+
+/* Fills maps->sg_near from maps->singular (the nearest within R1 cells of
+ * each lattice point); CH_ERR_NOMEM only. Used by the build and the
+ * reader, so both leave out the same terms. */
+ch_status ch_featmap_singular_index(ch_featmap *maps, ch_error *err);
+
+/* The term of the singular point that the samples around (u, v) (maps'
+ * UV, no warp) leave out, windowed: added to the interpolated base
+ * gradient. Zero where there is none. */
+void ch_featmap_singular_gradient(const ch_featmap *maps, const size_t corner[4], const double uv[2], double g[2]);
 
 /* Whether curve c of set is a discontinuity the maps encode: every groove,
  * and step curves without blur (a blurred step is smooth: it belongs to
@@ -261,7 +288,8 @@ double ch_featmap_fallback_bytes(const ch_featmap *maps);
  * conventional normal map; msdf.R/G/B. Attributes: chisel:command
  * "featmap", chisel:featmap (format, "1"), chisel:featmap-mode,
  * chisel:resolution, chisel:rect, and the tables as text
- * (chisel:featmap-curves, -pieces, -fallback, chisel:msdf-range), plus
+ * (chisel:featmap-curves, -pieces, -fallback, -singular where there are
+ * singular points, chisel:msdf-range), plus
  * `extra`. Atomic. */
 /* (Maps built under a warp are not written: CH_ERR_INPUT.) */
 ch_status ch_featmap_write_exr(const char *path, const ch_featmap *maps, const struct ch_msdf *msdf,

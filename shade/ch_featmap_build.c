@@ -88,7 +88,43 @@ void ch_featmap_free(ch_featmap *m) {
   free(m->fb_list);
   free(m->pieces);
   free(m->curves);
+  free(m->singular);
+  free(m->sg_near);
   memset(m, 0, sizeof *m);
+}
+
+ch_status ch_featmap_singular_index(ch_featmap *m, ch_error *err) {
+  free(m->sg_near);
+  m->sg_near = NULL;
+  if (m->num_singular <= 0) return CH_OK;
+  int R = m->resolution, R1 = R + 1;
+  m->sg_near = malloc((size_t)R1 * R1 * sizeof *m->sg_near);
+  if (!m->sg_near) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the maps' singular points");
+  for (size_t k = 0; k < (size_t)R1 * R1; k++) m->sg_near[k] = -1;
+  double du = (m->rect[2] - m->rect[0]) / R, dv = (m->rect[3] - m->rect[1]) / R;
+  double reach = CH_FEATMAP_SINGULAR_R1 * sqrt(du * dv);
+  /* each point stamps the lattice points within reach; the nearest keeps them */
+  for (int p = 0; p < m->num_singular; p++) {
+    const double *c = m->singular[p].p;
+    double x = (c[0] - m->rect[0]) / du - CH_FEATMAP_OFFSET_X, y = (c[1] - m->rect[1]) / dv - CH_FEATMAP_OFFSET_Y;
+    double rx = reach / du + 1.0, ry = reach / dv + 1.0;
+    if (!(x + rx >= 0.0 && x - rx <= R && y + ry >= 0.0 && y - ry <= R)) continue;
+    int j0 = (int)fmax(0.0, ceil(x - rx)), j1 = (int)fmin(R, floor(x + rx));
+    int i0 = (int)fmax(0.0, ceil(y - ry)), i1 = (int)fmin(R, floor(y + ry));
+    for (int i = i0; i <= i1; i++)
+      for (int j = j0; j <= j1; j++) {
+        double q[2] = {m->rect[0] + (j + CH_FEATMAP_OFFSET_X) * du, m->rect[1] + (i + CH_FEATMAP_OFFSET_Y) * dv};
+        double d = hypot(q[0] - c[0], q[1] - c[1]);
+        if (d > reach) continue;
+        int32_t *slot = &m->sg_near[(size_t)i * R1 + j];
+        if (*slot >= 0) {
+          const double *o = m->singular[*slot].p;
+          if (!(d < hypot(q[0] - o[0], q[1] - o[1]))) continue;
+        }
+        *slot = p;
+      }
+  }
+  return CH_OK;
 }
 
 /* ---- the lattice ---- */
@@ -1664,6 +1700,19 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
     ch_groove_field gf;
     if ((st = ch_groove_field_init(&gf, set, err))) goto fail;
     int has_base = 0;
+    if (h && !desc->warp && !desc->no_singular) {
+      ch_stepsing sing;
+      if ((st = ch_stepsing_find(set, h->dci.samples.rect, &sing, err))) {
+        ch_groove_field_free(&gf);
+        goto fail;
+      }
+      m->singular = sing.points;
+      m->num_singular = sing.num_points;
+      if ((st = ch_featmap_singular_index(m, err))) {
+        ch_groove_field_free(&gf);
+        goto fail;
+      }
+    }
     if (h) {
 #pragma omp parallel for schedule(dynamic, 8) reduction(| : has_base)
       for (int y = 0; y < R1; y++)
@@ -1674,6 +1723,14 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
           int c = m->curve[k];
           int step = c >= 0 && set->curves[c].kind == CH_CURVE_STEP;
           step_gradient(h, q[0], q[1], step ? c : -1, m->dist[k] >= 0.0f ? CH_SIDE_LEFT : CH_SIDE_RIGHT, g);
+          if (m->sg_near && m->sg_near[k] >= 0) { /* the 1/r part is added back exactly */
+            const ch_stepsing_point *pt = &m->singular[m->sg_near[k]];
+            double tg[2], r = hypot(q[0] - pt->p[0], q[1] - pt->p[1]) / sqrt(L.du * L.dv);
+            double w = ch_stepsing_window(r, CH_FEATMAP_SINGULAR_R0, CH_FEATMAP_SINGULAR_R1);
+            ch_stepsing_term(pt, q, tg);
+            g[0] -= w * tg[0];
+            g[1] -= w * tg[1];
+          }
           double len = sqrt(g[0] * g[0] + g[1] * g[1] + 1.0);
           m->base[3 * k] = (float)(-g[0] / len);
           m->base[3 * k + 1] = (float)(-g[1] / len);

@@ -97,9 +97,11 @@ double ch_featmap_bytes_per_texel(const ch_featmap *m, ch_featmap_method method)
   /* As evaluated here, float32 / int32 per lattice point:
    * featnorm: distance 4, gradient 8, nearest curve 4; per cell south and
    * west edge (position, angle) 16, configuration 4, segments' curves 8;
-   * the base normal 12 where h_step is not flat. featnorm-linear: no
-   * angles (8 less). normal-bilinear: the normal map, 12. */
-  double base = m->has_base ? 12.0 : 0.0;
+   * the base normal 12 where h_step is not flat, and 4 for the index of
+   * the singular point its sample leaves out where there are any.
+   * featnorm-linear: no angles (8 less). normal-bilinear: the normal map,
+   * 12. */
+  double base = (m->has_base ? 12.0 : 0.0) + (m->sg_near ? 4.0 : 0.0);
   switch (method) {
   case CH_FEATMAP_FEATNORM: return 44.0 + base;
   case CH_FEATMAP_LINEAR: return 36.0 + base;
@@ -415,6 +417,37 @@ static void label(const cell_ctx *c, const double p[2], double signed_d, int *cu
   }
 }
 
+/* ---- the singular terms of h_step (ch_featmap.singular) ---- */
+
+void ch_featmap_singular_gradient(const ch_featmap *m, const size_t corner[4], const double uv[2], double g[2]) {
+  g[0] = g[1] = 0.0;
+  if (!m->sg_near) return;
+  int best = -1;
+  double bd = INFINITY;
+  for (int q = 0; q < 4; q++) {
+    int k = m->sg_near[corner[q]];
+    if (k < 0) continue;
+    double d = hypot(uv[0] - m->singular[k].p[0], uv[1] - m->singular[k].p[1]);
+    if (d < bd) bd = d, best = k;
+  }
+  if (best < 0) return;
+  double cell = sqrt((m->rect[2] - m->rect[0]) * (m->rect[3] - m->rect[1])) / m->resolution;
+  double w = ch_stepsing_window(bd / cell, CH_FEATMAP_SINGULAR_R0, CH_FEATMAP_SINGULAR_R1), tg[2];
+  ch_stepsing_term(&m->singular[best], uv, tg);
+  g[0] = w * tg[0], g[1] = w * tg[1];
+}
+
+/* The base normal with the singular term added back to its gradient. */
+static void add_singular(const ch_featmap *m, const size_t corner[4], const double uv[2], double B[3]) {
+  if (!m->sg_near) return;
+  double gs[2];
+  ch_featmap_singular_gradient(m, corner, uv, gs);
+  if (gs[0] == 0.0 && gs[1] == 0.0) return;
+  double bz = B[2] > 1e-12 ? B[2] : 1e-12, g[2] = {-B[0] / bz + gs[0], -B[1] / bz + gs[1]};
+  double len = sqrt(g[0] * g[0] + g[1] * g[1] + 1.0);
+  B[0] = -g[0] / len, B[1] = -g[1] / len, B[2] = 1.0 / len;
+}
+
 /* ---- fallback: exact pieces ---- */
 
 static int piece_side(const ch_featmap_piece *pc, double t, const double q[2], const double P[2]) {
@@ -495,6 +528,7 @@ static void eval_fallback(const ch_featmap *m, const cell_ctx *c, const double u
     wsum += w;
   }
   for (int k = 0; k < 3; k++) out->base[k] = wsum > 0.0 ? B[k] / wsum : Ball[k] / wall;
+  add_singular(m, c->corner, uv, out->base);
   /* the normal: the groove that decides h (carving first), else the base */
   int win = carve >= 0 ? carve : raise;
   if (win >= 0) {
@@ -565,6 +599,7 @@ void ch_featmap_eval(const ch_featmap *m, ch_featmap_method method, double u, do
     out->side = sd >= 0.0 ? 1 : -1;
     out->gradient[0] = g[0], out->gradient[1] = g[1];
     memcpy(out->base, B, sizeof B);
+    add_singular(m, c.corner, uv, out->base);
     finish(m, out);
     double nl = sqrt(N[0] * N[0] + N[1] * N[1] + N[2] * N[2]);
     if (m->normal && nl > 0.0)
@@ -597,6 +632,7 @@ void ch_featmap_eval(const ch_featmap *m, ch_featmap_method method, double u, do
   out->gradient[0] = r.v[1];
   out->gradient[1] = r.v[2];
   out->base[0] = r.v[3], out->base[1] = r.v[4], out->base[2] = r.v[5];
+  add_singular(m, c.corner, uv, out->base);
   label(&c, p, r.v[6], &out->curve, &out->side);
   finish(m, out);
 }

@@ -15,6 +15,7 @@
 #include "ch_alloc.h"
 #include "ch_exr.h"
 #include "ch_featmap.h"
+#include "ch_math.h"
 #include "ch_msdf.h"
 
 /* Lattice and cell layers, in the order written. */
@@ -112,7 +113,7 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
 #undef PUT
     }
   /* tables */
-  text curves = {0}, pieces = {0}, fallback = {0};
+  text curves = {0}, pieces = {0}, fallback = {0}, singular = {0};
   tprintf(&curves, "%d\n", m->num_curves);
   for (int c = 0; c < m->num_curves; c++) {
     const ch_featmap_curve *cv = &m->curves[c];
@@ -137,6 +138,15 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
     for (int e = 0; e < m->fb_count[k]; e++) tprintf(&fallback, " %d", m->fb_list[m->fb_start[k] + e]);
     tprintf(&fallback, "\n");
   }
+  /* the singular points: position, arms (angle, value, slope) */
+  tprintf(&singular, "%d\n", m->num_singular);
+  for (int p = 0; p < m->num_singular; p++) {
+    const ch_stepsing_point *pt = &m->singular[p];
+    tprintf(&singular, "%.17g %.17g %d", pt->p[0], pt->p[1], pt->num_arms);
+    for (int k = 0; k < pt->num_arms; k++)
+      tprintf(&singular, " %.17g %.17g %.17g", pt->angle[k], pt->value[k], pt->slope[k]);
+    tprintf(&singular, "\n");
+  }
   char rect[160], res[32], range[64];
   snprintf(rect, sizeof rect, "%.17g %.17g %.17g %.17g", m->rect[0], m->rect[1], m->rect[2], m->rect[3]);
   snprintf(res, sizeof res, "%d", R);
@@ -151,9 +161,10 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-curves", curves.s ? curves.s : ""};
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-pieces", pieces.s ? pieces.s : ""};
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-fallback", fallback.s ? fallback.s : ""};
+  if (m->num_singular > 0) attrs[na++] = (ch_exr_attribute){"chisel:featmap-singular", singular.s ? singular.s : ""};
   if (msdf) attrs[na++] = (ch_exr_attribute){"chisel:msdf-range", range};
   for (int k = 0; k < num_extra && na < 16; k++) attrs[na++] = extra[k];
-  if (curves.failed || pieces.failed || fallback.failed) {
+  if (curves.failed || pieces.failed || fallback.failed || singular.failed) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the maps' tables");
   } else {
     ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = na};
@@ -162,6 +173,7 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   free(curves.s);
   free(pieces.s);
   free(fallback.s);
+  free(singular.s);
   ch_image_free(&img);
   return st;
 }
@@ -303,6 +315,30 @@ static ch_status parse_fallback(const char *txt, const char *name, ch_featmap *m
   return CH_OK;
 }
 
+static ch_status parse_singular(const char *txt, const char *name, ch_featmap *m, ch_error *err) {
+  cursor c = {txt};
+  long n;
+  /* a point is at least six numbers of two characters */
+  if (!next_int(&c, 0, 1 << 24, &n) || (size_t)n > strlen(txt) / 12)
+    return ch_error_set(err, CH_ERR_INPUT, "%s: bad singular point table (count)", name);
+  m->singular = calloc((size_t)(n > 0 ? n : 1), sizeof *m->singular);
+  if (!m->singular) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory for %ld singular points", name, n);
+  m->num_singular = (int)n;
+  for (long i = 0; i < n; i++) {
+    ch_stepsing_point *pt = &m->singular[i];
+    long arms;
+    int ok = next_double(&c, &pt->p[0]) && next_double(&c, &pt->p[1]) && next_int(&c, 1, CH_STEPSING_MAX_ARMS, &arms) &&
+             fabs(pt->p[0]) <= CH_CURVES_MAX_UV && fabs(pt->p[1]) <= CH_CURVES_MAX_UV;
+    pt->num_arms = ok ? (int)arms : 0;
+    for (int k = 0; ok && k < pt->num_arms; k++)
+      ok = next_double(&c, &pt->angle[k]) && next_double(&c, &pt->value[k]) && next_double(&c, &pt->slope[k]) &&
+           pt->angle[k] >= 0.0 && pt->angle[k] < 2.0 * CH_PI && (k == 0 || pt->angle[k] > pt->angle[k - 1]);
+    if (!ok) return ch_error_set(err, CH_ERR_INPUT, "%s: bad singular point table (point %ld)", name, i);
+  }
+  if (!at_end(&c)) return ch_error_set(err, CH_ERR_INPUT, "%s: bad singular point table (trailing data)", name);
+  return ch_featmap_singular_index(m, err);
+}
+
 /* Whether a configuration word is one the build can make. */
 static int config_ok(uint32_t w) {
   if (w & ~CONFIG_BITS) return 0;
@@ -314,7 +350,7 @@ static int config_ok(uint32_t w) {
 static ch_status read_maps(const source *src, const ch_image *img, ch_featmap *m, struct ch_msdf *msdf, ch_error *err) {
   const char *name = src->name;
   char *cmd = NULL, *ver = NULL, *mode = NULL, *res = NULL, *rect = NULL, *curves = NULL, *pieces = NULL,
-       *fallback = NULL, *range = NULL;
+       *fallback = NULL, *range = NULL, *singular = NULL;
   ch_status st;
   ch_error quiet = {0};
   if (get_attr(src, "chisel:command", &cmd, &quiet) || strcmp(cmd, "featmap")) {
@@ -440,6 +476,9 @@ static ch_status read_maps(const source *src, const ch_image *img, ch_featmap *m
         for (int c = 0; c < 3; c++) m->normal[3 * k + c] = (float)v[L_NX + c];
     }
   if ((st = parse_pieces(pieces, name, m, err)) || (st = parse_fallback(fallback, name, m, err))) goto done;
+  /* maps without singular points (or written before they were) have no table */
+  if (!get_attr(src, "chisel:featmap-singular", &singular, &quiet) && (st = parse_singular(singular, name, m, err)))
+    goto done;
   if (msdf) {
     memset(msdf, 0, sizeof *msdf);
     if (has_msdf) {
@@ -480,6 +519,7 @@ done:
   free(curves);
   free(pieces);
   free(fallback);
+  free(singular);
   free(range);
   if (st) {
     ch_featmap_free(m);

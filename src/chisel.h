@@ -44,6 +44,7 @@
 #include "ch_featmap_cell.h"
 #include "ch_featmap.h"
 #include "ch_msdf.h"
+#include "ch_stepsing.h"
 
 /* tess/: the base surface (OpenSubdiv), geometry images, displacement and
  * the feature embedding */

@@ -1,0 +1,314 @@
+/* ch_stepsing: singular points of h_step and its leading term there (see
+ * ch_stepsing.h for the expansion). */
+#include "ch_stepsing.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ch_bezier.h"
+#include "ch_math.h"
+
+#define TWO_PI (2.0 * CH_PI)
+/* Points closer than this (UV) are one point; arms closer than this in
+ * angle are one arm. */
+#define SAME_POINT 1e-9
+#define SAME_ANGLE 1e-7
+/* Parameters this close to a segment's end are its end. */
+#define AT_END 1e-9
+
+static int is_sharp_step(const ch_curve_set *set, int c) {
+  const ch_curve *cv = &set->curves[c];
+  return cv->kind == CH_CURVE_STEP && !(cv->blur > 0.0);
+}
+
+/* ---- arms ---- */
+
+typedef struct arm_event {
+  double p[2];
+  double angle;
+  double ccw, cw; /* h on the arm's counter-clockwise and clockwise side */
+} arm_event;
+
+typedef struct events {
+  arm_event *v;
+  int n, cap;
+  int failed;
+} events;
+
+static void push_event(events *ev, const double p[2], const double dir[2], double ccw, double cw) {
+  if (!(dir[0] != 0.0 || dir[1] != 0.0)) return;
+  if (ev->n == ev->cap) {
+    int cap = ev->cap ? 2 * ev->cap : 64;
+    arm_event *v = realloc(ev->v, (size_t)cap * sizeof *v);
+    if (!v) {
+      ev->failed = 1;
+      return;
+    }
+    ev->v = v;
+    ev->cap = cap;
+  }
+  double a = atan2(dir[1], dir[0]);
+  if (a < 0.0) a += TWO_PI;
+  if (a >= TWO_PI) a = 0.0;
+  ev->v[ev->n++] = (arm_event){{p[0], p[1]}, a, ccw, cw};
+}
+
+/* The arms segment s leaves point p by at parameter t: forward along the
+ * curve (left on its counter-clockwise side) unless t is an open end,
+ * backward (right on that side) unless t is an open start. */
+static void add_arms(const ch_curve_set *set, int s, double t, const double p[2], events *ev) {
+  const ch_segment *sg = &set->segments[s];
+  if (t >= 1.0 - AT_END && sg->next >= 0) {
+    s = sg->next;
+    sg = &set->segments[s];
+    t = 0.0;
+  }
+  const ch_curve *cv = &set->curves[sg->curve];
+  double tg[2];
+  if (!(t >= 1.0 - AT_END)) {
+    ch_bezier_tangent(sg->p, t, tg);
+    push_event(ev, p, tg, cv->left, cv->right);
+  }
+  if (t <= AT_END) {
+    if (sg->prev >= 0) {
+      ch_bezier_tangent(set->segments[sg->prev].p, 1.0, tg);
+      double back[2] = {-tg[0], -tg[1]};
+      push_event(ev, p, back, cv->right, cv->left);
+    }
+  } else {
+    ch_bezier_tangent(sg->p, t, tg);
+    double back[2] = {-tg[0], -tg[1]};
+    push_event(ev, p, back, cv->right, cv->left);
+  }
+}
+
+/* ---- crossings of two quadratic segments ---- */
+
+static void box_of(const double p[3][2], double b[4]) {
+  b[0] = fmin(p[0][0], fmin(p[1][0], p[2][0]));
+  b[1] = fmin(p[0][1], fmin(p[1][1], p[2][1]));
+  b[2] = fmax(p[0][0], fmax(p[1][0], p[2][0]));
+  b[3] = fmax(p[0][1], fmax(p[1][1], p[2][1]));
+}
+
+static void split_half(const double p[3][2], double a[3][2], double b[3][2]) {
+  for (int k = 0; k < 2; k++) {
+    double m01 = 0.5 * (p[0][k] + p[1][k]), m12 = 0.5 * (p[1][k] + p[2][k]), m = 0.5 * (m01 + m12);
+    a[0][k] = p[0][k], a[1][k] = m01, a[2][k] = m;
+    b[0][k] = m, b[1][k] = m12, b[2][k] = p[2][k];
+  }
+}
+
+static void derivative(const double p[3][2], double t, double d[2]) {
+  for (int k = 0; k < 2; k++) d[k] = 2.0 * ((1.0 - t) * (p[1][k] - p[0][k]) + t * (p[2][k] - p[1][k]));
+}
+
+typedef struct hits {
+  double s[16], t[16];
+  int n;
+} hits;
+
+/* Newton on A(s) = B(t) from (s, t); keeps converged roots inside both. */
+static void refine_hit(const double A[3][2], const double B[3][2], double s, double t, hits *h) {
+  for (int it = 0; it < 30; it++) {
+    double pa[2], pb[2], da[2], db[2];
+    ch_bezier_eval(A, s, pa);
+    ch_bezier_eval(B, t, pb);
+    derivative(A, s, da);
+    derivative(B, t, db);
+    double f[2] = {pa[0] - pb[0], pa[1] - pb[1]};
+    double det = -da[0] * db[1] + db[0] * da[1];
+    if (!(fabs(det) > 1e-300)) return; /* tangent or parallel: no transversal crossing */
+    double ds = (-f[0] * db[1] + db[0] * f[1]) / det, dt = (da[0] * f[1] - da[1] * f[0]) / det;
+    s -= ds, t -= dt;
+    if (fabs(ds) < 1e-15 && fabs(dt) < 1e-15) break;
+  }
+  double pa[2], pb[2];
+  if (!(s >= -AT_END && s <= 1.0 + AT_END && t >= -AT_END && t <= 1.0 + AT_END)) return;
+  s = ch_clamp(s, 0.0, 1.0), t = ch_clamp(t, 0.0, 1.0);
+  ch_bezier_eval(A, s, pa);
+  ch_bezier_eval(B, t, pb);
+  if (hypot(pa[0] - pb[0], pa[1] - pb[1]) > SAME_POINT) return;
+  for (int k = 0; k < h->n; k++)
+    if (fabs(h->s[k] - s) < 1e-7 && fabs(h->t[k] - t) < 1e-7) return;
+  if (h->n < 16) h->s[h->n] = s, h->t[h->n] = t, h->n++;
+}
+
+static void crossings_rec(const double A[3][2], const double B[3][2], const double a[3][2], double a0, double a1,
+                          const double b[3][2], double b0, double b1, int depth, hits *h) {
+  double ba[4], bb[4];
+  box_of(a, ba);
+  box_of(b, bb);
+  const double pad = 1e-12;
+  if (ba[0] > bb[2] + pad || bb[0] > ba[2] + pad || ba[1] > bb[3] + pad || bb[1] > ba[3] + pad) return;
+  double sa = fmax(ba[2] - ba[0], ba[3] - ba[1]), sb = fmax(bb[2] - bb[0], bb[3] - bb[1]);
+  if (depth >= 24 || (sa < 1e-4 && sb < 1e-4)) {
+    refine_hit(A, B, 0.5 * (a0 + a1), 0.5 * (b0 + b1), h);
+    return;
+  }
+  if (sa >= sb) {
+    double l[3][2], r[3][2], m = 0.5 * (a0 + a1);
+    split_half(a, l, r);
+    crossings_rec(A, B, l, a0, m, b, b0, b1, depth + 1, h);
+    crossings_rec(A, B, r, m, a1, b, b0, b1, depth + 1, h);
+  } else {
+    double l[3][2], r[3][2], m = 0.5 * (b0 + b1);
+    split_half(b, l, r);
+    crossings_rec(A, B, a, a0, a1, l, b0, m, depth + 1, h);
+    crossings_rec(A, B, a, a0, a1, r, m, b1, depth + 1, h);
+  }
+}
+
+/* ---- the points ---- */
+
+static int cmp_event(const void *x, const void *y) {
+  const arm_event *a = x, *b = y;
+  if (a->p[0] != b->p[0]) return a->p[0] < b->p[0] ? -1 : 1;
+  if (a->p[1] != b->p[1]) return a->p[1] < b->p[1] ? -1 : 1;
+  return (a->angle > b->angle) - (a->angle < b->angle);
+}
+
+static int cmp_arm(const void *x, const void *y) {
+  const arm_event *a = x, *b = y;
+  return (a->angle > b->angle) - (a->angle < b->angle);
+}
+
+/* One point from the events of one place (sorted by angle in place). */
+static int make_point(arm_event *e, int n, ch_stepsing_point *pt) {
+  qsort(e, (size_t)n, sizeof *e, cmp_arm);
+  memset(pt, 0, sizeof *pt);
+  pt->p[0] = e[0].p[0], pt->p[1] = e[0].p[1];
+  double ccw[CH_STEPSING_MAX_ARMS], cw[CH_STEPSING_MAX_ARMS];
+  int m = 0;
+  for (int i = 0; i < n && m < CH_STEPSING_MAX_ARMS; i++) {
+    if (m > 0 && e[i].angle - pt->angle[m - 1] < SAME_ANGLE && ccw[m - 1] == e[i].ccw && cw[m - 1] == e[i].cw) continue;
+    if (m > 0 && i + 1 == n && pt->angle[0] + TWO_PI - e[i].angle < SAME_ANGLE && ccw[0] == e[i].ccw &&
+        cw[0] == e[i].cw)
+      continue;
+    pt->angle[m] = e[i].angle, ccw[m] = e[i].ccw, cw[m] = e[i].cw;
+    m++;
+  }
+  pt->num_arms = m;
+  int singular = 0;
+  for (int k = 0; k < m; k++) {
+    int next = (k + 1) % m;
+    double span = pt->angle[next] - pt->angle[k];
+    if (!(span > 0.0)) span += TWO_PI;
+    pt->value[k] = ccw[k];
+    pt->slope[k] = (cw[next] - ccw[k]) / span;
+    singular |= pt->slope[k] != 0.0;
+  }
+  return singular;
+}
+
+ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_stepsing *out, ch_error *err) {
+  memset(out, 0, sizeof *out);
+  events ev = {0};
+  /* open ends */
+  for (int i = 0; i < set->num_subpaths; i++) {
+    const ch_subpath *sp = &set->subpaths[i];
+    if (sp->num_segments <= 0) continue;
+    int first = sp->first_segment, last = first + sp->num_segments - 1;
+    if (!is_sharp_step(set, set->segments[first].curve)) continue;
+    if (set->segments[first].prev < 0) {
+      add_arms(set, first, 0.0, set->segments[first].p[0], &ev);
+    }
+    if (set->segments[last].next < 0) {
+      add_arms(set, last, 1.0, set->segments[last].p[2], &ev);
+    }
+  }
+  /* crossings: every pair of sharp step segments whose boxes meet, but a
+   * segment and its neighbours (they meet at their joint) */
+  int *steps = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *steps);
+  double(*box)[4] = malloc((size_t)(set->num_segments > 0 ? set->num_segments : 1) * sizeof *box);
+  int ns = 0;
+  if (!steps || !box) ev.failed = 1;
+  for (int i = 0; !ev.failed && i < set->num_segments; i++)
+    if (is_sharp_step(set, set->segments[i].curve)) {
+      box_of(set->segments[i].p, box[ns]);
+      steps[ns++] = i;
+    }
+  for (int a = 0; !ev.failed && a < ns; a++)
+    for (int b = a + 1; b < ns; b++) {
+      const double *ba = box[a], *bb = box[b];
+      if (ba[0] > bb[2] || bb[0] > ba[2] || ba[1] > bb[3] || bb[1] > ba[3]) continue;
+      const ch_segment *sa = &set->segments[steps[a]], *sb = &set->segments[steps[b]];
+      int adjacent = sa->next == steps[b] || sa->prev == steps[b];
+      hits h = {.n = 0};
+      crossings_rec(sa->p, sb->p, sa->p, 0.0, 1.0, sb->p, 0.0, 1.0, 0, &h);
+      for (int k = 0; k < h.n; k++) {
+        /* neighbours meet at their joint: not a crossing */
+        if (adjacent && ((sa->next == steps[b] && h.s[k] >= 1.0 - AT_END && h.t[k] <= AT_END) ||
+                         (sa->prev == steps[b] && h.s[k] <= AT_END && h.t[k] >= 1.0 - AT_END)))
+          continue;
+        double p[2];
+        ch_bezier_eval(sa->p, h.s[k], p);
+        add_arms(set, steps[a], h.s[k], p, &ev);
+        add_arms(set, steps[b], h.t[k], p, &ev);
+      }
+    }
+  ch_status st = CH_OK;
+  if (ev.failed) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory finding the step curves' ends and crossings");
+  /* group the events by place */
+  if (!st && ev.n > 0) {
+    qsort(ev.v, (size_t)ev.n, sizeof *ev.v, cmp_event);
+    out->points = calloc((size_t)ev.n, sizeof *out->points);
+    char *used = calloc((size_t)ev.n, 1);
+    arm_event *group = malloc((size_t)ev.n * sizeof *group);
+    if (!out->points || !used || !group) {
+      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory grouping the step curves' ends and crossings");
+    } else {
+      for (int i = 0; i < ev.n; i++) {
+        if (used[i]) continue;
+        int g = 0;
+        for (int j = i; j < ev.n && ev.v[j].p[0] - ev.v[i].p[0] <= SAME_POINT; j++)
+          if (!used[j] && fabs(ev.v[j].p[1] - ev.v[i].p[1]) <= SAME_POINT) {
+            used[j] = 1;
+            group[g++] = ev.v[j];
+          }
+        const double *p = group[0].p, margin = 1e-9 * (1.0 + fabs(rect[2] - rect[0]) + fabs(rect[3] - rect[1]));
+        int inside =
+            p[0] > rect[0] + margin && p[0] < rect[2] - margin && p[1] > rect[1] + margin && p[1] < rect[3] - margin;
+        if (inside && make_point(group, g, &out->points[out->num_points])) out->num_points++;
+      }
+    }
+    free(used);
+    free(group);
+  }
+  free(steps);
+  free(box);
+  free(ev.v);
+  if (st) ch_stepsing_free(out);
+  return st;
+}
+
+void ch_stepsing_free(ch_stepsing *s) {
+  free(s->points);
+  memset(s, 0, sizeof *s);
+}
+
+double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double grad[2]) {
+  double dx = q[0] - pt->p[0], dy = q[1] - pt->p[1], r2 = dx * dx + dy * dy;
+  if (!(r2 > 0.0)) {
+    if (grad) grad[0] = grad[1] = 0.0;
+    return pt->value[0];
+  }
+  double th = atan2(dy, dx);
+  if (th < 0.0) th += TWO_PI;
+  int n = pt->num_arms, k = n - 1;
+  for (int i = 0; i < n; i++)
+    if (pt->angle[i] <= th) k = i;
+  double rel = th - pt->angle[k];
+  if (rel < 0.0) rel += TWO_PI;
+  /* d theta = (-dy, dx) / r^2 */
+  if (grad) grad[0] = -pt->slope[k] * dy / r2, grad[1] = pt->slope[k] * dx / r2;
+  return pt->value[k] + pt->slope[k] * rel;
+}
+
+double ch_stepsing_window(double r, double r0, double r1) {
+  if (r <= r0) return 1.0;
+  if (r >= r1) return 0.0;
+  double s = (r - r0) / (r1 - r0);
+  return 1.0 - s * s * (3.0 - 2.0 * s);
+}

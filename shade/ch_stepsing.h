@@ -1,0 +1,68 @@
+/* ch_stepsing: the singular points of h_step (docs/spec.md §3 "Steps") and
+ * its leading term there.
+ *
+ * Where a step curve ends, or step curves cross or meet, the solution of
+ * Laplace's equation with the curves' Dirichlet values is, in each sector
+ * between the arms the curves leave the point by, to first order linear
+ * in the angle: the wedge's Dirichlet problem has h = a + b theta plus
+ * terms r^(k pi / alpha) sin(k pi theta / alpha), so around an end (the
+ * wedge is the whole turn, alpha = 2 pi) the next term is r^(1/2)
+ * sin(theta / 2), and at a crossing of two curves at right angles r^2.
+ * The gradient of the first term, b / r across the radius, is what no
+ * lattice of samples follows near the point: the feature maps store
+ * h_step's gradient less this term and add it back per pixel. */
+#ifndef CH_STEPSING_H
+#define CH_STEPSING_H
+
+#include "ch_curves.h"
+#include "ch_error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum { CH_STEPSING_MAX_ARMS = 8 };
+
+/* A point where step curves end, cross or meet, with the arms they leave
+ * it by (counter-clockwise) and h on either side of each. The sector k
+ * runs counter-clockwise from arm k to arm k + 1 (an end: from its one arm
+ * round to itself); in it the term is value[k] + slope[k] (theta -
+ * angle[k]). */
+typedef struct ch_stepsing_point {
+  double p[2];                        /* UV */
+  int num_arms;                       /* 1 .. CH_STEPSING_MAX_ARMS */
+  double angle[CH_STEPSING_MAX_ARMS]; /* directions, radians, increasing in [0, 2 pi) */
+  double value[CH_STEPSING_MAX_ARMS]; /* h on arm k's counter-clockwise side */
+  double slope[CH_STEPSING_MAX_ARMS]; /* dh / dtheta in sector k */
+} ch_stepsing_point;
+
+typedef struct ch_stepsing {
+  int num_points;
+  ch_stepsing_point *points;
+} ch_stepsing;
+
+/* Finds the singular points of the step curves the maps encode (sharp,
+ * with left != right) inside rect (u0 v0 u1 v1: the domain of h_step):
+ * open ends, crossings of two curves (or of a curve with itself), a curve
+ * ending on another; points where every sector's slope is zero are left
+ * out, and so are points on rect's border or beyond it (there the
+ * zero-flux border takes the place of the angle term: a wedge between a
+ * Dirichlet curve and a Neumann border has no term linear in the
+ * angle). Points with more than CH_STEPSING_MAX_ARMS arms keep the first
+ * ones. Blurred step curves make h_step smooth there and are not looked
+ * at. */
+ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_stepsing *out, ch_error *err);
+
+void ch_stepsing_free(ch_stepsing *s);
+
+/* The term of pt at q (its sector by q's direction from pt): the value,
+ * and its gradient in grad (NULL: not asked). Shader-shaped. */
+double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double grad[2]);
+
+/* A window of the term: 1 up to r0, 0 from r1, a C1 cubic between. */
+double ch_stepsing_window(double r, double r0, double r1);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
