@@ -102,6 +102,7 @@ typedef struct ch_featmap_curve {
   ch_curve_kind kind;
   ch_profile profile;
   double width, depth; /* UV, object units */
+  int flat_side;       /* steps: the side where h_step is one value (ch_stepsing_flat_side), or 0 */
 } ch_featmap_curve;
 
 /* An exact piece (a whole segment of a curve, UV) listed by fallback
@@ -198,8 +199,8 @@ typedef struct ch_featmap {
   ch_featmap_stats stats;
 } ch_featmap;
 
-#define CH_FEATMAP_SINGULAR_R0 3.0
-#define CH_FEATMAP_SINGULAR_R1 6.0
+#define CH_FEATMAP_SINGULAR_R0 4.0
+#define CH_FEATMAP_SINGULAR_R1 12.0
 
 /* Fills maps->sg_near from maps->singular (the nearest within R1 cells of
  * each lattice point); CH_ERR_NOMEM only. Used by the build and the
@@ -288,8 +289,8 @@ double ch_featmap_fallback_bytes(const ch_featmap *maps);
  * conventional normal map; msdf.R/G/B. Attributes: chisel:command
  * "featmap", chisel:featmap (format, "1"), chisel:featmap-mode,
  * chisel:resolution, chisel:rect, and the tables as text
- * (chisel:featmap-curves, -pieces, -fallback, -singular where there are
- * singular points, chisel:msdf-range), plus
+ * (chisel:featmap-curves, -pieces, -fallback, -flat and -singular where
+ * there are flat sides and singular points, chisel:msdf-range), plus
  * `extra`. Atomic. */
 /* (Maps built under a warp are not written: CH_ERR_INPUT.) */
 ch_status ch_featmap_write_exr(const char *path, const ch_featmap *maps, const struct ch_msdf *msdf,

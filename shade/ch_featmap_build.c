@@ -1398,7 +1398,7 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
   }
   for (int c = 0; c < set->num_curves; c++) {
     const ch_curve *cv = &set->curves[c];
-    m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth};
+    m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth, ch_stepsing_flat_side(set, c)};
   }
 #pragma omp parallel for schedule(static)
   for (size_t k = 0; k < n; k++) {

@@ -448,6 +448,14 @@ static void add_singular(const ch_featmap *m, const size_t corner[4], const doub
   B[0] = -g[0] / len, B[1] = -g[1] / len, B[2] = 1.0 / len;
 }
 
+/* Inside a region one step curve alone bounds, h_step is one value (a
+ * slab thinner than a cell has no sample of its own to say so). */
+static void flat_region(const ch_featmap *m, ch_featmap_sample *out) {
+  if (out->curve < 0 || out->curve >= m->num_curves) return;
+  int flat = m->curves[out->curve].flat_side;
+  if (flat && flat == out->side) out->base[0] = out->base[1] = 0.0, out->base[2] = 1.0;
+}
+
 /* ---- fallback: exact pieces ---- */
 
 static int piece_side(const ch_featmap_piece *pc, double t, const double q[2], const double P[2]) {
@@ -529,6 +537,7 @@ static void eval_fallback(const ch_featmap *m, const cell_ctx *c, const double u
   }
   for (int k = 0; k < 3; k++) out->base[k] = wsum > 0.0 ? B[k] / wsum : Ball[k] / wall;
   add_singular(m, c->corner, uv, out->base);
+  flat_region(m, out);
   /* the normal: the groove that decides h (carving first), else the base */
   int win = carve >= 0 ? carve : raise;
   if (win >= 0) {
@@ -634,5 +643,6 @@ void ch_featmap_eval(const ch_featmap *m, ch_featmap_method method, double u, do
   out->base[0] = r.v[3], out->base[1] = r.v[4], out->base[2] = r.v[5];
   add_singular(m, c.corner, uv, out->base);
   label(&c, p, r.v[6], &out->curve, &out->side);
+  flat_region(m, out);
   finish(m, out);
 }

@@ -147,6 +147,13 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
       tprintf(&singular, " %.17g %.17g %.17g", pt->angle[k], pt->value[k], pt->slope[k]);
     tprintf(&singular, "\n");
   }
+  /* steps' flat sides (ch_stepsing_flat_side): curve, side */
+  text flat = {0};
+  int num_flat = 0;
+  for (int c = 0; c < m->num_curves; c++) num_flat += m->curves[c].flat_side != 0;
+  tprintf(&flat, "%d\n", num_flat);
+  for (int c = 0; c < m->num_curves; c++)
+    if (m->curves[c].flat_side) tprintf(&flat, "%d %d\n", c, m->curves[c].flat_side);
   char rect[160], res[32], range[64];
   snprintf(rect, sizeof rect, "%.17g %.17g %.17g %.17g", m->rect[0], m->rect[1], m->rect[2], m->rect[3]);
   snprintf(res, sizeof res, "%d", R);
@@ -161,10 +168,11 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-curves", curves.s ? curves.s : ""};
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-pieces", pieces.s ? pieces.s : ""};
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-fallback", fallback.s ? fallback.s : ""};
+  if (num_flat > 0) attrs[na++] = (ch_exr_attribute){"chisel:featmap-flat", flat.s ? flat.s : ""};
   if (m->num_singular > 0) attrs[na++] = (ch_exr_attribute){"chisel:featmap-singular", singular.s ? singular.s : ""};
   if (msdf) attrs[na++] = (ch_exr_attribute){"chisel:msdf-range", range};
   for (int k = 0; k < num_extra && na < 16; k++) attrs[na++] = extra[k];
-  if (curves.failed || pieces.failed || fallback.failed || singular.failed) {
+  if (curves.failed || pieces.failed || fallback.failed || singular.failed || flat.failed) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the maps' tables");
   } else {
     ch_exr_write_desc wd = {.attributes = attrs, .num_attributes = na};
@@ -174,6 +182,7 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   free(pieces.s);
   free(fallback.s);
   free(singular.s);
+  free(flat.s);
   ch_image_free(&img);
   return st;
 }
@@ -339,6 +348,22 @@ static ch_status parse_singular(const char *txt, const char *name, ch_featmap *m
   return ch_featmap_singular_index(m, err);
 }
 
+static ch_status parse_flat(const char *txt, const char *name, ch_featmap *m, ch_error *err) {
+  cursor c = {txt};
+  long n;
+  if (!next_int(&c, 0, m->num_curves, &n))
+    return ch_error_set(err, CH_ERR_INPUT, "%s: bad flat side table (count)", name);
+  for (long i = 0; i < n; i++) {
+    long curve, side;
+    if (!next_int(&c, 0, m->num_curves - 1, &curve) || !next_int(&c, -1, 1, &side) || !side ||
+        m->curves[curve].kind != CH_CURVE_STEP)
+      return ch_error_set(err, CH_ERR_INPUT, "%s: bad flat side table (entry %ld)", name, i);
+    m->curves[curve].flat_side = (int)side;
+  }
+  if (!at_end(&c)) return ch_error_set(err, CH_ERR_INPUT, "%s: bad flat side table (trailing data)", name);
+  return CH_OK;
+}
+
 /* Whether a configuration word is one the build can make. */
 static int config_ok(uint32_t w) {
   if (w & ~CONFIG_BITS) return 0;
@@ -350,7 +375,7 @@ static int config_ok(uint32_t w) {
 static ch_status read_maps(const source *src, const ch_image *img, ch_featmap *m, struct ch_msdf *msdf, ch_error *err) {
   const char *name = src->name;
   char *cmd = NULL, *ver = NULL, *mode = NULL, *res = NULL, *rect = NULL, *curves = NULL, *pieces = NULL,
-       *fallback = NULL, *range = NULL, *singular = NULL;
+       *fallback = NULL, *range = NULL, *singular = NULL, *flat = NULL;
   ch_status st;
   ch_error quiet = {0};
   if (get_attr(src, "chisel:command", &cmd, &quiet) || strcmp(cmd, "featmap")) {
@@ -476,7 +501,8 @@ static ch_status read_maps(const source *src, const ch_image *img, ch_featmap *m
         for (int c = 0; c < 3; c++) m->normal[3 * k + c] = (float)v[L_NX + c];
     }
   if ((st = parse_pieces(pieces, name, m, err)) || (st = parse_fallback(fallback, name, m, err))) goto done;
-  /* maps without singular points (or written before they were) have no table */
+  /* maps without flat sides or singular points (or written before they were) have no tables */
+  if (!get_attr(src, "chisel:featmap-flat", &flat, &quiet) && (st = parse_flat(flat, name, m, err))) goto done;
   if (!get_attr(src, "chisel:featmap-singular", &singular, &quiet) && (st = parse_singular(singular, name, m, err)))
     goto done;
   if (msdf) {
@@ -520,6 +546,7 @@ done:
   free(pieces);
   free(fallback);
   free(singular);
+  free(flat);
   free(range);
   if (st) {
     ch_featmap_free(m);

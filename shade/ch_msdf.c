@@ -316,7 +316,7 @@ ch_status ch_msdf_build(const ch_curve_set *set, const ch_msdf_desc *desc, ch_ms
   m->num_curves = set->num_curves;
   for (int c = 0; c < set->num_curves; c++) {
     const ch_curve *cv = &set->curves[c];
-    m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth};
+    m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth, 0};
   }
   /* Edges and their colours, contour by contour. */
   double cross_threshold = sin(desc->angle_threshold > 0.0 ? desc->angle_threshold : 3.0);

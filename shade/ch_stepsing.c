@@ -312,3 +312,97 @@ double ch_stepsing_window(double r, double r0, double r1) {
   double s = (r - r0) / (r1 - r0);
   return 1.0 - s * s * (3.0 - 2.0 * s);
 }
+
+/* Winding number of the closed subpath sp around q (a horizontal ray to
+ * +u: each quadratic's crossings from its roots in [0, 1)). */
+static int winding(const ch_curve_set *set, const ch_subpath *sp, const double q[2]) {
+  int w = 0;
+  for (int i = sp->first_segment; i < sp->first_segment + sp->num_segments; i++) {
+    const double(*p)[2] = set->segments[i].p;
+    double a = p[0][1] - 2.0 * p[1][1] + p[2][1], b = 2.0 * (p[1][1] - p[0][1]), c = p[0][1] - q[1], roots[2];
+    int n = 0;
+    if (fabs(a) < 1e-300) {
+      if (b != 0.0) roots[n++] = -c / b;
+    } else {
+      double disc = b * b - 4.0 * a * c;
+      if (disc >= 0.0) {
+        double sq = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? sq : -sq));
+        roots[n++] = qq / a;
+        if (qq != 0.0) roots[n++] = c / qq;
+      }
+    }
+    for (int k = 0; k < n; k++) {
+      double t = roots[k], x[2], dy = 2.0 * a * t + b;
+      if (!(t >= 0.0 && t < 1.0) || dy == 0.0) continue;
+      ch_bezier_eval(p, t, x);
+      if (x[0] > q[0]) w += dy > 0.0 ? 1 : -1;
+    }
+  }
+  return w;
+}
+
+/* Signed area of a closed subpath: the chords' shoelace plus each
+ * parabolic cap (2/3 of its control triangle). */
+static double subpath_area(const ch_curve_set *set, const ch_subpath *sb) {
+  double area = 0.0;
+  for (int i = sb->first_segment; i < sb->first_segment + sb->num_segments; i++) {
+    const double(*p)[2] = set->segments[i].p;
+    double tri = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+    area += 0.5 * (p[0][0] * p[2][1] - p[2][0] * p[0][1]) + tri / 3.0;
+  }
+  return area;
+}
+
+int ch_stepsing_flat_side(const ch_curve_set *set, int c) {
+  const ch_curve *cv = &set->curves[c];
+  enum { MAX_SUBPATHS = 64 };
+  int n = cv->num_subpaths;
+  if (cv->kind != CH_CURVE_STEP || cv->blur > 0.0 || n <= 0 || n > MAX_SUBPATHS) return 0;
+  double area[MAX_SUBPATHS], box[4] = {INFINITY, INFINITY, -INFINITY, -INFINITY};
+  for (int k = 0; k < n; k++) {
+    const ch_subpath *sb = &set->subpaths[cv->first_subpath + k];
+    if (!sb->closed || sb->num_segments <= 0) return 0;
+    area[k] = subpath_area(set, sb);
+    if (area[k] == 0.0) return 0;
+  }
+  for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++)
+    for (int k = 0; k < 3; k++) {
+      const double *q = set->segments[i].p[k];
+      box[0] = fmin(box[0], q[0]), box[1] = fmin(box[1], q[1]);
+      box[2] = fmax(box[2], q[0]), box[3] = fmax(box[3], q[1]);
+    }
+  /* nothing else of h_step's within the curve's box (a segment lies
+   * within its control points' box) */
+  for (int i = 0; i < set->num_segments; i++) {
+    if (set->segments[i].curve == c || set->curves[set->segments[i].curve].kind != CH_CURVE_STEP) continue;
+    double b[4];
+    box_of(set->segments[i].p, b);
+    if (!(b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1])) return 0;
+  }
+  /* Each subpath's parent: the smallest other one around it. A region
+   * inside a subpath and outside its children is bounded by this curve
+   * alone: one value if every child shows it the parent's inside value. */
+  int left_flat = 1, right_flat = 1;
+  for (int k = 0; k < n; k++) {
+    const ch_subpath *sb = &set->subpaths[cv->first_subpath + k];
+    const double *q = set->segments[sb->first_segment].p[0];
+    int parent = -1;
+    for (int j = 0; j < n; j++)
+      if (j != k && winding(set, &set->subpaths[cv->first_subpath + j], q) != 0 &&
+          (parent < 0 || fabs(area[j]) < fabs(area[parent])))
+        parent = j;
+    int in_left = area[k] > 0.0; /* counter-clockwise: the inside is on the left */
+    if (parent >= 0) {
+      double out_value = in_left ? cv->right : cv->left;
+      double parent_in = area[parent] > 0.0 ? cv->left : cv->right;
+      if (out_value != parent_in) return 0;
+    } else {
+      /* the outside of an outermost subpath is the rest of the square */
+      if (in_left)
+        right_flat = 0;
+      else
+        left_flat = 0;
+    }
+  }
+  return left_flat ? 1 : right_flat ? -1 : 0;
+}

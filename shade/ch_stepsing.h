@@ -59,6 +59,14 @@ void ch_stepsing_free(ch_stepsing *s);
  * and its gradient in grad (NULL: not asked). Shader-shaped. */
 double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double grad[2]);
 
+/* The side of step curve c on which every region is bounded by c alone
+ * with one value all round, so that h_step is constant there
+ * (docs/spec.md §3): +1 its left, -1 its right, 0 none. Needs every
+ * subpath of c closed (at most 64), no other step curve meeting c's box, and each nested subpath showing its parent's
+ * inside value (a ring of two circles: its band). Thin slabs and rings,
+ * whose insides no lattice point samples, are then known flat. */
+int ch_stepsing_flat_side(const ch_curve_set *set, int c);
+
 /* A window of the term: 1 up to r0, 0 from r1, a C1 cubic between. */
 double ch_stepsing_window(double r, double r0, double r1);
 

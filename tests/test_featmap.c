@@ -178,7 +178,7 @@ static void test_exact_maps(void) {
     ch_groove_field_eval(&h.grooves, q[0], q[1], &gs);
     if (gs.active >= 0 && gs.active != c) continue; /* another groove decides h (CSG) */
     const ch_curve *cv = &set.curves[c];
-    ch_featmap_curve fc = {cv->kind, cv->profile, cv->width, cv->depth};
+    ch_featmap_curve fc = {cv->kind, cv->profile, cv->width, cv->depth, 0};
     double B[3] = {0, 0, 1}, nf[3], nt[3];
     double d = fabs(sd), half = 0.5 * cv->width;
     if (fabs(d - half) < 1e-9 || d < 1e-9) continue; /* on a break */
@@ -192,7 +192,7 @@ static void test_exact_maps(void) {
   /* b(d) between w0 and w1 blends: the normal lies between the profile's
    * and the base's, and at the ends it is each of them */
   const ch_curve *cv = &set.curves[1];
-  ch_featmap_curve fc = {cv->kind, cv->profile, cv->width, cv->depth};
+  ch_featmap_curve fc = {cv->kind, cv->profile, cv->width, cv->depth, 0};
   double g[2] = {1, 0}, B[3] = {0.3, 0, 0.953939}, n0[3], n1[3], nm[3];
   double half = 0.5 * cv->width;
   ch_featmap_profile_normal(&fc, 1, 0.1 * half, g, B, 0.2 * half, 0.8 * half, n0);
@@ -418,6 +418,55 @@ static void test_step_ends(void) {
   ch_featmap_free(&without);
   ch_featmap_free(&back);
   ch_truth_destroy(truth);
+  ch_height_free(&h);
+  ch_curves_free(&set);
+}
+
+/* Regions one step curve alone bounds, with one value all round, are
+ * flat (docs/spec.md §3): a slab a third of a cell thick (drawn clockwise:
+ * its inside is on the right) and a ring of two circles; an open curve
+ * never is. Inside the slab, where no lattice point lies, featnorm's base
+ * is exactly flat, and the flat sides survive the maps file. */
+static void test_flat_regions(void) {
+  const char *svg =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<rect x='20.3' y='40.2' width='40' height='1.04' data-kind='step' data-left='0' data-right='0.01'/>"
+      "<path d='M 30 60 A 10 10 0 1 0 50 60 A 10 10 0 1 0 30 60 Z M 29.5 60 A 10.5 10.5 0 1 1 50.5 60 "
+      "A 10.5 10.5 0 1 1 29.5 60 Z' data-kind='step' data-left='0.01' data-right='0'/>"
+      "<path d='M 20 20 L 70 25' data-kind='step' data-left='0.01' data-right='0'/></svg>";
+  ch_curve_set set;
+  REQUIRE(parse(svg, &set) == 0);
+  REQUIRE(set.num_curves == 3);
+  CHECK(ch_stepsing_flat_side(&set, 0) == -1);
+  CHECK(ch_stepsing_flat_side(&set, 1) == -1); /* the band between the circles: 0 on both */
+  CHECK(ch_stepsing_flat_side(&set, 2) == 0);
+  ch_error err = {0};
+  ch_height h;
+  ch_height_desc hd = {.dci_resolution = 512, .step_method = CH_RECON_EXACT};
+  REQUIRE(ch_height_init(&h, &set, &hd, &err) == CH_OK);
+  ch_featmap m, back;
+  ch_featmap_desc d = {.resolution = 32, .height = &h, .no_normal_map = 1};
+  REQUIRE(ch_featmap_build(&set, &d, &m, &err) == CH_OK);
+  CHECK(m.has_base && m.curves[0].flat_side == -1 && m.curves[1].flat_side == -1 && m.curves[2].flat_side == 0);
+  int flat = 0, n = 0;
+  for (int k = 0; k < 400; k++) { /* inside the slab, away from its ends */
+    double u = 0.22 + 0.36 * ch_test_rnd(), v = 1 - (0.402 + 0.0104 * (0.1 + 0.8 * ch_test_rnd()));
+    ch_featmap_sample fs;
+    ch_featmap_eval(&m, CH_FEATMAP_FEATNORM, u, v, &fs);
+    flat += fs.curve == 0 && fs.side == -1 && fs.base[0] == 0.0 && fs.base[1] == 0.0 && fs.base[2] == 1.0;
+    n++;
+  }
+  CHECK_MSG(flat == n, "%d of %d points inside the slab flat", flat, n);
+  const char *tmp = getenv("TMPDIR");
+  char file[1200];
+  snprintf(file, sizeof file, "%s/test_featmap_flat.exr", tmp ? tmp : "/tmp");
+  REQUIRE(ch_featmap_write_exr(file, &m, NULL, NULL, 0, &err) == CH_OK);
+  REQUIRE(ch_featmap_read_exr(file, &back, NULL, &err) == CH_OK);
+  CHECK(maps_equal(&m, &back));
+  for (int c = 0; c < 3; c++) CHECK(back.curves[c].flat_side == m.curves[c].flat_side);
+  remove(file);
+  ch_featmap_free(&m);
+  ch_featmap_free(&back);
   ch_height_free(&h);
   ch_curves_free(&set);
 }
@@ -668,7 +717,7 @@ static void test_warped(void) {
     int c = nearest(&set, q, &sd, g);
     const ch_curve *cv = &set.curves[c];
     if (fabs(sd) > 0.6 * cv->width) continue;
-    ch_featmap_curve fc = {cv->kind, cv->profile, cv->width, cv->depth};
+    ch_featmap_curve fc = {cv->kind, cv->profile, cv->width, cv->depth, 0};
     double B[3] = {0, 0, 1}, ne[3], half = 0.5 * cv->width;
     ch_featmap_profile_normal(&fc, sd >= 0 ? 1 : -1, fabs(sd), g, B, half, half, ne);
     ch_featmap_sample a, b;
@@ -730,6 +779,7 @@ int main(void) {
   RUN(test_circle_side);
   RUN(test_fallback);
   RUN(test_step_ends);
+  RUN(test_flat_regions);
   RUN(test_smoothing);
   RUN(test_threads_and_file);
   RUN(test_msdf);
