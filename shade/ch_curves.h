@@ -159,6 +159,12 @@ void ch_curve_update_box(ch_curve_set *set, int c);
 /* The point of segment s at parameter t (exact on the straight branch). */
 void ch_segment_point(const ch_segment *s, double t, double out[2]);
 
+/* Winding number around q of the closed loop(s) made by segments first ..
+ * first + count - 1: their crossings of the ray from q towards +u, by the
+ * roots of v(t) = q_v in [0, 1) (so a joint counts once), signed by the
+ * direction of travel. */
+int ch_segments_winding(const ch_curve_set *set, int first, int count, const double q[2]);
+
 /* The box of s's control points (which holds the segment) grown by r on
  * every side: umin vmin umax vmax. */
 void ch_segment_box(const ch_segment *s, double r, double box[4]);

@@ -313,34 +313,6 @@ double ch_stepsing_window(double r, double r0, double r1) {
   return 1.0 - s * s * (3.0 - 2.0 * s);
 }
 
-/* Winding number of the closed subpath sp around q (a horizontal ray to
- * +u: each quadratic's crossings from its roots in [0, 1)). */
-static int winding(const ch_curve_set *set, const ch_subpath *sp, const double q[2]) {
-  int w = 0;
-  for (int i = sp->first_segment; i < sp->first_segment + sp->num_segments; i++) {
-    const double(*p)[2] = set->segments[i].p;
-    double a = p[0][1] - 2.0 * p[1][1] + p[2][1], b = 2.0 * (p[1][1] - p[0][1]), c = p[0][1] - q[1], roots[2];
-    int n = 0;
-    if (fabs(a) < 1e-300) {
-      if (b != 0.0) roots[n++] = -c / b;
-    } else {
-      double disc = b * b - 4.0 * a * c;
-      if (disc >= 0.0) {
-        double sq = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? sq : -sq));
-        roots[n++] = qq / a;
-        if (qq != 0.0) roots[n++] = c / qq;
-      }
-    }
-    for (int k = 0; k < n; k++) {
-      double t = roots[k], x[2], dy = 2.0 * a * t + b;
-      if (!(t >= 0.0 && t < 1.0) || dy == 0.0) continue;
-      ch_bezier_eval(p, t, x);
-      if (x[0] > q[0]) w += dy > 0.0 ? 1 : -1;
-    }
-  }
-  return w;
-}
-
 /* Signed area of a closed subpath: the chords' shoelace plus each
  * parabolic cap (2/3 of its control triangle). */
 static double subpath_area(const ch_curve_set *set, const ch_subpath *sb) {
@@ -388,7 +360,9 @@ int ch_stepsing_flat_side(const ch_curve_set *set, int c) {
     const double *q = set->segments[sb->first_segment].p[0];
     int parent = -1;
     for (int j = 0; j < n; j++)
-      if (j != k && winding(set, &set->subpaths[cv->first_subpath + j], q) != 0 &&
+      if (j != k &&
+          ch_segments_winding(set, set->subpaths[cv->first_subpath + j].first_segment,
+                              set->subpaths[cv->first_subpath + j].num_segments, q) != 0 &&
           (parent < 0 || fabs(area[j]) < fabs(area[parent])))
         parent = j;
     int in_left = area[k] > 0.0; /* counter-clockwise: the inside is on the left */

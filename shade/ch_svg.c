@@ -824,38 +824,6 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   return CH_OK;
 }
 
-/* Winding number of the curve's (closed) subpaths around q: each segment's
- * crossings of the ray from q towards +u, by the roots of v(t) = q_v in
- * [0, 1) (so a joint counts once), signed by the direction of travel. */
-static int winding(const ch_curve_set *set, const ch_curve *c, const double q[2]) {
-  int w = 0;
-  for (int i = 0; i < c->num_segments; i++) {
-    const ch_segment *s = &set->segments[c->first_segment + i];
-    double a = s->p[0][1] - 2.0 * s->p[1][1] + s->p[2][1], b = 2.0 * (s->p[1][1] - s->p[0][1]),
-           k = s->p[0][1] - q[1];
-    double roots[2];
-    int nr = 0;
-    if (fabs(a) < 1e-14 * (fabs(b) + 1e-300)) {
-      if (b != 0.0) roots[nr++] = -k / b;
-    } else {
-      double disc = b * b - 4.0 * a * k;
-      if (disc >= 0.0) {
-        double r = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? r : -r));
-        roots[nr++] = qq / a;
-        if (qq != 0.0) roots[nr++] = k / qq;
-      }
-    }
-    for (int j = 0; j < nr; j++) {
-      double t = roots[j], dv = 2.0 * a * t + b;
-      if (!(t >= 0.0 && t < 1.0) || dv == 0.0) continue;
-      double pt[2];
-      ch_segment_point(s, t, pt);
-      if (pt[0] > q[0]) w += dv > 0.0 ? 1 : -1;
-    }
-  }
-  return w;
-}
-
 /* Reverses a subpath in place (segments and their links). */
 static void reverse_subpath(ch_curve_set *set, const ch_subpath *sp) {
   ch_segment *s = &set->segments[sp->first_segment];
@@ -902,7 +870,7 @@ static void orient_fill(svg_parser *ps) {
     if (!(len > 0.0)) continue;
     double eps = 1e-7 * fmax(size, 1e-3);
     double q[2] = {m[0] - d[1] / len * eps, m[1] + d[0] / len * eps};
-    int w = winding(set, c, q);
+    int w = ch_segments_winding(set, c->first_segment, c->num_segments, q);
     int left_filled = ps->fill_evenodd ? (w & 1) != 0 : w != 0;
     if (!left_filled) reverse_subpath(set, sp);
   }
