@@ -290,7 +290,7 @@ static int maps_equal(const ch_featmap *a, const ch_featmap *b) {
          a->num_pieces == b->num_pieces && !memcmp(a->pieces, b->pieces, (size_t)a->num_pieces * sizeof *a->pieces) &&
          (!a->normal || !memcmp(a->normal, b->normal, 3 * n * sizeof *a->normal)) &&
          a->num_singular == b->num_singular &&
-         !memcmp(a->singular, b->singular, (size_t)a->num_singular * sizeof *a->singular) &&
+         (!a->num_singular || !memcmp(a->singular, b->singular, (size_t)a->num_singular * sizeof *a->singular)) &&
          !a->sg_near == !b->sg_near && (!a->sg_near || !memcmp(a->sg_near, b->sg_near, n * sizeof *a->sg_near));
 }
 
