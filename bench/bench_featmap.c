@@ -8,7 +8,9 @@
  *   (the signed distance's sign; the conventional normal map), R = 64 to
  *   1024, on every bundled set and every torture class (pixels exactly
  *   on a curve, where there is no side and on a crease no normal, are
- *   left out of both);
+ *   left out of both); where there are step curves, also the truth
+ *   against the truth from a DCI twice as fine over the same pixels (the
+ *   reference's own error: h_step comes from a DCI);
  * - bytes per texel; build time at 1024^2 and 4096^2; evaluation speed in
  *   Msamples/s on all threads.
  * usage: bench_featmap [MODELS_DIR] [--res 64,128,...] [--crops N] [--sets a,b]
@@ -48,6 +50,10 @@ typedef struct setup {
   const ch_curve_set *set;
   ch_height height;
   ch_truth *truth;
+  /* where there are steps: the truth again from a DCI twice as fine, so
+   * that the reference's own error beside featnorm's is seen */
+  ch_height height2;
+  ch_truth *truth2;
   double *cum; /* cumulative arc length per encoded segment */
   int *segs;
   int nsegs;
@@ -109,6 +115,7 @@ typedef struct result {
   double wrong[3][NM]; /* % per magnification */
   double nmean[3][NM], np95[3][NM];
   double ngroove[3][NM]; /* normal mean over the pixels whose nearest curve is a groove */
+  double nref[3];        /* the truth against the truth at twice the DCI's resolution (0: no steps) */
 } result;
 
 typedef struct methods {
@@ -159,11 +166,11 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
     float *nerr[NM];
     for (int m = 0; m < NM; m++) nerr[m] = malloc(total * sizeof(float));
     long wrong[NM] = {0}, counted = 0, ngc = 0;
-    double nsum[NM] = {0}, ngs[NM] = {0};
+    double nsum[NM] = {0}, ngs[NM] = {0}, rsum = 0.0;
     unsigned long long rng = 88172645463325252ull ^ (unsigned long long)(R * 131 + mag);
     double (*centres)[2] = malloc((size_t)crops * sizeof *centres);
     for (int k = 0; k < crops; k++) curve_point(su, &rng, centres[k]);
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : counted, ngc)
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : counted, ngc, rsum)
     for (int k = 0; k < crops; k++) {
       long w[NM] = {0};
       double ns[NM] = {0}, gs[NM] = {0};
@@ -183,6 +190,12 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
           counted += side_counts;
           ngc += side_counts && groove;
           if (side_counts) ch_truth_normal(su->truth, q, tn);
+          if (side_counts && su->truth2) {
+            double t2[3];
+            ch_truth_normal(su->truth2, q, t2);
+            double dot = tn[0] * t2[0] + tn[1] * t2[1] + tn[2] * t2[2];
+            rsum += acos(dot > 1.0 ? 1.0 : dot < -1.0 ? -1.0 : dot) * 180.0 / CH_PI;
+          }
           for (int m = 0; m < NM; m++) {
             if (!side_counts) {
               nerr[m][at] = -1.0f;
@@ -211,6 +224,7 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
       res->nmean[g][m] = n ? nsum[m] / n : 0.0;
       res->ngroove[g][m] = ngc ? ngs[m] / ngc : 0.0;
       res->np95[g][m] = n ? nerr[m][first + (size_t)(0.95 * (n - 1))] : 0.0;
+      res->nref[g] = counted ? rsum / counted : 0.0;
       free(nerr[m]);
     }
     free(centres);
@@ -225,13 +239,17 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
   return 0;
 }
 
-static int setup_init(setup *su, const ch_curve_set *set, int dci_res, ch_error *err) {
+static int setup_init(setup *su, const ch_curve_set *set, int dci_res, int with_ref2, ch_error *err) {
   memset(su, 0, sizeof *su);
   su->set = set;
   ch_height_desc hd = {.dci_resolution = dci_res, .step_method = CH_RECON_EXACT};
   if (ch_height_init(&su->height, set, &hd, err)) return -1;
   ch_truth_desc td = {.grid = 64};
   if (ch_truth_create(&su->height, &td, &su->truth, err)) return -1;
+  if (with_ref2 && su->height.has_steps) {
+    ch_height_desc h2 = {.dci_resolution = 2 * dci_res, .step_method = CH_RECON_EXACT};
+    if (ch_height_init(&su->height2, set, &h2, err) || ch_truth_create(&su->height2, &td, &su->truth2, err)) return -1;
+  }
   su->cum = malloc((size_t)(set->num_segments + 1) * sizeof *su->cum);
   su->segs = malloc((size_t)(set->num_segments + 1) * sizeof *su->segs);
   double acc = 0.0;
@@ -246,6 +264,8 @@ static int setup_init(setup *su, const ch_curve_set *set, int dci_res, ch_error 
 
 static void setup_free(setup *su) {
   ch_truth_destroy(su->truth);
+  ch_truth_destroy(su->truth2);
+  ch_height_free(&su->height2);
   ch_height_free(&su->height);
   free(su->cum);
   free(su->segs);
@@ -302,7 +322,7 @@ int main(int argc, char **argv) {
         return 1;
       }
       setup su;
-      if (setup_init(&su, &set, dci_res, &err)) {
+      if (setup_init(&su, &set, dci_res, 1, &err)) {
         fprintf(stderr, "%s: %s\n", path, err.message);
         return 1;
       }
@@ -323,6 +343,7 @@ int main(int argc, char **argv) {
           for (int m = 0; m < NM; m++) printf(" %8.4f%%", rs.wrong[g][m]);
           printf(" |                   ");
           for (int m = 0; m < NM; m++) printf(" %4.2f/%-5.1f", rs.nmean[g][m], rs.np95[g][m]);
+          if (su.truth2) printf(" | truth vs 2x DCI %.3f", rs.nref[g]);
           printf("\n");
         }
         if (t >= NB) tor[t - NB][r] = rs, have_tor[t - NB][r] = 1;
@@ -345,19 +366,19 @@ int main(int argc, char **argv) {
     for (int r = 0; r < nres; r++) {
       if (!have_tor[0][r]) continue;
       printf("\ntorture classes at R %d, 16x, against easy (wrong side %%, normal mean deg; ratio to easy):\n", res[r]);
-      printf("%-10s %22s %22s %22s %22s %22s\n", "class", "featnorm side", "fn-nofb side", "featnorm normal",
-             "fn-nofb normal", "featnorm on grooves");
+      printf("%-10s %22s %22s %22s %22s %22s %16s\n", "class", "featnorm side", "fn-nofb side", "featnorm normal",
+             "fn-nofb normal", "featnorm on grooves", "truth vs 2x DCI");
       const result *e = &tor[0][r];
       for (int c = 0; c < NT; c++) {
         if (!have_tor[c][r]) continue;
         const result *x = &tor[c][r];
         double fl = 1e-4; /* a floor so that an exact easy class does not divide by 0 */
-        printf("%-10s %10.4f (%6.2fx) %10.4f (%6.2fx) %10.3f (%6.2fx) %10.3f (%6.2fx) %10.3f (%6.2fx)\n", torture[c],
-               x->wrong[1][M_FN], (x->wrong[1][M_FN] + fl) / (e->wrong[1][M_FN] + fl), x->wrong[1][M_FN_OFF],
-               (x->wrong[1][M_FN_OFF] + fl) / (e->wrong[1][M_FN_OFF] + fl), x->nmean[1][M_FN],
+        printf("%-10s %10.4f (%6.2fx) %10.4f (%6.2fx) %10.3f (%6.2fx) %10.3f (%6.2fx) %10.3f (%6.2fx) %16.3f\n",
+               torture[c], x->wrong[1][M_FN], (x->wrong[1][M_FN] + fl) / (e->wrong[1][M_FN] + fl),
+               x->wrong[1][M_FN_OFF], (x->wrong[1][M_FN_OFF] + fl) / (e->wrong[1][M_FN_OFF] + fl), x->nmean[1][M_FN],
                (x->nmean[1][M_FN] + fl) / (e->nmean[1][M_FN] + fl), x->nmean[1][M_FN_OFF],
                (x->nmean[1][M_FN_OFF] + fl) / (e->nmean[1][M_FN_OFF] + fl), x->ngroove[1][M_FN],
-               (x->ngroove[1][M_FN] + fl) / (e->ngroove[1][M_FN] + fl));
+               (x->ngroove[1][M_FN] + fl) / (e->ngroove[1][M_FN] + fl), x->nref[1]);
       }
     }
   }
@@ -422,7 +443,7 @@ int main(int argc, char **argv) {
     ch_curve_set set;
     if (ch_curves_read_svg(path, &set, &err)) return 1;
     setup su;
-    if (setup_init(&su, &set, dci_res, &err)) return 1;
+    if (setup_init(&su, &set, dci_res, 0, &err)) return 1;
     int R = 1024;
     methods mm;
     memset(&mm, 0, sizeof mm);
