@@ -470,6 +470,37 @@ static int piece_side(const ch_featmap_piece *pc, double t, const double q[2], c
   return start ? ch_joint_side(pc->tin, tg, d) : ch_joint_side(tg, pc->tout, d);
 }
 
+/* Whether the straight segment a-b crosses piece pc (the roots of the
+ * quadratic along a-b's normal, inside both). */
+static int piece_crosses(const ch_featmap_piece *pc, const double a[2], const double b[2]) {
+  double d[2] = {b[0] - a[0], b[1] - a[1]}, n[2] = {-d[1], d[0]}, dd = d[0] * d[0] + d[1] * d[1];
+  if (!(dd > 0.0)) return 0;
+  const double(*p)[2] = pc->p;
+  /* f(t) = n . (B(t) - a) = A t^2 + Bq t + C */
+  double f0 = n[0] * (p[0][0] - a[0]) + n[1] * (p[0][1] - a[1]), f1 = n[0] * (p[1][0] - a[0]) + n[1] * (p[1][1] - a[1]),
+         f2 = n[0] * (p[2][0] - a[0]) + n[1] * (p[2][1] - a[1]);
+  double A = f0 - 2.0 * f1 + f2, Bq = 2.0 * (f1 - f0), C = f0, roots[2];
+  int nr = 0;
+  if (fabs(A) < 1e-14 * (fabs(Bq) + fabs(C) + 1e-300)) {
+    if (Bq != 0.0) roots[nr++] = -C / Bq;
+  } else {
+    double disc = Bq * Bq - 4.0 * A * C;
+    if (disc >= 0.0) {
+      double r = sqrt(disc), qq = -0.5 * (Bq + (Bq >= 0.0 ? r : -r));
+      roots[nr++] = qq / A;
+      if (qq != 0.0) roots[nr++] = C / qq;
+    }
+  }
+  for (int k = 0; k < nr; k++) {
+    double t = roots[k], x[2];
+    if (!(t >= 0.0 && t <= 1.0)) continue;
+    ch_bezier_eval(p, t, x);
+    double sa = ((x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1]) / dd;
+    if (sa >= 0.0 && sa <= 1.0) return 1;
+  }
+  return 0;
+}
+
 /* The exact pieces of a fallback cell: per curve its nearest piece, the
  * nearest curve overall (distance, gradient, side), and docs/spec.md §3's CSG over
  * the grooves' carve values, whose winner gives the normal. */
@@ -524,18 +555,32 @@ static void eval_fallback(const ch_featmap *m, const cell_ctx *c, const double u
     out->side = sd[best] >= 0.0 ? 1 : -1;
     out->gradient[0] = grad[best][0], out->gradient[1] = grad[best][1];
   }
-  /* Base normal: the corners on the same side of the same curve. */
-  double wsum = 0.0, B[3] = {0, 0, 0}, wall = 0.0, Ball[3] = {0, 0, 0};
+  /* Base normal: the corners no step curve separates from the point
+   * (h_step's one-sided gradients differ across each: two sides of a
+   * ring a quarter cell thick are one curve's same side, and where two
+   * cross the nearest alone does not tell); else those on the same side
+   * of the same curve; else all. */
+  double wreg = 0.0, R3[3] = {0, 0, 0}, wsum = 0.0, B[3] = {0, 0, 0}, wall = 0.0, Ball[3] = {0, 0, 0};
   for (int q = 0; q < 4; q++) {
     double wx = fm_corner_xy[q][0] ? p[0] : 1.0 - p[0], wy = fm_corner_xy[q][1] ? p[1] : 1.0 - p[1];
     double w = ch_clamp(wx, 0.0, 1.0) * ch_clamp(wy, 0.0, 1.0) + 1e-9;
     for (int k = 0; k < 3; k++) Ball[k] += w * c->cv[q].v[3 + k];
     wall += w;
+    int apart = 0;
+    for (int e = 0; e < n && !apart; e++) {
+      const ch_featmap_piece *pc = &m->pieces[m->fb_list[start + e]];
+      if (pc->curve >= 0 && pc->curve < m->num_curves && m->curves[pc->curve].kind == CH_CURVE_STEP)
+        apart = piece_crosses(pc, uv, c->cuv[q]);
+    }
+    if (!apart) {
+      for (int k = 0; k < 3; k++) R3[k] += w * c->cv[q].v[3 + k];
+      wreg += w;
+    }
     if (c->ccurve[q] != out->curve || c->cside[q] != out->side) continue;
     for (int k = 0; k < 3; k++) B[k] += w * c->cv[q].v[3 + k];
     wsum += w;
   }
-  for (int k = 0; k < 3; k++) out->base[k] = wsum > 0.0 ? B[k] / wsum : Ball[k] / wall;
+  for (int k = 0; k < 3; k++) out->base[k] = wreg > 0.0 ? R3[k] / wreg : wsum > 0.0 ? B[k] / wsum : Ball[k] / wall;
   add_singular(m, c->corner, uv, out->base);
   flat_region(m, out);
   /* the normal: the groove that decides h (carving first), else the base */

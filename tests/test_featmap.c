@@ -457,6 +457,21 @@ static void test_flat_regions(void) {
     n++;
   }
   CHECK_MSG(flat == n, "%d of %d points inside the slab flat", flat, n);
+  /* Inside the disc the ring bounds, h_step is one value too; a cell
+   * across the ring (a sixth of a cell thick) has corners outside it on
+   * the same side of the same curve, where h_step slopes: those the ring
+   * separates from the point must not tilt it. */
+  double worst = 0.0, outside = 0.0;
+  for (int k = 0; k < 400; k++) {
+    double a = 2 * CH_PI * ch_test_rnd(), r = 0.1 - 0.5 / 32 * ch_test_rnd();
+    ch_featmap_sample fs;
+    ch_featmap_eval(&m, CH_FEATMAP_FEATNORM, 0.4 + r * cos(a), 0.4 + r * sin(a), &fs);
+    worst = fmax(worst, acos(fmin(1.0, fs.base[2])) * 180 / CH_PI);
+    ch_featmap_eval(&m, CH_FEATMAP_FEATNORM, 0.4 + (0.105 + 0.5 / 32) * cos(a), 0.4 + (0.105 + 0.5 / 32) * sin(a), &fs);
+    outside = fmax(outside, acos(fmin(1.0, fs.base[2])) * 180 / CH_PI);
+  }
+  CHECK_MSG(worst < 0.02 && outside > 0.2, "base inside the ring tilts by up to %.4f deg (outside %.3f)", worst,
+            outside);
   const char *tmp = getenv("TMPDIR");
   char file[1200];
   snprintf(file, sizeof file, "%s/test_featmap_flat.exr", tmp ? tmp : "/tmp");
