@@ -160,6 +160,18 @@ static void crossings_rec(const double A[3][2], const double B[3][2], const doub
   }
 }
 
+/* A box's least u and its index, for the sweep over pairs. */
+typedef struct by_u {
+  double u0;
+  int i;
+} by_u;
+
+static int cmp_by_u(const void *x, const void *y) {
+  const by_u *a = x, *b = y;
+  if (a->u0 != b->u0) return a->u0 < b->u0 ? -1 : 1;
+  return (a->i > b->i) - (a->i < b->i);
+}
+
 /* ---- the points ---- */
 
 static int cmp_event(const void *x, const void *y) {
@@ -229,10 +241,16 @@ ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_ste
       box_of(set->segments[i].p, box[ns]);
       steps[ns++] = i;
     }
-  for (int a = 0; !ev.failed && a < ns; a++)
-    for (int b = a + 1; b < ns; b++) {
+  /* sweep along u: a pair is looked at only while the boxes' u ranges meet */
+  by_u *order = malloc((size_t)(ns > 0 ? ns : 1) * sizeof *order);
+  if (!order) ev.failed = 1;
+  for (int i = 0; !ev.failed && i < ns; i++) order[i] = (by_u){box[i][0], i};
+  if (!ev.failed) qsort(order, (size_t)ns, sizeof *order, cmp_by_u);
+  for (int oa = 0; !ev.failed && oa < ns; oa++)
+    for (int ob = oa + 1; ob < ns && order[ob].u0 <= box[order[oa].i][2]; ob++) {
+      int x = order[oa].i, y = order[ob].i, a = x < y ? x : y, b = x < y ? y : x;
       const double *ba = box[a], *bb = box[b];
-      if (ba[0] > bb[2] || bb[0] > ba[2] || ba[1] > bb[3] || bb[1] > ba[3]) continue;
+      if (ba[1] > bb[3] || bb[1] > ba[3]) continue;
       const ch_segment *sa = &set->segments[steps[a]], *sb = &set->segments[steps[b]];
       int adjacent = sa->next == steps[b] || sa->prev == steps[b];
       hits h = {.n = 0};
@@ -248,6 +266,7 @@ ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_ste
         add_arms(set, steps[b], h.t[k], p, &ev);
       }
     }
+  free(order);
   ch_status st = CH_OK;
   if (ev.failed) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory finding the step curves' ends and crossings");
   /* group the events by place */
