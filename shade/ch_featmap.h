@@ -202,7 +202,14 @@ typedef struct ch_featmap {
 #define CH_FEATMAP_SINGULAR_R0 4.0
 #define CH_FEATMAP_SINGULAR_R1 12.0
 
-/* Fills maps->sg_near from maps->singular (the nearest within R1 cells of
+/* Each singular point's term is whole within radius R0 / R1 and gone
+ * from radius (its field ch_stepsing_point.radius): R1 cells, or half the
+ * way to the nearest other point, so that no two windows overlap (one
+ * term per point of the map, no seams between them) and a window ends
+ * before an arm's curve does (a short dash: its other end). */
+double ch_featmap_singular_window(const ch_stepsing_point *pt, double distance);
+
+/* Fills maps->sg_near from maps->singular (the point whose window holds
  * each lattice point); CH_ERR_NOMEM only. Used by the build and the
  * reader, so both leave out the same terms. */
 ch_status ch_featmap_singular_index(ch_featmap *maps, ch_error *err);

@@ -431,8 +431,7 @@ void ch_featmap_singular_gradient(const ch_featmap *m, const size_t corner[4], c
     if (d < bd) bd = d, best = k;
   }
   if (best < 0) return;
-  double cell = sqrt((m->rect[2] - m->rect[0]) * (m->rect[3] - m->rect[1])) / m->resolution;
-  double w = ch_stepsing_window(bd / cell, CH_FEATMAP_SINGULAR_R0, CH_FEATMAP_SINGULAR_R1), tg[2];
+  double w = ch_featmap_singular_window(&m->singular[best], bd), tg[2];
   ch_stepsing_term(&m->singular[best], uv, tg);
   g[0] = w * tg[0], g[1] = w * tg[1];
 }

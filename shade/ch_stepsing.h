@@ -34,6 +34,7 @@ typedef struct ch_stepsing_point {
   double angle[CH_STEPSING_MAX_ARMS]; /* directions, radians, increasing in [0, 2 pi) */
   double value[CH_STEPSING_MAX_ARMS]; /* h on arm k's counter-clockwise side */
   double slope[CH_STEPSING_MAX_ARMS]; /* dh / dtheta in sector k */
+  double radius;                      /* how far from p its user takes the term (UV; 0 until set) */
 } ch_stepsing_point;
 
 typedef struct ch_stepsing {

@@ -399,6 +399,10 @@ static void test_step_ends(void) {
           sum_with / n, sum_without / n);
   CHECK_MSG(sum_with < 0.25 * sum_without, "mean normal error near the ends %.4f deg with the term, %.4f without",
             sum_with / n, sum_without / n);
+  /* each end's window: R1 cells or half way to the other end */
+  double apart = hypot(with.singular[0].p[0] - with.singular[1].p[0], with.singular[0].p[1] - with.singular[1].p[1]);
+  for (int i = 0; i < with.num_singular; i++)
+    CHECK(fabs(with.singular[i].radius - fmin(CH_FEATMAP_SINGULAR_R1 / R, 0.5 * apart)) < 1e-12);
   /* the table and its index through the maps file */
   const char *tmp = getenv("TMPDIR");
   char file[1200];
@@ -418,6 +422,33 @@ static void test_step_ends(void) {
   ch_featmap_free(&without);
   ch_featmap_free(&back);
   ch_truth_destroy(truth);
+  ch_height_free(&h);
+  ch_curves_free(&set);
+
+  /* A dash a third of a cell long: its two ends' windows stop half way
+   * between them, so crossing the line half way between them (where the
+   * nearest end changes), beside the dash, the base normal has no seam. */
+  const char *dash =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<path d='M 49.7 50.3 L 50.74 50.3' data-kind='step' data-left='0.01' data-right='0'/></svg>";
+  REQUIRE(parse(dash, &set) == 0);
+  REQUIRE(ch_height_init(&h, &set, &hd, &err) == CH_OK);
+  ch_featmap_desc dd = {.resolution = R, .height = &h, .no_normal_map = 1};
+  REQUIRE(ch_featmap_build(&set, &dd, &with, &err) == CH_OK);
+  REQUIRE(with.num_singular == 2);
+  for (int i = 0; i < 2; i++) CHECK(fabs(with.singular[i].radius - 0.5 * 0.0104) < 1e-9);
+  double worst_step = 0.0, prev[3] = {0, 0, 0};
+  for (int k = 0; k <= 2000; k++) {
+    double u = 0.5022 + 0.004 * (k / 2000.0 - 0.5), v = 1 - 0.503 + 0.003; /* a tenth of a cell above it */
+    ch_featmap_sample fs;
+    ch_featmap_eval(&with, CH_FEATMAP_FEATNORM, u, v, &fs);
+    double bl = sqrt(fs.base[0] * fs.base[0] + fs.base[1] * fs.base[1] + fs.base[2] * fs.base[2]);
+    double b[3] = {fs.base[0] / bl, fs.base[1] / bl, fs.base[2] / bl};
+    if (k > 0) worst_step = fmax(worst_step, angle_deg(b, prev));
+    memcpy(prev, b, sizeof prev);
+  }
+  CHECK_MSG(worst_step < 0.5, "base normal jumps by %.3f deg between neighbours 2e-6 apart", worst_step);
+  ch_featmap_free(&with);
   ch_height_free(&h);
   ch_curves_free(&set);
 }
@@ -466,9 +497,13 @@ static void test_flat_regions(void) {
     double a = 2 * CH_PI * ch_test_rnd(), r = 0.1 - 0.5 / 32 * ch_test_rnd();
     ch_featmap_sample fs;
     ch_featmap_eval(&m, CH_FEATMAP_FEATNORM, 0.4 + r * cos(a), 0.4 + r * sin(a), &fs);
-    worst = fmax(worst, acos(fmin(1.0, fs.base[2])) * 180 / CH_PI);
+    worst = fmax(worst, acos(fmin(1.0, fs.base[2] / sqrt(fs.base[0] * fs.base[0] + fs.base[1] * fs.base[1] +
+                                                         fs.base[2] * fs.base[2]))) *
+                            180 / CH_PI);
     ch_featmap_eval(&m, CH_FEATMAP_FEATNORM, 0.4 + (0.105 + 0.5 / 32) * cos(a), 0.4 + (0.105 + 0.5 / 32) * sin(a), &fs);
-    outside = fmax(outside, acos(fmin(1.0, fs.base[2])) * 180 / CH_PI);
+    outside = fmax(outside, acos(fmin(1.0, fs.base[2] / sqrt(fs.base[0] * fs.base[0] + fs.base[1] * fs.base[1] +
+                                                             fs.base[2] * fs.base[2]))) *
+                                180 / CH_PI);
   }
   CHECK_MSG(worst < 0.02 && outside > 0.2, "base inside the ring tilts by up to %.4f deg (outside %.3f)", worst,
             outside);
