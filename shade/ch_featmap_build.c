@@ -97,35 +97,6 @@ double ch_featmap_singular_window(const ch_stepsing_point *pt, double distance) 
   return ch_stepsing_window(distance, pt->radius * (CH_FEATMAP_SINGULAR_R0 / CH_FEATMAP_SINGULAR_R1), pt->radius);
 }
 
-typedef struct point_u {
-  double u;
-  int i;
-} point_u;
-
-static int cmp_point_u(const void *x, const void *y) {
-  const point_u *a = x, *b = y;
-  if (a->u != b->u) return a->u < b->u ? -1 : 1;
-  return (a->i > b->i) - (a->i < b->i);
-}
-
-/* Radii: at most most, and half the distance to the nearest other point
- * (a sweep along u, stopping where u alone is farther). */
-static void singular_radii(ch_stepsing_point *pts, int n, double most) {
-  point_u *o = malloc((size_t)(n > 0 ? n : 1) * sizeof *o);
-  for (int i = 0; i < n; i++) pts[i].radius = most;
-  if (!o) return; /* every radius stays `most`: windows may overlap, nothing worse */
-  for (int i = 0; i < n; i++) o[i] = (point_u){pts[i].p[0], i};
-  qsort(o, (size_t)n, sizeof *o, cmp_point_u);
-  for (int a = 0; a < n; a++)
-    for (int b = a + 1; b < n && o[b].u - o[a].u < 2.0 * most; b++) {
-      ch_stepsing_point *pa = &pts[o[a].i], *pb = &pts[o[b].i];
-      double half = 0.5 * hypot(pa->p[0] - pb->p[0], pa->p[1] - pb->p[1]);
-      pa->radius = fmin(pa->radius, half);
-      pb->radius = fmin(pb->radius, half);
-    }
-  free(o);
-}
-
 ch_status ch_featmap_singular_index(ch_featmap *m, ch_error *err) {
   free(m->sg_near);
   m->sg_near = NULL;
@@ -135,6 +106,8 @@ ch_status ch_featmap_singular_index(ch_featmap *m, ch_error *err) {
   if (!m->sg_near) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the maps' singular points");
   for (size_t k = 0; k < (size_t)R1 * R1; k++) m->sg_near[k] = -1;
   double du = (m->rect[2] - m->rect[0]) / R, dv = (m->rect[3] - m->rect[1]) / R;
+  ch_status st = ch_stepsing_limit_radii(m->singular, m->num_singular, CH_FEATMAP_SINGULAR_R1 * sqrt(du * dv), err);
+  if (st) return st;
   /* each point stamps the lattice points within its radius; the nearest keeps them */
   for (int p = 0; p < m->num_singular; p++) {
     const double *c = m->singular[p].p, reach = m->singular[p].radius;
@@ -1740,7 +1713,6 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
       }
       m->singular = sing.points;
       m->num_singular = sing.num_points;
-      singular_radii(m->singular, m->num_singular, CH_FEATMAP_SINGULAR_R1 * sqrt(L.du * L.dv));
       if ((st = ch_featmap_singular_index(m, err))) {
         ch_groove_field_free(&gf);
         goto fail;

@@ -142,7 +142,7 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   tprintf(&singular, "%d\n", m->num_singular);
   for (int p = 0; p < m->num_singular; p++) {
     const ch_stepsing_point *pt = &m->singular[p];
-    tprintf(&singular, "%.17g %.17g %.17g %d", pt->p[0], pt->p[1], pt->radius, pt->num_arms);
+    tprintf(&singular, "%.17g %.17g %d", pt->p[0], pt->p[1], pt->num_arms);
     for (int k = 0; k < pt->num_arms; k++)
       tprintf(&singular, " %.17g %.17g %.17g", pt->angle[k], pt->value[k], pt->slope[k]);
     tprintf(&singular, "\n");
@@ -327,21 +327,17 @@ static ch_status parse_fallback(const char *txt, const char *name, ch_featmap *m
 static ch_status parse_singular(const char *txt, const char *name, ch_featmap *m, ch_error *err) {
   cursor c = {txt};
   long n;
-  /* a point is at least seven numbers of two characters */
-  if (!next_int(&c, 0, 1 << 24, &n) || (size_t)n > strlen(txt) / 14)
+  /* a point is at least six numbers of two characters */
+  if (!next_int(&c, 0, 1 << 24, &n) || (size_t)n > strlen(txt) / 12)
     return ch_error_set(err, CH_ERR_INPUT, "%s: bad singular point table (count)", name);
   m->singular = calloc((size_t)(n > 0 ? n : 1), sizeof *m->singular);
   if (!m->singular) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory for %ld singular points", name, n);
   m->num_singular = (int)n;
-  /* no window beyond the build's widest */
-  double most = CH_FEATMAP_SINGULAR_R1 * sqrt((m->rect[2] - m->rect[0]) * (m->rect[3] - m->rect[1])) / m->resolution *
-                (1.0 + 1e-9);
   for (long i = 0; i < n; i++) {
     ch_stepsing_point *pt = &m->singular[i];
     long arms;
-    int ok = next_double(&c, &pt->p[0]) && next_double(&c, &pt->p[1]) && next_double(&c, &pt->radius) &&
-             next_int(&c, 1, CH_STEPSING_MAX_ARMS, &arms) && fabs(pt->p[0]) <= CH_CURVES_MAX_UV &&
-             fabs(pt->p[1]) <= CH_CURVES_MAX_UV && pt->radius >= 0.0 && pt->radius <= most;
+    int ok = next_double(&c, &pt->p[0]) && next_double(&c, &pt->p[1]) && next_int(&c, 1, CH_STEPSING_MAX_ARMS, &arms) &&
+             fabs(pt->p[0]) <= CH_CURVES_MAX_UV && fabs(pt->p[1]) <= CH_CURVES_MAX_UV;
     pt->num_arms = ok ? (int)arms : 0;
     for (int k = 0; ok && k < pt->num_arms; k++)
       ok = next_double(&c, &pt->angle[k]) && next_double(&c, &pt->value[k]) && next_double(&c, &pt->slope[k]) &&
@@ -349,7 +345,7 @@ static ch_status parse_singular(const char *txt, const char *name, ch_featmap *m
     if (!ok) return ch_error_set(err, CH_ERR_INPUT, "%s: bad singular point table (point %ld)", name, i);
   }
   if (!at_end(&c)) return ch_error_set(err, CH_ERR_INPUT, "%s: bad singular point table (trailing data)", name);
-  return ch_featmap_singular_index(m, err);
+  return ch_featmap_singular_index(m, err); /* the radii too: they follow from the points */
 }
 
 static ch_status parse_flat(const char *txt, const char *name, ch_featmap *m, ch_error *err) {

@@ -307,6 +307,25 @@ void ch_stepsing_free(ch_stepsing *s) {
   memset(s, 0, sizeof *s);
 }
 
+ch_status ch_stepsing_limit_radii(ch_stepsing_point *pts, int n, double most, ch_error *err) {
+  for (int i = 0; i < n; i++) pts[i].radius = most;
+  if (n < 2) return CH_OK;
+  by_u *o = malloc((size_t)n * sizeof *o);
+  if (!o) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the singular points' radii");
+  for (int i = 0; i < n; i++) o[i] = (by_u){pts[i].p[0], i};
+  qsort(o, (size_t)n, sizeof *o, cmp_by_u);
+  /* a sweep along u, stopping where u alone is farther */
+  for (int a = 0; a < n; a++)
+    for (int b = a + 1; b < n && o[b].u0 - o[a].u0 < 2.0 * most; b++) {
+      ch_stepsing_point *pa = &pts[o[a].i], *pb = &pts[o[b].i];
+      double half = 0.5 * hypot(pa->p[0] - pb->p[0], pa->p[1] - pb->p[1]);
+      pa->radius = fmin(pa->radius, half);
+      pb->radius = fmin(pb->radius, half);
+    }
+  free(o);
+  return CH_OK;
+}
+
 double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double grad[2]) {
   double dx = q[0] - pt->p[0], dy = q[1] - pt->p[1], r2 = dx * dx + dy * dy;
   if (!(r2 > 0.0)) {

@@ -56,6 +56,11 @@ ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_ste
 
 void ch_stepsing_free(ch_stepsing *s);
 
+/* Sets each point's radius: at most `most` (UV), and half the distance
+ * to the nearest other point (so no two radii overlap). CH_ERR_NOMEM
+ * only. */
+ch_status ch_stepsing_limit_radii(ch_stepsing_point *pts, int n, double most, ch_error *err);
+
 /* The term of pt at q (its sector by q's direction from pt): the value,
  * and its gradient in grad (NULL: not asked). Shader-shaped. */
 double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double grad[2]);
