@@ -84,6 +84,20 @@ static double dist2_at(const double p[3][2], double t, const double q[2]) {
 }
 
 /* Real roots of a x^2 + b x + c in (0, 1), numerically stable form. */
+int ch_quadratic_roots(double a, double b, double c, double roots[2]) {
+  int n = 0;
+  if (fabs(a) < 1e-14 * (fabs(b) + 1e-300)) {
+    if (b != 0.0) roots[n++] = -c / b;
+    return n;
+  }
+  double disc = b * b - 4.0 * a * c;
+  if (disc < 0.0) return 0;
+  double r = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? r : -r));
+  roots[n++] = qq / a;
+  if (qq != 0.0) roots[n++] = c / qq;
+  return n;
+}
+
 static int quadratic_roots_01(double a, double b, double c, double r[2]) {
   int n = 0;
   double scale = fabs(a) + fabs(b) + fabs(c);

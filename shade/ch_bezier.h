@@ -8,6 +8,11 @@
 extern "C" {
 #endif
 
+/* The real roots of a t^2 + b t + c (0, 1 or 2 of them, unordered), by
+ * the form that does not cancel; nearly linear (|a| < 1e-14 |b|) as
+ * linear. For where a line meets a quadratic segment. */
+int ch_quadratic_roots(double a, double b, double c, double roots[2]);
+
 /* Point of the quadratic p at parameter t. */
 void ch_bezier_eval(const double p[3][2], double t, double out[2]);
 

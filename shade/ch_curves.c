@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_bezier.h"
+
 void ch_curves_free(ch_curve_set *set) {
   free(set->curves);
   free(set->segments);
@@ -213,17 +215,7 @@ int ch_segments_winding(const ch_curve_set *set, int first, int count, const dou
     const ch_segment *s = &set->segments[first + i];
     double a = s->p[0][1] - 2.0 * s->p[1][1] + s->p[2][1], b = 2.0 * (s->p[1][1] - s->p[0][1]), k = s->p[0][1] - q[1];
     double roots[2];
-    int nr = 0;
-    if (fabs(a) < 1e-14 * (fabs(b) + 1e-300)) {
-      if (b != 0.0) roots[nr++] = -k / b;
-    } else {
-      double disc = b * b - 4.0 * a * k;
-      if (disc >= 0.0) {
-        double r = sqrt(disc), qq = -0.5 * (b + (b >= 0.0 ? r : -r));
-        roots[nr++] = qq / a;
-        if (qq != 0.0) roots[nr++] = k / qq;
-      }
-    }
+    int nr = ch_quadratic_roots(a, b, k, roots);
     for (int j = 0; j < nr; j++) {
       double t = roots[j], dv = 2.0 * a * t + b;
       if (!(t >= 0.0 && t < 1.0) || dv == 0.0) continue;

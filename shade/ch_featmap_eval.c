@@ -475,21 +475,11 @@ static int piece_crosses(const ch_featmap_piece *pc, const double a[2], const do
   double d[2] = {b[0] - a[0], b[1] - a[1]}, n[2] = {-d[1], d[0]}, dd = d[0] * d[0] + d[1] * d[1];
   if (!(dd > 0.0)) return 0;
   const double(*p)[2] = pc->p;
-  /* f(t) = n . (B(t) - a) = A t^2 + Bq t + C */
+  /* n . (B(t) - a), a quadratic in t */
   double f0 = n[0] * (p[0][0] - a[0]) + n[1] * (p[0][1] - a[1]), f1 = n[0] * (p[1][0] - a[0]) + n[1] * (p[1][1] - a[1]),
          f2 = n[0] * (p[2][0] - a[0]) + n[1] * (p[2][1] - a[1]);
-  double A = f0 - 2.0 * f1 + f2, Bq = 2.0 * (f1 - f0), C = f0, roots[2];
-  int nr = 0;
-  if (fabs(A) < 1e-14 * (fabs(Bq) + fabs(C) + 1e-300)) {
-    if (Bq != 0.0) roots[nr++] = -C / Bq;
-  } else {
-    double disc = Bq * Bq - 4.0 * A * C;
-    if (disc >= 0.0) {
-      double r = sqrt(disc), qq = -0.5 * (Bq + (Bq >= 0.0 ? r : -r));
-      roots[nr++] = qq / A;
-      if (qq != 0.0) roots[nr++] = C / qq;
-    }
-  }
+  double roots[2];
+  int nr = ch_quadratic_roots(f0 - 2.0 * f1 + f2, 2.0 * (f1 - f0), f0, roots);
   for (int k = 0; k < nr; k++) {
     double t = roots[k], x[2];
     if (!(t >= 0.0 && t <= 1.0)) continue;
