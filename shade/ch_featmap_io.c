@@ -201,6 +201,18 @@ static ch_status get_attr(const source *s, const char *attr, char **value, ch_er
   return ch_exr_read_attribute_alloc(s->path, attr, value, err);
 }
 
+/* An attribute the maps may go without (a table written only where it has
+ * rows): *value is NULL when it is absent; present but not a string is
+ * an error like any malformed table. */
+static ch_status optional_attr(const source *s, const char *attr, char **value, ch_error *err) {
+  ch_error probe = {0};
+  if (!get_attr(s, attr, value, &probe)) return CH_OK;
+  *value = NULL;
+  /* ch_exr tells an absent attribute from one of another type only by its message */
+  if (strstr(probe.message, "not a string")) return ch_error_set(err, CH_ERR_INPUT, "%s", probe.message);
+  return CH_OK;
+}
+
 /* A cursor over a table's text: numbers separated by white space. */
 typedef struct cursor {
   const char *p;
@@ -502,8 +514,10 @@ static ch_status read_maps(const source *src, const ch_image *img, ch_featmap *m
     }
   if ((st = parse_pieces(pieces, name, m, err)) || (st = parse_fallback(fallback, name, m, err))) goto done;
   /* maps without flat sides or singular points (or written before they were) have no tables */
-  if (!get_attr(src, "chisel:featmap-flat", &flat, &quiet) && (st = parse_flat(flat, name, m, err))) goto done;
-  if (!get_attr(src, "chisel:featmap-singular", &singular, &quiet) && (st = parse_singular(singular, name, m, err)))
+  if ((st = optional_attr(src, "chisel:featmap-flat", &flat, err)) || (flat && (st = parse_flat(flat, name, m, err))))
+    goto done;
+  if ((st = optional_attr(src, "chisel:featmap-singular", &singular, err)) ||
+      (singular && (st = parse_singular(singular, name, m, err))))
     goto done;
   if (msdf) {
     memset(msdf, 0, sizeof *msdf);
