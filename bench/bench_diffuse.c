@@ -68,7 +68,7 @@ int main(int argc, char **argv) {
 #ifdef CHISEL_HAVE_CHOLMOD
       if (R <= direct_max && C == 1) {
         double *ref = malloc(n * C * sizeof *ref);
-        double td = direct_solve(R, R, C, s.fixed, s.values, ref);
+        double td = direct_solve(R, R, C, s.fixed, s.values, NULL, ref);
         if (td >= 0.0) {
           snprintf(dms, sizeof dms, "%.1f", 1e3 * td);
           snprintf(ratio, sizeof ratio, "%.1fx", td / med);

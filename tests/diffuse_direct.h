@@ -1,7 +1,7 @@
 /* An independent direct solve of the diffusion problem for the tests and
  * the benchmark: the reduced system on free texels (5-point stencil, a
- * missing border neighbour left out, fixed neighbours moved to the
- * right-hand side) assembled as a sparse SPD matrix and solved by a CHOLMOD
+ * missing border neighbour left out, fixed neighbours and minus the source
+ * moved to the right-hand side) assembled as a sparse SPD matrix and solved by a CHOLMOD
  * Cholesky factorisation, in double. Only built with CHISEL_HAVE_CHOLMOD. */
 #ifndef DIFFUSE_DIRECT_H
 #define DIFFUSE_DIRECT_H
@@ -18,11 +18,13 @@ static inline double direct_now(void) {
 }
 
 /* Writes the solution into out (w*h*C doubles, interleaved like values;
- * fixed texels copied). Needs at least one fixed texel (else the system is
- * singular). Returns the seconds taken by analysis, factorisation and solve,
- * or -1 on failure. */
+ * fixed texels copied). source: NULL or laid out like values, as in
+ * ch_diffuse_desc (sum over a free texel's neighbours of (x_n - x_i) =
+ * source[i]). Needs at least one fixed texel (else the system is singular).
+ * Returns the seconds taken by analysis, factorisation and solve, or -1 on
+ * failure. */
 static inline double direct_solve(int w, int h, int C, const unsigned char *fixed, const float *values,
-                                  double *out) {
+                                  const float *source, double *out) {
   size_t N = (size_t)w * h;
   int *id = malloc(N * sizeof *id);
   int n = 0;
@@ -46,6 +48,8 @@ static inline double direct_solve(int w, int h, int C, const unsigned char *fixe
       if (y < h - 1) nb[deg++] = i + (size_t)w;
       Ti[nz] = Tj[nz] = id[i];
       Tx[nz++] = deg;
+      if (source)
+        for (int c = 0; c < C; c++) Bx[(size_t)c * n + id[i]] -= source[i * C + c];
       for (int k = 0; k < deg; k++) {
         size_t j = nb[k];
         if (fixed[j]) {
