@@ -1,4 +1,5 @@
-/* ch_diffuse: Laplace's equation with fixed texels, by Galerkin multigrid.
+/* ch_diffuse: Laplace's (or Poisson's) equation with fixed texels, by
+ * Galerkin multigrid.
  *
  * Why one file of about 1,450 lines: it is one algorithm, a multigrid
  * solver whose parts (smoothers, restriction, prolongation, the Galerkin
@@ -16,10 +17,12 @@
  *
  * Discretisation: free texels carry the 5-point Laplacian, spacing 1; a
  * neighbour off the grid is left out (zero flux); a fixed neighbour is a
- * Dirichlet value (it moves to b). With one fixed texel or more, A is SPD:
- * every free region touches a fixed texel (its outside neighbours are fixed
- * or off the grid). With none, the grid is one region and gets the mean of
- * its guess.
+ * Dirichlet value (it moves to b); an optional source s makes it Poisson's
+ * equation, sum_n (x_n - x_i) = s_i (-s moves to b). With one fixed texel or
+ * more, A is SPD: every free region touches a fixed texel (its outside
+ * neighbours are fixed or off the grid). With none, the grid is one region
+ * and gets the mean of its guess; with a source too, that is refused (pure
+ * zero flux: solvable only for a source summing to 0, and not unique).
  *
  * Algorithm
  * - Levels: vertex-centred coarsening (coarse node X on fine node 2X, both
@@ -215,6 +218,8 @@ typedef struct solver {
   const unsigned char *fixed;
   float *x;      /* level-0 values in planes: the caller's array if C == 1 */
   float *planar; /* else this copy */
+  const float *src;  /* level-0 source in planes like x, or NULL: the caller's if C == 1 */
+  float *src_planar; /* else this copy */
   int nlev; /* lev[0] is the caller's grid; only its w, h are used */
   level lev[MAX_LEVELS];
   int nthreads;
@@ -239,10 +244,15 @@ static void band(int h, int t, int n, int *a, int *b) {
 
 /* ---------------------------------------------------------------------- */
 /* Level 0: the 5-point stencil on free texels; fixed texels hold their
- * Dirichlet values in place, so there is no right-hand side. */
+ * Dirichlet values in place, so the only right-hand side is the optional
+ * source (s->src). The row kernels take a constant with_src and are
+ * instantiated twice: without a source they do exactly the arithmetic they
+ * did before there was one (the same bytes, no extra loads or tests in the
+ * loops, the same speed). */
 
-/* Gauss-Seidel update of one texel, any position, in a plane of `lanes`. */
-static void l0_relax_texel(int w, int h, int lanes, int x, int y, float *u) {
+/* Gauss-Seidel update of one texel, any position, in a plane of `lanes`;
+ * f: the plane's source or NULL. */
+static void l0_relax_texel(int w, int h, int lanes, int x, int y, float *u, const float *f) {
   size_t i = (size_t)y * w + x, nb[4];
   int deg = 0;
   if (x > 0) nb[deg++] = i - 1;
@@ -252,6 +262,7 @@ static void l0_relax_texel(int w, int h, int lanes, int x, int y, float *u) {
   for (int l = 0; l < lanes; l++) {
     float sum = 0.0f;
     for (int k = 0; k < deg; k++) sum += u[nb[k] * lanes + l];
+    if (f) sum -= f[i * lanes + l];
     if (deg) u[i * lanes + l] = sum / (float)deg;
   }
 }
@@ -259,26 +270,29 @@ static void l0_relax_texel(int w, int h, int lanes, int x, int y, float *u) {
 /* Updates the texels of one colour ((x + y) & 1 == colour) of row y. With
  * own_row, no other thread reads this row meanwhile, so one-lane planes may
  * write whole vectors back (the other colour unchanged). */
-static void l0_relax_row(const solver *s, int y, int colour, int own_row) {
+INLINE void l0_relax_row_k(const solver *s, int y, int colour, int own_row, int with_src) {
   int w = s->w, h = s->h, px = (colour + y) & 1; /* x parity of the colour in this row */
   const unsigned char *m = s->fixed + (size_t)y * w;
   int border = y == 0 || y == h - 1 || w < 3;
   for (int p = 0; p < s->np; p++) {
     int L = s->lanes[p];
     float *u = s->x + s->off[p] * s->plane, *r = u + (size_t)y * w * L;
+    const float *f = with_src ? s->src + s->off[p] * s->plane : NULL, *fr = with_src ? f + (size_t)y * w * L : NULL;
     if (border) {
       for (int x = px; x < w; x += 2)
-        if (!m[x]) l0_relax_texel(w, h, L, x, y, u);
+        if (!m[x]) l0_relax_texel(w, h, L, x, y, u, f);
       continue;
     }
     const float *a = r - (size_t)w * L, *b = r + (size_t)w * L;
-    if (px == 0 && !m[0]) l0_relax_texel(w, h, L, 0, y, u);
-    if (((w - 1) & 1) == px && !m[w - 1]) l0_relax_texel(w, h, L, w - 1, y, u);
+    if (px == 0 && !m[0]) l0_relax_texel(w, h, L, 0, y, u, f);
+    if (((w - 1) & 1) == px && !m[w - 1]) l0_relax_texel(w, h, L, w - 1, y, u, f);
     if (L == 4) {
       for (int x = 2 - px; x < w - 1; x += 2)
         if (!m[x]) {
           float *q = r + 4 * x;
-          st4(q, 0.25f * ((ld4(q - 4) + ld4(q + 4)) + (ld4(a + 4 * x) + ld4(b + 4 * x))));
+          v4f sum = (ld4(q - 4) + ld4(q + 4)) + (ld4(a + 4 * x) + ld4(b + 4 * x));
+          if (with_src) sum -= ld4(fr + 4 * x);
+          st4(q, 0.25f * sum);
         }
       continue;
     }
@@ -294,29 +308,43 @@ static void l0_relax_row(const solver *s, int y, int colour, int own_row) {
         for (int q = 0; q < 4; q++) {
           float *c = r + x + 4 * q;
           v4f cur = ld4(c), left = __builtin_shufflevector(prev, cur, 3, 4, 5, 6);
-          v4f nv = 0.25f * ((left + ld4(c + 1)) + (ld4(a + x + 4 * q) + ld4(b + x + 4 * q)));
-          st4(c, blend(other | mk[q], cur, nv));
+          v4f sum = (left + ld4(c + 1)) + (ld4(a + x + 4 * q) + ld4(b + x + 4 * q));
+          if (with_src) sum -= ld4(fr + x + 4 * q);
+          st4(c, blend(other | mk[q], cur, 0.25f * sum));
           prev = cur;
         }
       }
     }
     for (x += (x ^ px) & 1; x < w - 1; x += 2)
-      if (!m[x]) r[x] = 0.25f * ((r[x - 1] + r[x + 1]) + (a[x] + b[x]));
+      if (!m[x]) {
+        float sum = (r[x - 1] + r[x + 1]) + (a[x] + b[x]);
+        if (with_src) sum -= fr[x];
+        r[x] = 0.25f * sum;
+      }
   }
+}
+
+static void l0_relax_row(const solver *s, int y, int colour, int own_row) {
+  if (s->src)
+    l0_relax_row_k(s, y, colour, own_row, 1);
+  else
+    l0_relax_row_k(s, y, colour, own_row, 0);
 }
 
 /* Residual b - A x of row y (0 on fixed texels) into out (the row's planes,
  * plane p at off[p] * w); adds its squares to acc[lane] and the squared free
  * values to acc[cp + lane] if acc is not NULL. Written as a sum of
- * differences to the centre: those are exact where the field is smooth
- * (same binade), so float is as accurate here as double. */
-static void l0_resid_row(const solver *s, int y, float *out, double *acc) {
+ * differences to the centre, minus the source: the differences are exact
+ * where the field is smooth (same binade), so float is as accurate here as
+ * double. */
+INLINE void l0_resid_row_k(const solver *s, int y, float *out, double *acc, int with_src) {
   int w = s->w, h = s->h;
   const unsigned char *m = s->fixed + (size_t)y * w;
   for (int p = 0; p < s->np; p++) {
     int L = s->lanes[p];
     const float *r = s->x + s->off[p] * s->plane + (size_t)y * w * L;
     const float *a = y > 0 ? r - (size_t)w * L : NULL, *b = y < h - 1 ? r + (size_t)w * L : NULL;
+    const float *f = with_src ? s->src + s->off[p] * s->plane + (size_t)y * w * L : NULL;
     float *o = out + (size_t)s->off[p] * w;
     double rr[4] = {0}, uu[4] = {0};
     int x0 = 0, x1 = w; /* the texels done by the interior loop */
@@ -331,6 +359,7 @@ static void l0_resid_row(const solver *s, int y, float *out, double *acc) {
           const float *c = r + 4 * x;
           v4f c0 = ld4(c);
           v4f v = ((ld4(c - 4) - c0) + (ld4(c + 4) - c0)) + ((ld4(a + 4 * x) - c0) + (ld4(b + 4 * x) - c0));
+          if (with_src) v -= ld4(f + 4 * x);
           if (m[x]) v = c0 = (v4f){0, 0, 0, 0};
           st4(o + 4 * x, v);
           pr += v * v;
@@ -353,6 +382,7 @@ static void l0_resid_row(const solver *s, int y, float *out, double *acc) {
             int xq = x + 4 * q;
             v4f c0 = ld4(r + xq);
             v4f v = ((ld4(r + xq - 1) - c0) + (ld4(r + xq + 1) - c0)) + ((ld4(a + xq) - c0) + (ld4(b + xq) - c0));
+            if (with_src) v -= ld4(f + xq);
             v = (v4f)((v4i)v & ~fm[q]);
             c0 = (v4f)((v4i)c0 & ~fm[q]);
             st4(o + xq, v);
@@ -366,6 +396,7 @@ static void l0_resid_row(const solver *s, int y, float *out, double *acc) {
         uu[0] = (u2[0][0] + u2[0][1]) + (u2[1][0] + u2[1][1]);
         for (; x < w - 1; x++) {
           float c0 = r[x], v = ((r[x - 1] - c0) + (r[x + 1] - c0)) + ((a[x] - c0) + (b[x] - c0));
+          if (with_src) v -= f[x];
           if (m[x]) v = c0 = 0.0f;
           o[x] = v;
           rr[0] += (double)v * v;
@@ -386,6 +417,7 @@ static void l0_resid_row(const solver *s, int y, float *out, double *acc) {
         if (x < w - 1) v += r[i + L] - c0;
         if (a) v += a[i] - c0;
         if (b) v += b[i] - c0;
+        if (with_src) v -= f[i];
         o[i] = v;
         rr[l] += (double)v * v;
         uu[l] += (double)c0 * c0;
@@ -396,6 +428,15 @@ static void l0_resid_row(const solver *s, int y, float *out, double *acc) {
         acc[s->cp + s->off[p] + l] += uu[l];
       }
   }
+}
+
+/* inline: restrict_band is its only caller, and had it inline before the
+ * source was added */
+INLINE void l0_resid_row(const solver *s, int y, float *out, double *acc) {
+  if (s->src)
+    l0_resid_row_k(s, y, out, acc, 1);
+  else
+    l0_resid_row_k(s, y, out, acc, 0);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -1185,6 +1226,7 @@ static void free_solver(solver *s) {
   free(s->scratch);
   free(s->norm_rows);
   free(s->planar);
+  free(s->src_planar);
 }
 
 /* Per-channel sums of per-row partials (stride values apart), in row order:
@@ -1196,9 +1238,11 @@ static void sum_rows(const double *rows, int nrows, int stride, int C, double *o
 }
 
 /* First pass over the grid: per row the squared norm of b (each free
- * texel's sum of fixed neighbours) and the number of fixed texels. Blocks of
- * 16 texels with no fixed texel in or around them are skipped whole. */
-static void scan_grid(const solver *s, double *rows) {
+ * texel's sum of fixed neighbours, minus its source) and the number of fixed
+ * texels. Without a source, blocks of 16 texels with no fixed texel in or
+ * around them are skipped whole (b = 0 there). values and source: the
+ * caller's, channels interleaved. */
+static void scan_grid(const solver *s, const float *source, double *rows) {
   int w = s->w, h = s->h, C = s->C, nt = threads_for(s, w, h);
   const unsigned char *fixed = s->fixed;
   const float *values = s->x;
@@ -1210,7 +1254,7 @@ static void scan_grid(const solver *s, double *rows) {
     const unsigned char *m = fixed + (size_t)y * w;
     for (int x0 = 0; x0 < w; x0 += 16) {
       int x1 = x0 + 16 < w ? x0 + 16 : w;
-      if (x0 >= 1 && x0 + 17 <= w) {
+      if (!source && x0 >= 1 && x0 + 17 <= w) {
         v16b o, t;
         memcpy(&o, m + x0 - 1, sizeof o);
         memcpy(&t, m + x0, sizeof t), o |= t;
@@ -1233,10 +1277,11 @@ static void scan_grid(const solver *s, double *rows) {
         if (x < w - 1 && fixed[i + 1]) nb[n++] = i + 1;
         if (y > 0 && fixed[i - (size_t)w]) nb[n++] = i - (size_t)w;
         if (y < h - 1 && fixed[i + (size_t)w]) nb[n++] = i + (size_t)w;
-        if (!n) continue;
+        if (!n && !source) continue;
         for (int c = 0; c < C; c++) {
           double b = 0.0;
           for (int k = 0; k < n; k++) b += values[nb[k] * C + c];
+          if (source) b -= source[i * C + c];
           bn[c] += b * b;
         }
       }
@@ -1265,6 +1310,7 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
     return CH_OK;
   }
   if (!fixed || !values) return ch_error_set(err, CH_ERR_INPUT, "diffusion: no mask or no values");
+  const float *source = desc ? desc->source : NULL;
 
   int w = width, h = height, C = channels;
   ch_status st = CH_OK;
@@ -1293,7 +1339,7 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
 
   double *rows = malloc((size_t)h * (C + 1) * sizeof *rows);
   if (!rows) return ch_error_set(err, CH_ERR_NOMEM, "diffusion: out of memory");
-  scan_grid(s, rows);
+  scan_grid(s, source, rows);
   double bnorm[CH_DIFFUSE_MAX_CHANNELS], nfixed = 0.0;
   sum_rows(rows, h, C + 1, C, bnorm);
   for (int y = 0; y < h; y++) nfixed += rows[(size_t)y * (C + 1) + C];
@@ -1302,6 +1348,12 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
     free(rows);
     if (stats) stats->seconds = ch_progress_seconds() - t0;
     return CH_OK;
+  }
+  if (nfixed == 0.0 && source) {
+    free(rows);
+    return ch_error_set(err, CH_ERR_INPUT,
+                        "diffusion: a source needs at least one fixed texel (with zero flux all round the solution "
+                        "is not unique, and exists only if the source sums to 0)");
   }
   if (nfixed == 0.0) {
     /* Every free region touches a fixed texel unless no texel is fixed (a
@@ -1330,7 +1382,8 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
     return CH_OK;
   }
   free(rows);
-  /* a channel with b = 0 has the solution 0 */
+  /* a channel with b = 0 (no fixed neighbour coupling and no source, or the
+   * two cancelling texel by texel) has the solution 0 */
   int zero_ch = 0;
   for (int c = 0; c < C; c++) {
     bnorm[c] = sqrt(bnorm[c]);
@@ -1359,6 +1412,25 @@ ch_status ch_diffuse_solve(int width, int height, int channels, const unsigned c
         float *dst = s->planar + s->off[p] * s->plane;
         for (size_t i = (size_t)y * w; i < (size_t)(y + 1) * w; i++)
           for (int l = 0; l < n; l++) dst[i * L + l] = values[i * C + s->off[p] + l];
+      }
+  }
+  /* the source likewise: planes like x (padding lanes 0); the caller's
+   * array if C == 1 */
+  s->src = source;
+  if (source && C > 1) {
+    s->src_planar = calloc(s->plane * s->cp, sizeof *s->src_planar);
+    if (!s->src_planar) {
+      st = ch_error_set(err, CH_ERR_NOMEM, "diffusion: out of memory");
+      goto done;
+    }
+    s->src = s->src_planar;
+#pragma omp parallel for num_threads(nt) schedule(static)
+    for (int y = 0; y < h; y++)
+      for (int p = 0; p < s->np; p++) {
+        int L = s->lanes[p], n = C - s->off[p] < L ? C - s->off[p] : L;
+        float *dst = s->src_planar + s->off[p] * s->plane;
+        for (size_t i = (size_t)y * w; i < (size_t)(y + 1) * w; i++)
+          for (int l = 0; l < n; l++) dst[i * L + l] = source[i * C + s->off[p] + l];
       }
   }
 

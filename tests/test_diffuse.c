@@ -101,7 +101,7 @@ static void test_direct(void) {
         /* at the default 1e-6 the max error reaches 6e-5 of the range on
          * these masks (weakly held regions: error ~ 30 x residual); 1e-8
          * runs to float's limit */
-        ch_diffuse_desc desc = {1e-8, 0};
+        ch_diffuse_desc desc = {.tolerance = 1e-8};
         float *vd = malloc((size_t)w * h * C * sizeof *vd);
         memcpy(vd, v, (size_t)w * h * C * sizeof *vd);
         CHECK(ch_diffuse_solve(w, h, C, s.fixed, vd, NULL, &st, &err) == CH_OK);
@@ -162,7 +162,7 @@ static void test_piecewise_constant(void) {
     float *v = initial(&s, &rng, 1);
     ch_error err = {0};
     ch_diffuse_stats st;
-    ch_diffuse_desc desc = {1e-8, 0}; /* the default 1e-6 leaves up to 9e-6 */
+    ch_diffuse_desc desc = {.tolerance = 1e-8}; /* the default 1e-6 leaves up to 9e-6 */
     CHECK(ch_diffuse_solve(w, h, C, s.fixed, v, &desc, &st, &err) == CH_OK);
     double maxd = 0.0;
     int counted = 0;
@@ -350,7 +350,7 @@ static void test_convergence(void) {
     scene_relief(&s, 10 + trial);
     scene_rng rng = {2};
     float *v = initial(&s, &rng, 1);
-    ch_diffuse_desc desc = {trial == 2 ? 1e-4 : 0.0, 0};
+    ch_diffuse_desc desc = {.tolerance = trial == 2 ? 1e-4 : 0.0};
     double tol = trial == 2 ? 1e-4 : 1e-6;
     ch_diffuse_stats st;
     ch_error err = {0};
@@ -375,7 +375,7 @@ static void test_convergence(void) {
   scene_relief(&s, 4);
   scene_rng rng = {3};
   float *v = initial(&s, &rng, 0);
-  ch_diffuse_desc desc = {1e-6, 1};
+  ch_diffuse_desc desc = {.tolerance = 1e-6, .max_iterations = 1};
   ch_diffuse_stats st;
   ch_error err = {0};
   CHECK(ch_diffuse_solve(200, 200, 1, s.fixed, v, &desc, &st, &err) == CH_ERR_INTERNAL);
@@ -394,7 +394,7 @@ static void test_bad_input(void) {
   CHECK(ch_diffuse_solve(1, 1, 9, &f, &v, NULL, NULL, &err) == CH_ERR_INPUT);
   CHECK(ch_diffuse_solve(1 << 20, 1 << 20, 1, &f, &v, NULL, NULL, &err) == CH_ERR_INPUT);
   CHECK(ch_diffuse_solve(1, 1, 1, NULL, &v, NULL, NULL, &err) == CH_ERR_INPUT);
-  ch_diffuse_desc bad = {-1.0, 0};
+  ch_diffuse_desc bad = {.tolerance = -1.0};
   CHECK(ch_diffuse_solve(1, 1, 1, &f, &v, &bad, NULL, &err) == CH_ERR_INPUT);
   CHECK(strlen(err.message) > 0);
 }
