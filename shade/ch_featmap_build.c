@@ -1713,6 +1713,9 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
       }
       m->singular = sing.points;
       m->num_singular = sing.num_points;
+      /* the maps carry no curve per arm (evaluation needs none) */
+      for (int p = 0; p < m->num_singular; p++)
+        for (int k = 0; k < CH_STEPSING_MAX_ARMS; k++) m->singular[p].arm_curve[k] = -1, m->singular[p].arm_left_ccw[k] = 0;
       if ((st = ch_featmap_singular_index(m, err))) {
         ch_groove_field_free(&gf);
         goto fail;

@@ -351,6 +351,7 @@ static ch_status parse_singular(const char *txt, const char *name, ch_featmap *m
     int ok = next_double(&c, &pt->p[0]) && next_double(&c, &pt->p[1]) && next_int(&c, 1, CH_STEPSING_MAX_ARMS, &arms) &&
              fabs(pt->p[0]) <= CH_CURVES_MAX_UV && fabs(pt->p[1]) <= CH_CURVES_MAX_UV;
     pt->num_arms = ok ? (int)arms : 0;
+    for (int k = 0; k < CH_STEPSING_MAX_ARMS; k++) pt->arm_curve[k] = -1; /* not in the file */
     for (int k = 0; ok && k < pt->num_arms; k++)
       ok = next_double(&c, &pt->angle[k]) && next_double(&c, &pt->value[k]) && next_double(&c, &pt->slope[k]) &&
            pt->angle[k] >= 0.0 && pt->angle[k] < 2.0 * CH_PI && (k == 0 || pt->angle[k] > pt->angle[k - 1]);

@@ -14,6 +14,8 @@
  * angle are one arm. */
 #define SAME_POINT 1e-9
 #define SAME_ANGLE 1e-7
+/* Arms closer than this in angle are merged (see make_point). */
+#define SLIVER_ANGLE 1e-4
 /* Parameters this close to a segment's end are its end. */
 #define AT_END 1e-9
 
@@ -28,6 +30,8 @@ typedef struct arm_event {
   double p[2];
   double angle;
   double ccw, cw; /* h on the arm's counter-clockwise and clockwise side */
+  int curve;
+  int left_ccw; /* the curve's left is the arm's counter-clockwise side */
 } arm_event;
 
 typedef struct events {
@@ -36,7 +40,8 @@ typedef struct events {
   int failed;
 } events;
 
-static void push_event(events *ev, const double p[2], const double dir[2], double ccw, double cw) {
+static void push_event(events *ev, const double p[2], const double dir[2], double ccw, double cw, int curve,
+                       int left_ccw) {
   if (!(dir[0] != 0.0 || dir[1] != 0.0)) return;
   if (ev->n == ev->cap) {
     int cap = ev->cap ? 2 * ev->cap : 64;
@@ -51,7 +56,7 @@ static void push_event(events *ev, const double p[2], const double dir[2], doubl
   double a = atan2(dir[1], dir[0]);
   if (a < 0.0) a += TWO_PI;
   if (a >= TWO_PI) a = 0.0;
-  ev->v[ev->n++] = (arm_event){{p[0], p[1]}, a, ccw, cw};
+  ev->v[ev->n++] = (arm_event){{p[0], p[1]}, a, ccw, cw, curve, left_ccw};
 }
 
 /* The arms segment s leaves point p by at parameter t: forward along the
@@ -68,18 +73,18 @@ static void add_arms(const ch_curve_set *set, int s, double t, const double p[2]
   double tg[2];
   if (!(t >= 1.0 - AT_END)) {
     ch_bezier_tangent(sg->p, t, tg);
-    push_event(ev, p, tg, cv->left, cv->right);
+    push_event(ev, p, tg, cv->left, cv->right, sg->curve, 1);
   }
   if (t <= AT_END) {
     if (sg->prev >= 0) {
       ch_bezier_tangent(set->segments[sg->prev].p, 1.0, tg);
       double back[2] = {-tg[0], -tg[1]};
-      push_event(ev, p, back, cv->right, cv->left);
+      push_event(ev, p, back, cv->right, cv->left, sg->curve, 0);
     }
   } else {
     ch_bezier_tangent(sg->p, t, tg);
     double back[2] = {-tg[0], -tg[1]};
-    push_event(ev, p, back, cv->right, cv->left);
+    push_event(ev, p, back, cv->right, cv->left, sg->curve, 0);
   }
 }
 
@@ -198,7 +203,24 @@ static int make_point(arm_event *e, int n, ch_stepsing_point *pt) {
     if (m > 0 && i + 1 == n && pt->angle[0] + TWO_PI - e[i].angle < SAME_ANGLE && ccw[0] == e[i].ccw &&
         cw[0] == e[i].cw)
       continue;
+    /* Arms closer than a sliver are one arm: its clockwise side that of
+     * the first, its counter-clockwise side that of the last. (A curve
+     * that touches itself at a joint, as a flattened or warped polyline
+     * can, gives two; a wedge between them would be a slope of the whole
+     * step over a millionth of a turn.) */
+    if (m > 0 && e[i].angle - pt->angle[m - 1] < SLIVER_ANGLE) {
+      ccw[m - 1] = e[i].ccw;
+      pt->arm_curve[m - 1] = e[i].curve;
+      pt->arm_left_ccw[m - 1] = (signed char)e[i].left_ccw;
+      continue;
+    }
+    if (m > 0 && i + 1 == n && pt->angle[0] + TWO_PI - e[i].angle < SLIVER_ANGLE) {
+      cw[0] = e[i].cw;
+      continue;
+    }
     pt->angle[m] = e[i].angle, ccw[m] = e[i].ccw, cw[m] = e[i].cw;
+    pt->arm_curve[m] = e[i].curve;
+    pt->arm_left_ccw[m] = (signed char)e[i].left_ccw;
     m++;
   }
   pt->num_arms = m;
@@ -340,6 +362,38 @@ double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double g
   double rel = th - pt->angle[k];
   if (rel < 0.0) rel += TWO_PI;
   /* d theta = (-dy, dx) / r^2 */
+  if (grad) grad[0] = -pt->slope[k] * dy / r2, grad[1] = pt->slope[k] * dx / r2;
+  return pt->value[k] + pt->slope[k] * rel;
+}
+
+int ch_stepsing_arm_toward(const ch_stepsing_point *pt, int curve, const double dir[2]) {
+  double th = atan2(dir[1], dir[0]);
+  int best = -1;
+  double best_d = INFINITY;
+  for (int k = 0; k < pt->num_arms; k++) {
+    if (pt->arm_curve[k] != curve) continue;
+    double d = fabs(remainder(th - pt->angle[k], TWO_PI));
+    if (d < best_d) best_d = d, best = k;
+  }
+  return best;
+}
+
+double ch_stepsing_term_beside(const ch_stepsing_point *pt, const double q[2], int arm, int ccw_side,
+                               double grad[2]) {
+  double dx = q[0] - pt->p[0], dy = q[1] - pt->p[1], r2 = dx * dx + dy * dy;
+  int n = pt->num_arms;
+  if (!(r2 > 0.0) || arm < 0 || arm >= n) return ch_stepsing_term(pt, q, grad);
+  /* q's angle from the arm, on the branch nearest the arm: slightly
+   * negative where the curve has bent past its tangent ray */
+  double off = remainder(atan2(dy, dx) - pt->angle[arm], TWO_PI);
+  int k = arm;
+  double rel = off;
+  if (!ccw_side) { /* the end of the sector before the arm */
+    k = (arm + n - 1) % n;
+    double span = pt->angle[arm] - pt->angle[k];
+    if (!(span > 0.0)) span += TWO_PI;
+    rel = span + off;
+  }
   if (grad) grad[0] = -pt->slope[k] * dy / r2, grad[1] = pt->slope[k] * dx / r2;
   return pt->value[k] + pt->slope[k] * rel;
 }

@@ -34,6 +34,8 @@ typedef struct ch_stepsing_point {
   double angle[CH_STEPSING_MAX_ARMS]; /* directions, radians, increasing in [0, 2 pi) */
   double value[CH_STEPSING_MAX_ARMS]; /* h on arm k's counter-clockwise side */
   double slope[CH_STEPSING_MAX_ARMS]; /* dh / dtheta in sector k */
+  int arm_curve[CH_STEPSING_MAX_ARMS]; /* the curve arm k runs along (-1: not known, as in a maps file) */
+  signed char arm_left_ccw[CH_STEPSING_MAX_ARMS]; /* 1: that curve's left is arm k's ccw side */
   double radius;                      /* how far from p its user takes the term (UV; 0 until set) */
 } ch_stepsing_point;
 
@@ -72,6 +74,18 @@ double ch_stepsing_term(const ch_stepsing_point *pt, const double q[2], double g
  * inside value (a ring of two circles: its band). Thin slabs and rings,
  * whose insides no lattice point samples, are then known flat. */
 int ch_stepsing_flat_side(const ch_curve_set *set, int c);
+
+/* The arm of curve `curve` that leaves pt towards dir (the one nearest
+ * in angle), or -1 if no arm runs along that curve. */
+int ch_stepsing_arm_toward(const ch_stepsing_point *pt, int curve, const double dir[2]);
+
+/* The term at q where q is known to lie beside arm `arm`, on its
+ * counter-clockwise side if ccw_side, else its clockwise one: the sector
+ * and the branch of the angle follow that, not q's direction. A curved arm
+ * leaves its tangent ray, and points between the two would otherwise take
+ * the sector across the curve (a jump of the whole step). */
+double ch_stepsing_term_beside(const ch_stepsing_point *pt, const double q[2], int arm, int ccw_side,
+                               double grad[2]);
 
 /* A window of the term: 1 up to r0, 0 from r1, a C1 cubic between. */
 double ch_stepsing_window(double r, double r0, double r1);
