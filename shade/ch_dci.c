@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_math.h"
 #include "ch_progress.h"
 
 void ch_dci_free(ch_dci *d) {
@@ -26,7 +27,245 @@ void ch_dci_free(ch_dci *d) {
   free(d->rgb);
   free(d->blur);
   free(d->fixed);
+  free(d->sing);
+  ch_grid_free(&d->sing_grid);
   memset(d, 0, sizeof *d);
+}
+
+/* ---- singular terms ---- */
+
+static double sing_phi(const ch_stepsing_point *pt, double r) {
+  return ch_stepsing_window(r, CH_DCI_SING_INNER * pt->radius, pt->radius);
+}
+
+int ch_dci_sing_at(const ch_dci *d, const double p[2]) {
+  if (!d->num_sing) return -1;
+  const int *items;
+  int n = ch_grid_query(&d->sing_grid, p[0], p[1], &items);
+  for (int j = 0; j < n; j++) {
+    const ch_stepsing_point *pt = &d->sing[items[j]];
+    if (hypot(p[0] - pt->p[0], p[1] - pt->p[1]) < pt->radius) return items[j];
+  }
+  return -1;
+}
+
+/* T of pt at p with the hint (see ch_dci_sing_value), and its gradient in
+ * grad if not NULL. */
+static double sing_value_grad(const ch_stepsing_point *pt, const double p[2], int curve, int side,
+                              const double cp[2], double grad[2]) {
+  if (curve >= 0 && cp && (side == CH_SIDE_LEFT || side == CH_SIDE_RIGHT)) {
+    double dir[2] = {cp[0] - pt->p[0], cp[1] - pt->p[1]};
+    /* a closest point at the point itself (beyond an end) names no arm */
+    if (hypot(dir[0], dir[1]) > 1e-6) {
+      int arm = ch_stepsing_arm_toward(pt, curve, dir);
+      if (arm >= 0) return ch_stepsing_term_beside(pt, p, arm, (side == CH_SIDE_LEFT) == pt->arm_left_ccw[arm], grad);
+    }
+  }
+  return ch_stepsing_term(pt, p, grad);
+}
+
+static double sing_value(const ch_stepsing_point *pt, const double p[2], int curve, int side, const double cp[2]) {
+  return sing_value_grad(pt, p, curve, side, cp, NULL);
+}
+
+double ch_dci_sing_value(const ch_dci *d, int k, const double p[2], int curve, int side, const double cp[2]) {
+  return sing_value(&d->sing[k], p, curve, side, cp);
+}
+
+double ch_dci_sing_window(const ch_dci *d, int k, const double p[2]) {
+  const ch_stepsing_point *pt = &d->sing[k];
+  return sing_phi(pt, hypot(p[0] - pt->p[0], p[1] - pt->p[1]));
+}
+
+/* phi T of point k at p with the hint. */
+static double sing_term(const ch_dci *d, int k, const double p[2], int curve, int side, const double cp[2]) {
+  const ch_stepsing_point *pt = &d->sing[k];
+  double phi = sing_phi(pt, hypot(p[0] - pt->p[0], p[1] - pt->p[1]));
+  return phi > 0.0 ? phi * sing_value(&d->sing[k], p, curve, side, cp) : 0.0;
+}
+
+/* The hint a texel's sample gives: its curve, side and closest point. */
+static void texel_hint(const ch_samples *s, int x, int y, int *curve, int *side, double cp[2]) {
+  size_t i = (size_t)y * s->width + x;
+  *curve = (s->side[i] & CH_SIDE_END) ? -1 : s->curve[i];
+  *side = s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT);
+  cp[0] = x + s->offset[2 * i];
+  cp[1] = -y + s->offset[2 * i + 1];
+}
+
+/* The singular points of the sharp step curves in the texel frame, their
+ * windows' radii and the grid over them. */
+static ch_status sing_setup(const ch_curve_set *set, ch_dci *d, ch_error *err) {
+  const ch_samples *s = &d->samples;
+  ch_stepsing found;
+  ch_status st = ch_stepsing_find(set, s->rect, &found, err);
+  if (st || found.num_points == 0) {
+    ch_stepsing_free(&found);
+    return st;
+  }
+  int n = found.num_points;
+  ch_stepsing_point *pts = found.points;
+  double tu = s->texel[0], tv = s->texel[1];
+  for (int i = 0; i < n; i++) {
+    ch_stepsing_point *pt = &pts[i];
+    pt->p[0] = (pt->p[0] - s->rect[0]) / tu - 0.5;
+    pt->p[1] = (pt->p[1] - s->rect[3]) / tv + 0.5;
+    /* directions and sector spans as the texel grid sees them (texels
+     * need not be square); a sector's slope keeps its change of value */
+    int m = pt->num_arms;
+    double old_span[CH_STEPSING_MAX_ARMS], a[CH_STEPSING_MAX_ARMS];
+    for (int k = 0; k < m; k++) {
+      double sp = (m == 1 ? pt->angle[0] + 2.0 * CH_PI : pt->angle[(k + 1) % m]) - pt->angle[k];
+      old_span[k] = sp > 0.0 ? sp : sp + 2.0 * CH_PI;
+      a[k] = atan2(sin(pt->angle[k]) / tv, cos(pt->angle[k]) / tu);
+      if (a[k] < 0.0) a[k] += 2.0 * CH_PI;
+    }
+    for (int k = 0; k < m; k++) pt->angle[k] = a[k];
+    for (int k = 0; k < m; k++) {
+      double sp = (m == 1 ? pt->angle[0] + 2.0 * CH_PI : pt->angle[(k + 1) % m]) - pt->angle[k];
+      sp = sp > 0.0 ? sp : sp + 2.0 * CH_PI;
+      pt->slope[k] *= old_span[k] / sp;
+    }
+  }
+  st = ch_stepsing_limit_radii(pts, n, CH_DCI_SING_RADIUS, err);
+  double(*boxes)[4] = st ? NULL : malloc((size_t)n * sizeof *boxes);
+  if (!st && !boxes) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the singular terms");
+  if (st) {
+    ch_stepsing_free(&found);
+    return st;
+  }
+  for (int i = 0; i < n; i++) {
+    ch_stepsing_point *pt = &pts[i];
+    /* the zero-flux line is half a texel beyond the outer centres */
+    double edge = fmin(fmin(pt->p[0] + 0.5, s->width - 0.5 - pt->p[0]), fmin(0.5 - pt->p[1], pt->p[1] + s->height - 0.5));
+    if (edge < CH_DCI_SING_MIN || pt->radius < CH_DCI_SING_MIN) pt->radius = 0.0;
+    double r = pt->radius, *b = boxes[i];
+    if (r > 0.0) {
+      b[0] = pt->p[0] - r, b[1] = pt->p[1] - r, b[2] = pt->p[0] + r, b[3] = pt->p[1] + r;
+    } else {
+      b[0] = b[1] = 1.0, b[2] = b[3] = 0.0;
+    }
+  }
+  st = ch_grid_build(&d->sing_grid, n, (const double(*)[4])boxes, err);
+  free(boxes);
+  if (st) {
+    ch_stepsing_free(&found);
+    return st;
+  }
+  d->sing = pts;
+  d->num_sing = n;
+  return CH_OK;
+}
+
+/* The texels of point k's window grown by `grow` texels: x0..x1, y0..y1
+ * (texel indices). */
+static void sing_texels(const ch_dci *d, int k, double grow, int r[4]) {
+  const ch_stepsing_point *pt = &d->sing[k];
+  double rad = pt->radius + grow;
+  r[0] = (int)ceil(pt->p[0] - rad), r[2] = (int)floor(pt->p[0] + rad);
+  r[1] = (int)ceil(-pt->p[1] - rad), r[3] = (int)floor(-pt->p[1] + rad);
+  r[0] = r[0] < 0 ? 0 : r[0], r[1] = r[1] < 0 ? 0 : r[1];
+  r[2] = r[2] > d->samples.width - 1 ? d->samples.width - 1 : r[2];
+  r[3] = r[3] > d->samples.height - 1 ? d->samples.height - 1 : r[3];
+}
+
+/* Takes phi T out of values (channel 0 of `channels`): the fixed texels'
+ * Dirichlet data and the free texels' guesses, and writes the ring's
+ * source. */
+static void sing_take_out(const ch_dci *d, float *values, int channels, float *source) {
+  const ch_samples *s = &d->samples;
+  int W = s->width;
+  /* windows are disjoint: their texels can be written in parallel */
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int k = 0; k < d->num_sing; k++) {
+    const ch_stepsing_point *pt = &d->sing[k];
+    if (!(pt->radius > 0.0)) continue;
+    int r[4];
+    sing_texels(d, k, 0.0, r);
+    for (int y = r[1]; y <= r[3]; y++)
+      for (int x = r[0]; x <= r[2]; x++) {
+        double c[2] = {x, -y};
+        if (!(hypot(c[0] - pt->p[0], c[1] - pt->p[1]) < pt->radius)) continue;
+        size_t i = (size_t)y * W + x;
+        int curve, side;
+        double cp[2];
+        texel_hint(s, x, y, &curve, &side, cp);
+        /* fixed: the Dirichlet value of the remainder at the closest curve
+         * point; free: the guess */
+        values[i * channels] -= (float)sing_term(d, k, d->fixed[i] ? cp : c, curve, side, cp);
+      }
+  }
+  /* The source, by finite volumes: Laplace rem = -Laplace (phi T) is, over
+   * a texel's cell, the flux of rem through its faces equal to minus that
+   * of phi T. Through a face to a neighbour, phi T's flux is taken as
+   * T (phi_n - phi_i): with phi sampled, the fluxes of phi telescope to 0
+   * over the grid as the integral of Laplace phi does (the continuous
+   * phi'' + phi' / r sampled at the centres does not: phi is only C1, and
+   * the jumps of phi'' fall between samples, a ring of unbalanced sources
+   * that bent h by a few % of the step); phi's part of T's flux sums to
+   * the integral of grad phi . grad T = 0 round a cell. At the border the
+   * zero flux of h leaves rem the flux of -phi T: the face drops out of
+   * the balance, which leaves the other faces' phi dT/dn, that is minus
+   * the border face's. So windows need not stop at the border. The
+   * discrete Laplacian reaches a texel beyond the window, where windows
+   * may meet: summed, one point after the other. */
+  int H = s->height;
+  for (int k = 0; k < d->num_sing; k++) {
+    const ch_stepsing_point *pt = &d->sing[k];
+    if (!(pt->radius > 0.0)) continue;
+    int r[4];
+    sing_texels(d, k, 1.0, r);
+    double r0 = CH_DCI_SING_INNER * pt->radius;
+    for (int y = r[1]; y <= r[3]; y++)
+      for (int x = r[0]; x <= r[2]; x++) {
+        double c[2] = {x, -y}, rad = hypot(c[0] - pt->p[0], c[1] - pt->p[1]);
+        size_t i = (size_t)y * W + x;
+        if (!(rad < pt->radius + 1.0) || d->fixed[i]) continue;
+        int border = x == 0 || y == 0 || x == W - 1 || y == H - 1;
+        if (!(rad > r0 - 1.0) && !border) continue;
+        double lap = 0.0, phi = sing_phi(pt, rad), flux = 0.0;
+        const double nb[4][2] = {{c[0] - 1, c[1]}, {c[0] + 1, c[1]}, {c[0], c[1] + 1}, {c[0], c[1] - 1}};
+        const int present[4] = {x > 0, x < W - 1, y > 0, y < H - 1};
+        int curve, side;
+        double cp[2], g[2];
+        texel_hint(s, x, y, &curve, &side, cp);
+        for (int j = 0; j < 4; j++) {
+          if (present[j]) {
+            lap += sing_phi(pt, hypot(nb[j][0] - pt->p[0], nb[j][1] - pt->p[1])) - phi;
+            continue;
+          }
+          /* the border face, half way to the missing neighbour */
+          double f[2] = {0.5 * (c[0] + nb[j][0]), 0.5 * (c[1] + nb[j][1])};
+          double pf = sing_phi(pt, hypot(f[0] - pt->p[0], f[1] - pt->p[1]));
+          if (!(pf > 0.0)) continue;
+          sing_value_grad(pt, f, curve, side, cp, g);
+          flux += pf * (g[0] * (nb[j][0] - c[0]) + g[1] * (nb[j][1] - c[1]));
+        }
+        if (lap == 0.0 && flux == 0.0) continue;
+        source[i * channels] += (float)(flux - sing_value(pt, c, curve, side, cp) * lap);
+      }
+  }
+}
+
+/* Puts phi T back at every texel centre. */
+static void sing_put_back(const ch_dci *d, float *values, int channels) {
+  int W = d->samples.width;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int k = 0; k < d->num_sing; k++) {
+    const ch_stepsing_point *pt = &d->sing[k];
+    if (!(pt->radius > 0.0)) continue;
+    int r[4];
+    sing_texels(d, k, 0.0, r);
+    for (int y = r[1]; y <= r[3]; y++)
+      for (int x = r[0]; x <= r[2]; x++) {
+        double c[2] = {x, -y};
+        if (!(hypot(c[0] - pt->p[0], c[1] - pt->p[1]) < pt->radius)) continue;
+        int curve, side;
+        double cp[2];
+        texel_hint(&d->samples, x, y, &curve, &side, cp);
+        values[((size_t)y * W + x) * channels] += (float)sing_term(d, k, c, curve, side, cp);
+      }
+  }
 }
 
 /* Separable Gaussian with a radius per texel (in texels); axis 0 blurs
@@ -162,9 +401,29 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     for (int c = 0; c < colors; c++) v[1 + c] = s->curve[i] >= 0 ? s->color[6 * i + c] : 0.0f;
     if (any_blur) sigma[i] = s->curve[i] >= 0 ? (float)(set->curves[s->curve[i]].blur / texel) : 0.0f;
   }
+  float *source = NULL;
+  if (!desc->no_singular) {
+    int any_fixed = 0;
+    for (size_t i = 0; i < n && !any_fixed; i++) any_fixed = d->fixed[i];
+    /* without a fixed texel h is one constant: nothing to take out */
+    if (any_fixed) st = sing_setup(set, d, err);
+    if (!st && d->num_sing) {
+      source = calloc(n * channels, sizeof *source);
+      if (!source) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the singular terms");
+      else sing_take_out(d, values, channels, source);
+    }
+    if (st) {
+      free(values);
+      free(sigma);
+      ch_dci_free(d);
+      return st;
+    }
+  }
   t0 = ch_progress_seconds();
-  ch_diffuse_desc dd = {.tolerance = desc->tolerance};
+  ch_diffuse_desc dd = {.tolerance = desc->tolerance, .source = source};
   st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
+  free(source);
+  if (!st && d->num_sing) sing_put_back(d, values, channels);
   if (!st && any_blur) {
     /* The blur radius on its own: a radius needs no 1e-6 (1e-3 is far
      * below a texel), and a lone channel runs the solver's 1-lane path

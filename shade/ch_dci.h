@@ -8,8 +8,10 @@
 #include "ch_curves.h"
 #include "ch_diffuse.h"
 #include "ch_error.h"
+#include "ch_grid.h"
 #include "ch_image.h"
 #include "ch_samples.h"
+#include "ch_stepsing.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -26,6 +28,8 @@ typedef struct ch_dci_desc {
                          texels per texel-sized UV step along that axis (the
                          warp's slope there), so data-blur radii, given in UV,
                          are warped like the texture (diffusion-curves §3.2) */
+  int no_singular;    /* 1: diffuse h_step as it is, without taking the
+                         singular terms out (to measure what they give) */
 } ch_dci_desc;
 
 typedef struct ch_dci {
@@ -36,6 +40,12 @@ typedef struct ch_dci {
   unsigned char *fixed;    /* W*H: 1 where the texel was a Dirichlet texel */
   ch_diffuse_stats stats;
   double seconds_samples, seconds_diffuse, seconds_blur;
+  /* The singular terms taken out of h before the diffusion (see below):
+   * points in the texel frame (x right, y up, texel (x, y) at (x, -y),
+   * texel units), each with its window's radius; a grid over the windows. */
+  int num_sing;
+  ch_stepsing_point *sing;
+  ch_grid sing_grid; /* over the windows */
 } ch_dci;
 
 /* Texels at most this far (in texels) from a curve, on its side, are fixed
@@ -46,6 +56,40 @@ typedef struct ch_dci {
 /* Exact closest points are computed this far from curves (texels); the
  * reconstruction reads a 5 x 5 neighbourhood. */
 #define CH_DCI_SAMPLE_BAND 3.0
+
+/* Singular terms. Where sharp step curves end or cross, h_step is to first
+ * order T = a + b theta in each sector (ch_stepsing), with a gradient like
+ * 1/r that no texel grid follows: the diffusion converges there only at
+ * first order, and the error runs out along the arms (their fixed texels
+ * sit up to a texel off the curve, where h's normal derivative is b / r).
+ * So the build solves for the remainder h - phi T, phi a window round the
+ * point (1 up to CH_DCI_SING_INNER of its radius, 0 from the radius, which
+ * stops half way to the next point): harmonic but for a source where phi
+ * falls, and with Dirichlet data side value - phi T taken at each fixed
+ * texel's closest curve point, which vanish along straight arms. The
+ * zero-flux border leaves the remainder the flux of -phi T there, so the
+ * window may cross it. h at texel centres (the h layer) is the remainder
+ * plus phi T; ch_recon blends h - T near the point and adds T back.
+ * Radius in texels: */
+#define CH_DCI_SING_RADIUS 256.0
+/* Points nearer than this (texels) to the grid's border or to another
+ * point get no term: a border that close is a mirror, and h no wedge at
+ * the texels' scale (on the border it has no angle term at all). */
+#define CH_DCI_SING_MIN 2.0
+/* phi is 1 up to this fraction of the radius */
+#define CH_DCI_SING_INNER 0.4
+
+/* The point whose window holds p of the texel frame, or -1. */
+int ch_dci_sing_at(const ch_dci *d, const double p[2]);
+
+/* T of point k at p (texel frame), unwindowed. The sector and branch
+ * follow a hint where one is given: p lies on `side` (CH_SIDE_LEFT /
+ * CH_SIDE_RIGHT) of step curve `curve`, whose closest point to p is cp;
+ * with curve < 0 or cp NULL, p's direction from the point decides. */
+double ch_dci_sing_value(const ch_dci *d, int k, const double p[2], int curve, int side, const double cp[2]);
+
+/* The window phi of point k at p (texel frame). */
+double ch_dci_sing_window(const ch_dci *d, int k, const double p[2]);
 
 /* Builds the DCI of the step curves of set. A set without step curves gives
  * h = 0 everywhere. Curves with data-blur are blurred after diffusion by a

@@ -24,6 +24,7 @@ typedef struct ch_height_desc {
                                    of warped UV, blur radii warped too, and
                                    h_step(u, v) is read at C(u, v). Not
                                    owned; must outlive the height. */
+  int no_singular;              /* 1: the DCI without its singular terms (ch_dci_desc) */
 } ch_height_desc;
 
 typedef struct ch_height {

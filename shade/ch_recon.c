@@ -288,27 +288,73 @@ static const edge *side_for(const curve_sides *cs, int curve) {
 
 /* Bilinear blend of the four samples: a sample lying across its curve from
  * the query (by that curve's reconstructed edge) contributes the value on
- * the other side. flip inverts every side decision (for anti-aliasing). */
+ * the other side. flip inverts every side decision (for anti-aliasing).
+ *
+ * Near a singular point of the DCI (ch_dci.h) h is to first order T, linear
+ * in the angle, which no bilinear blend follows: there the blend is also
+ * taken of h - T, smooth, and T at the query added back (T unwindowed: a
+ * window's curvature, some J / w^2, would itself be more than a bilinear
+ * blend follows). The two blends are mixed by the window of the point, so
+ * the value is continuous where the window ends. A sample across a curve
+ * stands for the query's side of it at its closest curve point, so its T
+ * is taken there, on that side. sp: the point (or -1), qt: T at the query,
+ * psi: its window there. */
 static void blend(const ch_dci *d, const int xs[2], const int ys[2], double fx, double fy, const curve_sides *cs,
-                  int flip, float *value, float color[3]) {
+                  int flip, int sp, double qt, double psi, float *value, float color[3]) {
   const ch_samples *s = &d->samples;
   double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-  double acc = 0.0, rgb[3] = {0, 0, 0};
+  double acc = 0.0, acc_t = 0.0, rgb[3] = {0, 0, 0};
   for (int k = 0; k < 4; k++) {
-    size_t i = (size_t)ys[k / 2] * s->width + xs[k % 2];
+    int x = xs[k % 2], y = ys[k / 2];
+    size_t i = (size_t)y * s->width + x;
     const edge *e = cs && s->curve[i] >= 0 ? side_for(cs, s->curve[i]) : NULL;
-    int across = 0;
+    int across = 0, side = 0;
     if (e && !e->at_end) {
-      int side = e->side;
+      side = e->side;
       if (flip) side = side == CH_SIDE_LEFT ? CH_SIDE_RIGHT : CH_SIDE_LEFT;
       across = (s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT)) != side;
     }
-    acc += w[k] * (across ? s->value[2 * i + 1] : d->h[i]);
+    double v = across ? s->value[2 * i + 1] : d->h[i];
+    acc += w[k] * v;
+    if (sp >= 0) {
+      double cp[2] = {x + s->offset[2 * i], -y + s->offset[2 * i + 1]};
+      if (across) {
+        acc_t += w[k] * ch_dci_sing_value(d, sp, cp, s->curve[i], side, cp);
+      } else {
+        double c[2] = {x, -y};
+        int own = (s->side[i] & CH_SIDE_END) ? -1 : s->curve[i];
+        acc_t += w[k] * ch_dci_sing_value(d, sp, c, own, s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT), cp);
+      }
+    }
     if (d->rgb)
       for (int c = 0; c < 3; c++) rgb[c] += w[k] * (across ? s->color[6 * i + 3 + c] : d->rgb[3 * i + c]);
   }
+  if (sp >= 0) acc += psi * (qt - acc_t);
   *value = (float)acc;
   for (int c = 0; c < 3; c++) color[c] = (float)rgb[c];
+}
+
+/* The singular point whose window holds the query t (texel frame), its
+ * window there, and T at t: the branch from the deciding edge where there
+ * is one, else from the sample of the nearest corner. */
+static int query_term(const ch_dci *d, const double t[2], const edge *e, int flip, const int xs[2], const int ys[2],
+                      double fx, double fy, double *qt, double *psi) {
+  int k = d->num_sing ? ch_dci_sing_at(d, t) : -1;
+  if (k < 0) return -1;
+  *psi = ch_dci_sing_window(d, k, t);
+  if (e) {
+    int side = e->side;
+    if (flip) side = side == CH_SIDE_LEFT ? CH_SIDE_RIGHT : CH_SIDE_LEFT;
+    *qt = ch_dci_sing_value(d, k, t, e->at_end ? -1 : e->curve, side, e->point);
+    return k;
+  }
+  const ch_samples *s = &d->samples;
+  int x = xs[fx > 0.5], y = ys[fy > 0.5];
+  size_t i = (size_t)y * s->width + x;
+  double cp[2] = {x + s->offset[2 * i], -y + s->offset[2 * i + 1]};
+  int curve = (s->side[i] & CH_SIDE_END) ? -1 : s->curve[i];
+  *qt = ch_dci_sing_value(d, k, t, curve, s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT), cp);
+  return k;
 }
 
 /* A curve point this close (texels) to a corner of the bilinear cell means
@@ -386,7 +432,9 @@ static void recon_eval(const ch_recon *r, ch_recon_method method, double u, doub
       cs.e[k].side = force_side;
       e = &cs.e[k];
     }
-  blend(d, xs, ys, fx, fy, e ? &cs : NULL, 0, &out->value, out->color);
+  double qt = 0.0, psi = 0.0;
+  int sp = query_term(d, t, e, 0, xs, ys, fx, fy, &qt, &psi);
+  blend(d, xs, ys, fx, fy, e ? &cs : NULL, 0, sp, qt, psi, &out->value, out->color);
   if (!e) return;
   out->curve = e->curve;
   out->side = e->side;
@@ -398,7 +446,9 @@ static void recon_eval(const ch_recon *r, ch_recon_method method, double u, doub
     double dp = out->distance / footprint;
     if (dp < 0.5) {
       float other, other_rgb[3];
-      blend(d, xs, ys, fx, fy, &cs, 1, &other, other_rgb);
+      double qo = 0.0;
+      query_term(d, t, e, 1, xs, ys, fx, fy, &qo, &psi);
+      blend(d, xs, ys, fx, fy, &cs, 1, sp, qo, psi, &other, other_rgb);
       double a = 1.0 - 2.0 * dp;
       out->value = (float)(a * 0.5 * (out->value + other) + 2.0 * dp * out->value);
       for (int c = 0; c < 3; c++)

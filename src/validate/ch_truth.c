@@ -98,6 +98,30 @@ static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) 
     p->lo[0][i] = fminf(a, b);
     p->hi[0][i] = fmaxf(a, b);
   }
+  /* In a singular window the reconstruction blends h less phi T and adds
+   * phi T at the point (ch_dci.h): both terms lie in [min(0, T), max(0, T)]
+   * over the point's sectors, so h can leave its texels' range by that
+   * span. Texels within a cell's diagonal of a window blend into it. */
+  for (int k = 0; k < d->num_sing; k++) {
+    const ch_stepsing_point *pt = &d->sing[k];
+    if (!(pt->radius > 0.0)) continue;
+    double tmin = 0.0, tmax = 0.0;
+    for (int j = 0; j < pt->num_arms; j++) {
+      double span = (pt->num_arms == 1 ? 2.0 * CH_PI : pt->angle[(j + 1) % pt->num_arms] - pt->angle[j]);
+      if (span <= 0.0) span += 2.0 * CH_PI;
+      double e = pt->value[j] + pt->slope[j] * span;
+      tmin = fmin(tmin, fmin(pt->value[j], e));
+      tmax = fmax(tmax, fmax(pt->value[j], e));
+    }
+    float widen = (float)(tmax - tmin), reach = (float)(pt->radius + 1.5);
+    int x0 = ch_clampi((int)floor(pt->p[0] - reach), 0, W - 1), x1 = ch_clampi((int)ceil(pt->p[0] + reach), 0, W - 1);
+    int y0 = ch_clampi((int)floor(-pt->p[1] - reach), 0, H - 1), y1 = ch_clampi((int)ceil(-pt->p[1] + reach), 0, H - 1);
+    for (int y = y0; y <= y1; y++)
+      for (int x = x0; x <= x1; x++) {
+        p->lo[0][(size_t)y * W + x] -= widen;
+        p->hi[0][(size_t)y * W + x] += widen;
+      }
+  }
   while (p->w[p->levels - 1] > 1 || p->h[p->levels - 1] > 1) {
     int l = p->levels, pw = p->w[l - 1], ph = p->h[l - 1];
     int w = (pw + 1) / 2, h = (ph + 1) / 2;
