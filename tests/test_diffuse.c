@@ -540,7 +540,10 @@ static void test_source_direct(void) {
           }
           double range = hi > lo ? hi - lo : 1.0;
           worst = fmax(worst, maxd / range);
-          CHECK_MSG(maxd <= 1e-5 * range, "%dx%d C=%d rep %d channel %d: max |chisel - direct| = %.3g, range %.3g", w,
+          /* a random source makes a rough field that the float solve holds
+           * only to its floor: 2.6e-6 of the range with gcc, 8.8e-6 with
+           * clang (256 x 200, 3 channels); a lost source is off by the range */
+          CHECK_MSG(maxd <= 3e-5 * range, "%dx%d C=%d rep %d channel %d: max |chisel - direct| = %.3g, range %.3g", w,
                     h, C, rep, c, maxd, range);
           /* at 1e-8 the solve ends at the float floor, where the float
            * evaluation of the residual is itself off by a few 1e-9 of ||b|| */
