@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_bezier.h"
 #include "ch_math.h"
 #include "ch_progress.h"
 
@@ -29,6 +30,9 @@ void ch_dci_free(ch_dci *d) {
   free(d->fixed);
   free(d->sing);
   ch_grid_free(&d->sing_grid);
+  for (int i = 0; i < d->num_layers; i++) ch_dlayer_free(&d->layers[i]);
+  free(d->layers);
+  free(d->layer_w);
   memset(d, 0, sizeof *d);
 }
 
@@ -93,6 +97,113 @@ static void texel_hint(const ch_samples *s, int x, int y, int *curve, int *side,
   cp[1] = -y + s->offset[2 * i + 1];
 }
 
+double ch_dci_layers_value(const ch_dci *d, const double p[2], const double n[2]) {
+  double w = 0.0;
+  for (int i = 0; i < d->num_layers; i++)
+    w += n ? ch_dlayer_value_beside(&d->layers[i], p, n) : ch_dlayer_value(&d->layers[i], p, NULL);
+  return w;
+}
+
+void ch_dci_side_normal(const ch_dci *d, size_t i, int side, double n[2]) {
+  const ch_samples *s = &d->samples;
+  double tg[2] = {1.0, 0.0};
+  int seg = s->curve[i] >= 0 ? s->segment[i] : -1;
+  /* the tangent from the layer's own pieces (in the texel frame); a curve
+   * without a layer has no jump in W to take a side of */
+  for (int k = 0; seg >= 0 && k < d->num_layers; k++) {
+    const ch_dlayer *l = &d->layers[k];
+    if (seg >= l->first_segment && seg < l->first_segment + l->num_pieces) {
+      ch_bezier_direction((const double(*)[2])l->p[seg - l->first_segment], s->seg_t[i], tg);
+      break;
+    }
+  }
+  double sign = side == CH_SIDE_RIGHT ? -1.0 : 1.0;
+  n[0] = -sign * tg[1];
+  n[1] = sign * tg[0];
+}
+
+/* The texel frame of the samples: u, v to x right, y up, texel (x, y) at
+ * (x, -y). */
+static void to_texel_frame(const ch_samples *s, const double uv[2], double out[2]) {
+  out[0] = (uv[0] - s->rect[0]) / s->texel[0] - 0.5;
+  out[1] = (uv[1] - s->rect[3]) / s->texel[1] + 0.5;
+}
+
+static double border_distance(const ch_samples *s, const double p[2]) {
+  /* the zero-flux line is half a texel beyond the outer centres */
+  return fmin(fmin(p[0] + 0.5, s->width - 0.5 - p[0]), fmin(0.5 - p[1], p[1] + s->height - 0.5));
+}
+
+/* A double layer for every open sharp step subpath with a jump whose ends
+ * both lie inside the grid. */
+static ch_status layers_setup(const ch_curve_set *set, ch_dci *d, ch_error *err) {
+  const ch_samples *s = &d->samples;
+  d->layers = calloc((size_t)(set->num_subpaths > 0 ? set->num_subpaths : 1), sizeof *d->layers);
+  if (!d->layers) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the double layers");
+  for (int k = 0; k < set->num_subpaths; k++) {
+    const ch_subpath *sp = &set->subpaths[k];
+    if (sp->closed || sp->num_segments <= 0) continue;
+    const ch_segment *first = &set->segments[sp->first_segment];
+    const ch_curve *cv = &set->curves[first->curve];
+    if (cv->kind != CH_CURVE_STEP || cv->blur > 0.0 || !(cv->left != cv->right)) continue;
+    double a[2], b[2];
+    to_texel_frame(s, first->p[0], a);
+    to_texel_frame(s, set->segments[sp->first_segment + sp->num_segments - 1].p[2], b);
+    if (border_distance(s, a) < CH_DCI_SING_MIN || border_distance(s, b) < CH_DCI_SING_MIN) continue;
+    ch_dlayer *l = &d->layers[d->num_layers];
+    l->p = malloc((size_t)sp->num_segments * sizeof *l->p);
+    if (!l->p) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the double layers");
+    l->curve = first->curve;
+    l->first_segment = sp->first_segment;
+    l->jump = cv->left - cv->right;
+    l->num_pieces = sp->num_segments;
+    l->box[0] = l->box[1] = INFINITY;
+    l->box[2] = l->box[3] = -INFINITY;
+    for (int i = 0; i < sp->num_segments; i++)
+      for (int j = 0; j < 3; j++) {
+        double *q = l->p[i][j];
+        to_texel_frame(s, set->segments[sp->first_segment + i].p[j], q);
+        l->box[0] = fmin(l->box[0], q[0]), l->box[1] = fmin(l->box[1], q[1]);
+        l->box[2] = fmax(l->box[2], q[0]), l->box[3] = fmax(l->box[3], q[1]);
+      }
+    d->num_layers++;
+  }
+  if (!d->num_layers) {
+    free(d->layers);
+    d->layers = NULL;
+    return CH_OK;
+  }
+  size_t n = (size_t)s->width * s->height;
+  d->layer_w = malloc(n * sizeof *d->layer_w);
+  if (!d->layer_w) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the double layers");
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int y = 0; y < s->height; y++)
+    for (int x = 0; x < s->width; x++) {
+      double c[2] = {x, -y};
+      d->layer_w[(size_t)y * s->width + x] = (float)ch_dci_layers_value(d, c, NULL);
+    }
+  return CH_OK;
+}
+
+/* The wedge of h - W round a point: in each sector W adds a constant and
+ * a slope in the angle (a layer through the point is constant on each
+ * side, one ending there linear), read a hair from the point. */
+static void subtract_layers(const ch_dci *d, ch_stepsing_point *pt) {
+  int m = pt->num_arms;
+  for (int k = 0; k < m; k++) {
+    double span = (m == 1 ? pt->angle[0] + 2.0 * CH_PI : pt->angle[(k + 1) % m]) - pt->angle[k];
+    if (!(span > 0.0)) span += 2.0 * CH_PI;
+    double w[2];
+    for (int j = 0; j < 2; j++) {
+      double a = pt->angle[k] + span * (j + 1) / 3.0, q[2] = {pt->p[0] + 1e-4 * cos(a), pt->p[1] + 1e-4 * sin(a)};
+      w[j] = ch_dci_layers_value(d, q, NULL);
+    }
+    double slope = (w[1] - w[0]) / (span / 3.0);
+    pt->value[k] -= w[0] - slope * span / 3.0;
+    pt->slope[k] -= slope;
+  }
+}
+
 /* The singular points of the sharp step curves in the texel frame, their
  * windows' radii and the grid over them. */
 static ch_status sing_setup(const ch_curve_set *set, ch_dci *d, ch_error *err) {
@@ -125,6 +236,33 @@ static ch_status sing_setup(const ch_curve_set *set, ch_dci *d, ch_error *err) {
       double sp = (m == 1 ? pt->angle[0] + 2.0 * CH_PI : pt->angle[(k + 1) % m]) - pt->angle[k];
       sp = sp > 0.0 ? sp : sp + 2.0 * CH_PI;
       pt->slope[k] *= old_span[k] / sp;
+    }
+  }
+  if (d->num_layers) {
+    /* ends of curves with a layer are the layer's; the rest are wedges of
+     * h - W, and those with no slope left drop out */
+    double most_jump = 0.0;
+    for (int k = 0; k < d->num_layers; k++) most_jump = fmax(most_jump, fabs(d->layers[k].jump));
+    int kept = 0;
+    for (int i = 0; i < n; i++) {
+      ch_stepsing_point *pt = &pts[i];
+      int layer_end = 0;
+      for (int k = 0; pt->num_arms == 1 && k < d->num_layers; k++) {
+        const ch_dlayer *l = &d->layers[k];
+        const double *a = l->p[0][0], *b = l->p[l->num_pieces - 1][2];
+        layer_end |= hypot(pt->p[0] - a[0], pt->p[1] - a[1]) < 1e-6 || hypot(pt->p[0] - b[0], pt->p[1] - b[1]) < 1e-6;
+      }
+      if (layer_end) continue;
+      subtract_layers(d, pt);
+      double most = 0.0;
+      for (int k = 0; k < pt->num_arms; k++) most = fmax(most, fabs(pt->slope[k]));
+      if (!(most * 2.0 * CH_PI > 1e-6 * most_jump)) continue;
+      pts[kept++] = *pt;
+    }
+    n = kept;
+    if (!n) {
+      ch_stepsing_free(&found);
+      return CH_OK;
     }
   }
   st = ch_stepsing_limit_radii(pts, n, CH_DCI_SING_RADIUS, err);
@@ -172,6 +310,48 @@ static void sing_texels(const ch_dci *d, int k, double grow, int r[4]) {
 /* Takes phi T out of values (channel 0 of `channels`): the fixed texels'
  * Dirichlet data and the free texels' guesses, and writes the ring's
  * source. */
+/* Takes the layers out of values (channel 0): fixed texels hold side
+ * value - W on their side of their closest point, free texels' guesses
+ * lose W; the border's zero flux leaves h - W the flux of -W there, which
+ * by finite volumes is a source of dW/dn (outward) in the border texels. */
+static void layers_take_out(const ch_dci *d, float *values, int channels, float *source) {
+  const ch_samples *s = &d->samples;
+  int W = s->width, H = s->height;
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int y = 0; y < H; y++)
+    for (int x = 0; x < W; x++) {
+      size_t i = (size_t)y * W + x;
+      if (!d->fixed[i]) {
+        values[i * channels] -= d->layer_w[i];
+        continue;
+      }
+      double cp[2] = {x + s->offset[2 * i], -y + s->offset[2 * i + 1]}, nrm[2];
+      ch_dci_side_normal(d, i, s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT), nrm);
+      values[i * channels] -= (float)ch_dci_layers_value(d, cp, nrm);
+    }
+  for (int y = 0; y < H; y++)
+    for (int x = 0; x < W; x++) {
+      if (x > 0 && x < W - 1 && y > 0 && y < H - 1) {
+        x = W - 2; /* to the row's last texel */
+        continue;
+      }
+      size_t i = (size_t)y * W + x;
+      if (d->fixed[i]) continue;
+      const double out[4][2] = {{-1, 0}, {1, 0}, {0, 1}, {0, -1}};
+      const int missing[4] = {x == 0, x == W - 1, y == 0, y == H - 1};
+      double flux = 0.0;
+      for (int j = 0; j < 4; j++) {
+        if (!missing[j]) continue;
+        double f[2] = {x + 0.5 * out[j][0], -y + 0.5 * out[j][1]}, g[2];
+        for (int k = 0; k < d->num_layers; k++) {
+          ch_dlayer_value(&d->layers[k], f, g);
+          flux += g[0] * out[j][0] + g[1] * out[j][1];
+        }
+      }
+      source[i * channels] += (float)flux;
+    }
+}
+
 static void sing_take_out(const ch_dci *d, float *values, int channels, float *source) {
   const ch_samples *s = &d->samples;
   int W = s->width;
@@ -406,11 +586,13 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     int any_fixed = 0;
     for (size_t i = 0; i < n && !any_fixed; i++) any_fixed = d->fixed[i];
     /* without a fixed texel h is one constant: nothing to take out */
-    if (any_fixed) st = sing_setup(set, d, err);
-    if (!st && d->num_sing) {
+    if (any_fixed) st = layers_setup(set, d, err);
+    if (!st && any_fixed) st = sing_setup(set, d, err);
+    if (!st && (d->num_sing || d->num_layers)) {
       source = calloc(n * channels, sizeof *source);
       if (!source) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the singular terms");
-      else sing_take_out(d, values, channels, source);
+      if (!st && d->num_layers) layers_take_out(d, values, channels, source);
+      if (!st && d->num_sing) sing_take_out(d, values, channels, source);
     }
     if (st) {
       free(values);
@@ -424,6 +606,8 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
   free(source);
   if (!st && d->num_sing) sing_put_back(d, values, channels);
+  if (!st && d->num_layers)
+    for (size_t i = 0; i < n; i++) values[i * channels] += d->layer_w[i];
   if (!st && any_blur) {
     /* The blur radius on its own: a radius needs no 1e-6 (1e-3 is far
      * below a texel), and a lone channel runs the solver's 1-lane path

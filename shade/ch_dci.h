@@ -7,6 +7,7 @@
 
 #include "ch_curves.h"
 #include "ch_diffuse.h"
+#include "ch_dlayer.h"
 #include "ch_error.h"
 #include "ch_grid.h"
 #include "ch_image.h"
@@ -46,6 +47,11 @@ typedef struct ch_dci {
   int num_sing;
   ch_stepsing_point *sing;
   ch_grid sing_grid; /* over the windows */
+  /* The double layers taken out with them (see below), in the same frame,
+   * and their sum at every texel centre (NULL without layers). */
+  int num_layers;
+  ch_dlayer *layers;
+  float *layer_w;
 } ch_dci;
 
 /* Texels at most this far (in texels) from a curve, on its side, are fixed
@@ -72,7 +78,15 @@ typedef struct ch_dci {
  * plus phi T; ch_recon blends h - T near the point and adds T back.
  * Radius in texels: */
 #define CH_DCI_SING_RADIUS 256.0
-/* Points nearer than this (texels) to the grid's border or to another
+/* Double layers. An open sharp step curve whose two ends lie inside the
+ * grid (CH_DCI_SING_MIN from its border) is taken out whole: its double
+ * layer W (ch_dlayer.h) carries its jump exactly along all of it and is
+ * the wedge at both ends, so the remainder is continuous across it and the
+ * fixed texels' offset from the curve no longer meets a jump's b / r
+ * gradient anywhere along it. W needs no window (it is harmonic
+ * everywhere off the curve): only the border's flux. The wedge terms
+ * above are then those of h - W (their ends on such curves drop out).
+ * Points nearer than this (texels) to the grid's border or to another
  * point get no term: a border that close is a mirror, and h no wedge at
  * the texels' scale (on the border it has no angle term at all). */
 #define CH_DCI_SING_MIN 2.0
@@ -90,6 +104,14 @@ double ch_dci_sing_value(const ch_dci *d, int k, const double p[2], int curve, i
 
 /* The window phi of point k at p (texel frame). */
 double ch_dci_sing_window(const ch_dci *d, int k, const double p[2]);
+
+/* The sum of the double layers at p (texel frame); with n not NULL, at p
+ * moved a hair along n (to one side of a curve p lies on). */
+double ch_dci_layers_value(const ch_dci *d, const double p[2], const double n[2]);
+
+/* The normal of texel i's nearest curve at its closest point, pointing to
+ * `side` of it (texel frame; not unit). */
+void ch_dci_side_normal(const ch_dci *d, size_t i, int side, double n[2]);
 
 /* Builds the DCI of the step curves of set. A set without step curves gives
  * h = 0 everywhere. Curves with data-blur are blurred after diffusion by a

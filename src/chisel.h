@@ -45,6 +45,7 @@
 #include "ch_featmap.h"
 #include "ch_msdf.h"
 #include "ch_stepsing.h"
+#include "ch_dlayer.h"
 
 /* tess/: the base surface (OpenSubdiv), geometry images, displacement and
  * the feature embedding */

@@ -102,6 +102,22 @@ static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) 
    * phi T at the point (ch_dci.h): both terms lie in [min(0, T), max(0, T)]
    * over the point's sectors, so h can leave its texels' range by that
    * span. Texels within a cell's diagonal of a window blend into it. */
+  /* The double layers likewise, everywhere: W's range over a texel's 3 x 3
+   * neighbourhood, twice (W is smooth but at its curve and its ends, where
+   * the neighbourhood spans the jump or the fan). */
+  if (d->layer_w)
+    for (int y = 0; y < H; y++)
+      for (int x = 0; x < W; x++) {
+        float lo = INFINITY, hi = -INFINITY;
+        for (int j = y > 0 ? y - 1 : 0; j <= y + 1 && j < H; j++)
+          for (int i = x > 0 ? x - 1 : 0; i <= x + 1 && i < W; i++) {
+            float w = d->layer_w[(size_t)j * W + i];
+            lo = w < lo ? w : lo;
+            hi = w > hi ? w : hi;
+          }
+        p->lo[0][(size_t)y * W + x] -= 2.0f * (hi - lo);
+        p->hi[0][(size_t)y * W + x] += 2.0f * (hi - lo);
+      }
   for (int k = 0; k < d->num_sing; k++) {
     const ch_stepsing_point *pt = &d->sing[k];
     if (!(pt->radius > 0.0)) continue;
