@@ -196,14 +196,22 @@ typedef struct ch_featmap {
   ch_stepsing_point *singular;
   int num_singular;
   int32_t *sg_near;
+  double sg_window; /* R1 of this map (cells): CH_FEATMAP_SINGULAR_R1 when
+                       built; 12 in files written before it was stored */
   ch_featmap_stats stats;
 } ch_featmap;
 
-#define CH_FEATMAP_SINGULAR_R0 4.0
-#define CH_FEATMAP_SINGULAR_R1 12.0
+/* (Wider than the 4 / 12 first used: with h_step's own terms taken out of
+ * its diffusion (ch_dci.h) the samples' remainder is smooth farther out,
+ * and the window's own curvature, which the blend must follow, falls as
+ * 1 / R1^2.) */
+#define CH_FEATMAP_SINGULAR_R0 8.0
+#define CH_FEATMAP_SINGULAR_R1 24.0
+/* R1 of maps files that do not say (written before it changed) */
+#define CH_FEATMAP_SINGULAR_R1_LEGACY 12.0
 
 /* Each singular point's term is whole within radius R0 / R1 and gone
- * from radius (its field ch_stepsing_point.radius): R1 cells, or half the
+ * from radius (its field ch_stepsing_point.radius): maps->sg_window cells, or half the
  * way to the nearest other point, so that no two windows overlap (one
  * term per point of the map, no seams between them) and a window ends
  * before an arm's curve does (a short dash: its other end). */

@@ -106,7 +106,8 @@ ch_status ch_featmap_singular_index(ch_featmap *m, ch_error *err) {
   if (!m->sg_near) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the maps' singular points");
   for (size_t k = 0; k < (size_t)R1 * R1; k++) m->sg_near[k] = -1;
   double du = (m->rect[2] - m->rect[0]) / R, dv = (m->rect[3] - m->rect[1]) / R;
-  ch_status st = ch_stepsing_limit_radii(m->singular, m->num_singular, CH_FEATMAP_SINGULAR_R1 * sqrt(du * dv), err);
+  if (!(m->sg_window > 0.0)) m->sg_window = CH_FEATMAP_SINGULAR_R1;
+  ch_status st = ch_stepsing_limit_radii(m->singular, m->num_singular, m->sg_window * sqrt(du * dv), err);
   if (st) return st;
   /* each point stamps the lattice points within its radius; the nearest keeps them */
   for (int p = 0; p < m->num_singular; p++) {

@@ -158,7 +158,7 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   snprintf(rect, sizeof rect, "%.17g %.17g %.17g %.17g", m->rect[0], m->rect[1], m->rect[2], m->rect[3]);
   snprintf(res, sizeof res, "%d", R);
   snprintf(range, sizeof range, "%.17g", msdf ? msdf->range : 0.0);
-  ch_exr_attribute attrs[16];
+  ch_exr_attribute attrs[24];
   int na = 0;
   attrs[na++] = (ch_exr_attribute){"chisel:command", "featmap"};
   attrs[na++] = (ch_exr_attribute){"chisel:featmap", "1"};
@@ -169,9 +169,12 @@ ch_status ch_featmap_write_exr(const char *path, const ch_featmap *m, const stru
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-pieces", pieces.s ? pieces.s : ""};
   attrs[na++] = (ch_exr_attribute){"chisel:featmap-fallback", fallback.s ? fallback.s : ""};
   if (num_flat > 0) attrs[na++] = (ch_exr_attribute){"chisel:featmap-flat", flat.s ? flat.s : ""};
+  char window[32];
+  snprintf(window, sizeof window, "%.17g", m->sg_window > 0.0 ? m->sg_window : CH_FEATMAP_SINGULAR_R1);
   if (m->num_singular > 0) attrs[na++] = (ch_exr_attribute){"chisel:featmap-singular", singular.s ? singular.s : ""};
+  if (m->num_singular > 0) attrs[na++] = (ch_exr_attribute){"chisel:featmap-singular-window", window};
   if (msdf) attrs[na++] = (ch_exr_attribute){"chisel:msdf-range", range};
-  for (int k = 0; k < num_extra && na < 16; k++) attrs[na++] = extra[k];
+  for (int k = 0; k < num_extra && na < 24; k++) attrs[na++] = extra[k];
   if (curves.failed || pieces.failed || fallback.failed || singular.failed || flat.failed) {
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the maps' tables");
   } else {
@@ -517,6 +520,21 @@ static ch_status read_maps(const source *src, const ch_image *img, ch_featmap *m
   /* maps without flat sides or singular points (or written before they were) have no tables */
   if ((st = optional_attr(src, "chisel:featmap-flat", &flat, err)) || (flat && (st = parse_flat(flat, name, m, err))))
     goto done;
+  /* the windows' reach (cells), which files before it changed do not give */
+  char *window = NULL;
+  m->sg_window = CH_FEATMAP_SINGULAR_R1_LEGACY;
+  if ((st = optional_attr(src, "chisel:featmap-singular-window", &window, err))) goto done;
+  if (window) {
+    cursor cw = {window};
+    double rw = 0.0;
+    int ok = next_double(&cw, &rw) && at_end(&cw) && rw >= 1.0 && rw <= 4096.0;
+    free(window);
+    if (!ok) {
+      st = ch_error_set(err, CH_ERR_INPUT, "%s: bad chisel:featmap-singular-window (a reach in cells, 1 to 4096)", name);
+      goto done;
+    }
+    m->sg_window = rw;
+  }
   if ((st = optional_attr(src, "chisel:featmap-singular", &singular, err)) ||
       (singular && (st = parse_singular(singular, name, m, err))))
     goto done;

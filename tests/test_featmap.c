@@ -410,6 +410,7 @@ static void test_step_ends(void) {
   REQUIRE(ch_featmap_write_exr(file, &with, NULL, NULL, 0, &err) == CH_OK);
   REQUIRE(ch_featmap_read_exr(file, &back, NULL, &err) == CH_OK);
   CHECK(maps_equal(&with, &back));
+  CHECK(with.sg_window == CH_FEATMAP_SINGULAR_R1 && back.sg_window == with.sg_window);
   for (int k = 0; k < 500; k++) {
     double u = 0.15 + 0.5 * ch_test_rnd(), v = 0.45 + 0.15 * ch_test_rnd();
     ch_featmap_sample x1, y1;
