@@ -48,10 +48,11 @@ typedef struct ch_dci {
   ch_stepsing_point *sing;
   ch_grid sing_grid; /* over the windows */
   /* The double layers taken out with them (see below), in the same frame,
-   * and their sum at every texel centre (NULL without layers). */
+   * and a grid over their windows. */
   int num_layers;
   ch_dlayer *layers;
-  float *layer_w;
+  double *layer_far; /* per layer: texels from its box where its window ends */
+  ch_grid layer_grid;
 } ch_dci;
 
 /* Texels at most this far (in texels) from a curve, on its side, are fixed
@@ -83,10 +84,23 @@ typedef struct ch_dci {
  * layer W (ch_dlayer.h) carries its jump exactly along all of it and is
  * the wedge at both ends, so the remainder is continuous across it and the
  * fixed texels' offset from the curve no longer meets a jump's b / r
- * gradient anywhere along it. W needs no window (it is harmonic
- * everywhere off the curve): only the border's flux. The wedge terms
- * above are then those of h - W (their ends on such curves drop out).
- * Points nearer than this (texels) to the grid's border or to another
+ * gradient anywhere along it. W needs no window, but evaluating it costs
+ * a texel and a curve each: so it is windowed by the distance to the
+ * curve's box (1 up to far / 2, 0 from far texels). The source where a
+ * window falls is the finite-volume form of -Laplace (phi W) without
+ * phi Laplace W (W Lap phi + sum (phi_n - phi_i)(W_n - W_i)), and the
+ * float solve's rounding grows with it (windows of 16 to 48 texels round
+ * a line of the ends class moved h by 3e-6 everywhere and its gradient by
+ * 3%): W falls like J L / r from a curve of size L, so far is f L (and at
+ * least 24 texels), f as large as CH_DCI_LAYER_BUDGET evaluations per
+ * texel more than those least windows allow, up to 8: a few long curves
+ * are taken out on the whole grid, many short ones each in its own
+ * neighbourhood. The border takes
+ * phi dW/dn. The wedge terms above are then those of h - W (their ends on
+ * such curves drop out); ch_recon mixes the blend of h - W plus W with the
+ * plain blend by each layer's window, as for the wedges. */
+#define CH_DCI_LAYER_BUDGET 4.0
+/* Points nearer than this (texels) to the grid's border or to another * Points nearer than this (texels) to the grid's border or to another
  * point get no term: a border that close is a mirror, and h no wedge at
  * the texels' scale (on the border it has no angle term at all). */
 #define CH_DCI_SING_MIN 2.0
@@ -105,9 +119,12 @@ double ch_dci_sing_value(const ch_dci *d, int k, const double p[2], int curve, i
 /* The window phi of point k at p (texel frame). */
 double ch_dci_sing_window(const ch_dci *d, int k, const double p[2]);
 
-/* The sum of the double layers at p (texel frame); with n not NULL, at p
- * moved a hair along n (to one side of a curve p lies on). */
-double ch_dci_layers_value(const ch_dci *d, const double p[2], const double n[2]);
+/* The layers whose windows may hold p (texel frame): their count, and
+ * *items pointed at their indices. */
+int ch_dci_layers_at(const ch_dci *d, const double p[2], const int **items);
+
+/* Layer k's window at p (texel frame). */
+double ch_dci_layer_window(const ch_dci *d, int k, const double p[2]);
 
 /* The normal of texel i's nearest curve at its closest point, pointing to
  * `side` of it (texel frame; not unit). */

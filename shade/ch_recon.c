@@ -298,12 +298,26 @@ static const edge *side_for(const curve_sides *cs, int curve) {
  * the value is continuous where the window ends. A sample across a curve
  * stands for the query's side of it at its closest curve point, so its T
  * is taken there, on that side. sp: the point (or -1), qt: T at the query,
- * psi: its window there. The DCI's double layers (whole open curves) are
- * taken out of every sample and added back at the query (qw) the same
- * way, with no window. */
+ * psi: its window there. The DCI's double layers (whole open curves)
+ * round the query t are taken out and added back the same way, each mixed
+ * by its own window. */
 static void blend(const ch_dci *d, const int xs[2], const int ys[2], double fx, double fy, const curve_sides *cs,
-                  int flip, int sp, double qt, double psi, double qw, float *value, float color[3]) {
+                  int flip, int sp, double qt, double psi, const double t[2], float *value, float color[3]) {
   const ch_samples *s = &d->samples;
+  /* the layers whose windows hold the query: their window, W there, and
+   * (below) the blend of W at the samples */
+  enum { MAX_LAYERS = 64 };
+  const int *items;
+  int lay[MAX_LAYERS], nl = 0, m = ch_dci_layers_at(d, t, &items);
+  double lphi[MAX_LAYERS], lq[MAX_LAYERS], lw[MAX_LAYERS];
+  for (int j = 0; j < m && nl < MAX_LAYERS; j++) {
+    double phi = ch_dci_layer_window(d, items[j], t);
+    if (!(phi > 0.0)) continue;
+    lay[nl] = items[j];
+    lphi[nl] = phi;
+    lq[nl] = ch_dlayer_value(&d->layers[items[j]], t, NULL);
+    lw[nl++] = 0.0;
+  }
   double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
   double acc = 0.0, acc_t = 0.0, rgb[3] = {0, 0, 0};
   for (int k = 0; k < 4; k++) {
@@ -317,16 +331,20 @@ static void blend(const ch_dci *d, const int xs[2], const int ys[2], double fx, 
       across = (s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT)) != side;
     }
     double v = across ? s->value[2 * i + 1] : d->h[i];
-    if (d->num_layers) { /* the double layers come out of every sample */
+    acc += w[k] * v;
+    /* the double layers round the query: W at the sample (across a curve,
+     * at its closest point on the query's side) */
+    for (int j = 0; j < nl; j++) {
+      const ch_dlayer *l = &d->layers[lay[j]];
       if (!across) {
-        v -= d->layer_w[i];
+        double c[2] = {x, -y};
+        lw[j] += w[k] * ch_dlayer_value(l, c, NULL);
       } else {
         double cp[2] = {x + s->offset[2 * i], -y + s->offset[2 * i + 1]}, nrm[2];
         ch_dci_side_normal(d, i, side, nrm);
-        v -= ch_dci_layers_value(d, cp, nrm);
+        lw[j] += w[k] * ch_dlayer_value_beside(l, cp, nrm);
       }
     }
-    acc += w[k] * v;
     if (sp >= 0) {
       double cp[2] = {x + s->offset[2 * i], -y + s->offset[2 * i + 1]};
       if (across) {
@@ -341,7 +359,7 @@ static void blend(const ch_dci *d, const int xs[2], const int ys[2], double fx, 
       for (int c = 0; c < 3; c++) rgb[c] += w[k] * (across ? s->color[6 * i + 3 + c] : d->rgb[3 * i + c]);
   }
   if (sp >= 0) acc += psi * (qt - acc_t);
-  acc += qw;
+  for (int j = 0; j < nl; j++) acc += lphi[j] * (lq[j] - lw[j]);
   *value = (float)acc;
   for (int c = 0; c < 3; c++) color[c] = (float)rgb[c];
 }
@@ -446,8 +464,7 @@ static void recon_eval(const ch_recon *r, ch_recon_method method, double u, doub
     }
   double qt = 0.0, psi = 0.0;
   int sp = query_term(d, t, e, 0, xs, ys, fx, fy, &qt, &psi);
-  double qw = d->num_layers ? ch_dci_layers_value(d, t, NULL) : 0.0;
-  blend(d, xs, ys, fx, fy, e ? &cs : NULL, 0, sp, qt, psi, qw, &out->value, out->color);
+  blend(d, xs, ys, fx, fy, e ? &cs : NULL, 0, sp, qt, psi, t, &out->value, out->color);
   if (!e) return;
   out->curve = e->curve;
   out->side = e->side;
@@ -461,7 +478,7 @@ static void recon_eval(const ch_recon *r, ch_recon_method method, double u, doub
       float other, other_rgb[3];
       double qo = 0.0;
       query_term(d, t, e, 1, xs, ys, fx, fy, &qo, &psi);
-      blend(d, xs, ys, fx, fy, &cs, 1, sp, qo, psi, qw, &other, other_rgb);
+      blend(d, xs, ys, fx, fy, &cs, 1, sp, qo, psi, t, &other, other_rgb);
       double a = 1.0 - 2.0 * dp;
       out->value = (float)(a * 0.5 * (out->value + other) + 2.0 * dp * out->value);
       for (int c = 0; c < 3; c++)

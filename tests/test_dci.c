@@ -344,6 +344,41 @@ static void test_double_layer(void) {
   CHECK(fabs(ch_dlayer_value(&c, far, NULL)) < 0.3 * 2.0 / 500.0); /* a dipole: J |chord| / (2 pi r) at most */
 }
 
+/* An X of two short step curves, each taken out as a layer: the wedge left
+ * at their crossing is h - W's expansion only up to the arms' ends, so its
+ * window stops there; and h stays continuous across an arm's ray beyond
+ * its curve's end. */
+static void test_crossing_window(void) {
+  const char *svg = "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+                    "<path d='M 45 50 L 55 50' data-kind='step' data-left='1' data-right='0'/>"
+                    "<path d='M 50 45 L 50 55' data-kind='step' data-left='0.5' data-right='0'/></svg>";
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "x.svg", &set, &err) == CH_OK);
+  ch_dci dci;
+  ch_recon rec;
+  ch_dci_desc desc = {.resolution = 128, .tolerance = 1e-8};
+  REQUIRE(ch_dci_build(&set, &desc, &dci, &err) == CH_OK);
+  REQUIRE(ch_recon_init(&rec, &dci, &set, &err) == CH_OK);
+  CHECK(dci.num_layers == 2 && dci.num_sing == 1);
+  CHECK(dci.num_sing == 1 && dci.sing[0].radius <= 5.0 * 1.28 + 1e-9); /* the arms' length, in texels */
+  /* across the ray of the first curve beyond its end (u 0.58 to 0.62) */
+  double worst = 0.0;
+  for (int k = 0; k <= 8; k++) {
+    double u = 0.58 + 0.005 * k, prev = 0.0;
+    for (int i = 0; i <= 200; i++) {
+      ch_recon_sample s;
+      ch_recon_eval(&rec, CH_RECON_EXACT, u, 0.49 + 0.02 * i / 200.0, 0.0, &s);
+      if (i > 0) worst = fmax(worst, fabs(s.value - prev));
+      prev = s.value;
+    }
+  }
+  CHECK_MSG(worst < 2e-3, "a step of %g across the ray beyond the curve's end", worst);
+  ch_recon_free(&rec);
+  ch_dci_free(&dci);
+  ch_curves_free(&set);
+}
+
 /* Near the interior ends of an open step curve, 128^2 against 1024^2 (both
  * with the terms; the plain 1024^2 is itself first order there): mean
  * value error and gradient error (over the reference's mean gradient) on
@@ -386,12 +421,27 @@ static void ends_error(const ch_curve_set *set, const ch_recon rec[3], const dou
  * 128^2 DCI agrees with a 1024^2 one several times better in value and
  * gradient, and the reconstruction has no seam where a window ends. */
 static void test_singular_terms(void) {
-  const char *svgs[2] = {"<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+  /* the third: the same curve among 80 short dashes, whose layers are
+   * windowed (the budget of evaluations per texel) */
+  char many[16384];
+  int len = snprintf(many, sizeof many,
+                     "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+                     "<path d='M 30 55 L 70 45' data-kind='step' data-left='1' data-right='0'/>");
+  for (int k = 0; k < 80; k++) {
+    double x = 5.0 + 90.0 * rnd(), y = 5.0 + 90.0 * rnd(), a = 6.2832 * rnd();
+    if (fabs(y - 50.0) < 12.0) y += y < 50.0 ? -12.0 : 12.0; /* clear of the rings round the curve's ends */
+    len += snprintf(many + len, sizeof many - (size_t)len,
+                    "<path d='M %.3f %.3f L %.3f %.3f' data-kind='step' data-left='%.2f' data-right='0'/>", x, y,
+                    x + 2.0 * cos(a), y + 2.0 * sin(a), 0.2 + rnd());
+  }
+  snprintf(many + len, sizeof many - (size_t)len, "</svg>");
+  const char *svgs[3] = {"<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
                          "<path d='M 30 55 L 70 45' data-kind='step' data-left='1' data-right='0'/></svg>",
                          "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
-                         "<path d='M 30 55 L 100 45' data-kind='step' data-left='1' data-right='0'/></svg>"};
+                         "<path d='M 30 55 L 100 45' data-kind='step' data-left='1' data-right='0'/></svg>",
+                         many};
   const double ends[2][2] = {{0.3, 0.45}, {0.7, 0.55}};
-  for (int c = 0; c < 2; c++) {
+  for (int c = 0; c < 3; c++) {
     ch_curve_set set;
     ch_error err = {0};
     REQUIRE(ch_curves_parse_svg(svgs[c], strlen(svgs[c]), "ends.svg", &set, &err) == CH_OK);
@@ -404,15 +454,21 @@ static void test_singular_terms(void) {
       REQUIRE(ch_dci_build(&set, &desc, &dci[k], &err) == CH_OK);
       REQUIRE(ch_recon_init(&rec[k], &dci[k], &set, &err) == CH_OK);
     }
-    if (c == 0)
+    if (c == 0) {
       CHECK(dci[0].num_layers == 0 && dci[1].num_layers == 1 && dci[1].num_sing == 0);
-    else
+    } else if (c == 1) {
       CHECK(dci[1].num_layers == 0 && dci[1].num_sing == 1 && dci[1].sing[0].radius > 8.0);
+    } else {
+      CHECK(dci[1].num_layers >= 70); /* (dashes that cross or touch the border have none) */
+      CHECK(dci[1].layer_far[1] < 64.0); /* a dash's window: its neighbourhood, not the grid */
+    }
     double eh[2], eg[2];
-    ends_error(&set, rec, ends, c == 0 ? 2 : 1, eh, eg);
+    ends_error(&set, rec, ends, c == 1 ? 1 : 2, eh, eg);
+    static const char *what[3] = {"both ends inside (a layer)", "one end on the border (a wedge)",
+                                  "among 80 dashes (windowed layers)"};
     printf("  %s, at 128^2 against 1024^2 near the inner ends: |dh| plain %.3g, with terms %.3g; |d grad| / |grad| "
            "plain %.3f, with terms %.3f\n",
-           c == 0 ? "both ends inside (a layer)" : "one end on the border (a wedge)", eh[0], eh[1], eg[0], eg[1]);
+           what[c], eh[0], eh[1], eg[0], eg[1]);
     CHECK_MSG(eh[1] <= eh[0] / 5.0, "value error with terms %g, plain %g", eh[1], eh[0]);
     CHECK_MSG(eg[1] <= eg[0] / 3.0, "gradient error with terms %g, plain %g", eg[1], eg[0]);
     if (c == 1) {
@@ -452,5 +508,6 @@ int main(void) {
   RUN(test_degenerate_steps);
   RUN(test_double_layer);
   RUN(test_singular_terms);
+  RUN(test_crossing_window);
   TEST_MAIN_END();
 }

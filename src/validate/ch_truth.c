@@ -102,22 +102,34 @@ static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) 
    * phi T at the point (ch_dci.h): both terms lie in [min(0, T), max(0, T)]
    * over the point's sectors, so h can leave its texels' range by that
    * span. Texels within a cell's diagonal of a window blend into it. */
-  /* The double layers likewise, everywhere: W's range over a texel's 3 x 3
-   * neighbourhood, twice (W is smooth but at its curve and its ends, where
-   * the neighbourhood spans the jump or the fan). */
-  if (d->layer_w)
-    for (int y = 0; y < H; y++)
-      for (int x = 0; x < W; x++) {
-        float lo = INFINITY, hi = -INFINITY;
-        for (int j = y > 0 ? y - 1 : 0; j <= y + 1 && j < H; j++)
-          for (int i = x > 0 ? x - 1 : 0; i <= x + 1 && i < W; i++) {
-            float w = d->layer_w[(size_t)j * W + i];
-            lo = w < lo ? w : lo;
-            hi = w > hi ? w : hi;
-          }
-        p->lo[0][(size_t)y * W + x] -= 2.0f * (hi - lo);
-        p->hi[0][(size_t)y * W + x] += 2.0f * (hi - lo);
+  /* The double layers likewise within their windows: W's part in a blend
+   * and at the query each lie within [-|J| Omega_max / 2 pi, ...]; near
+   * the curve a cell spans its jump J, near an end its fan, and elsewhere
+   * far less: widened by 2 |J| (the sweep of a curve that turns more than
+   * a half turn, by its share). */
+  for (int k = 0; k < d->num_layers; k++) {
+    const ch_dlayer *l = &d->layers[k];
+    double turn = 0.0;
+    for (int i = 0; i < l->num_pieces; i++) {
+      double a[2], b[2];
+      ch_bezier_end_tangents((const double(*)[2])l->p[i], a, b);
+      turn += fabs(atan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1]));
+      if (i + 1 < l->num_pieces) {
+        double c[2], e[2];
+        ch_bezier_end_tangents((const double(*)[2])l->p[i + 1], c, e);
+        turn += fabs(atan2(b[0] * c[1] - b[1] * c[0], b[0] * c[0] + b[1] * c[1]));
       }
+    }
+    float widen = (float)(2.0 * fabs(l->jump) * fmax(1.0, (turn + CH_PI) / (2.0 * CH_PI)));
+    float g = (float)(d->layer_far[k] + 1.5);
+    int x0 = ch_clampi((int)floor(l->box[0] - g), 0, W - 1), x1 = ch_clampi((int)ceil(l->box[2] + g), 0, W - 1);
+    int y0 = ch_clampi((int)floor(-l->box[3] - g), 0, H - 1), y1 = ch_clampi((int)ceil(-l->box[1] + g), 0, H - 1);
+    for (int y = y0; y <= y1; y++)
+      for (int x = x0; x <= x1; x++) {
+        p->lo[0][(size_t)y * W + x] -= widen;
+        p->hi[0][(size_t)y * W + x] += widen;
+      }
+  }
   for (int k = 0; k < d->num_sing; k++) {
     const ch_stepsing_point *pt = &d->sing[k];
     if (!(pt->radius > 0.0)) continue;
