@@ -386,12 +386,13 @@ static void layer_texels(const ch_dci *d, int k, double grow, int r[4]) {
 /* Takes the windowed layers out of values (channel 0): fixed texels hold
  * side value -
  * phi W on their side of their closest point, free texels' guesses lose
- * phi W. The source, by finite volumes as for the wedges: minus the flux
+ * phi W, which `taken` sums at every texel centre (to be put back after
+ * the solve). The source, by finite volumes as for the wedges: minus the flux
  * of phi W through the faces, less phi's part of W's (its continuous sum
  * round a cell is zero), from the product rule on the grid:
  * W_i Lap phi + sum (phi_n - phi_i)(W_n - W_i); at the border the face
  * drops out and leaves phi dW/dn (outward). */
-static void layers_take_out(const ch_dci *d, float *values, int channels, float *source) {
+static void layers_take_out(const ch_dci *d, float *values, int channels, float *source, float *taken) {
   const ch_samples *s = &d->samples;
   int W = s->width, H = s->height;
   /* rows in parallel, the layers whose windows reach a row inside: one
@@ -413,6 +414,7 @@ static void layers_take_out(const ch_dci *d, float *values, int channels, float 
             ch_dci_side_normal(d, i, s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT), nrm);
             values[i * channels] -= (float)(pc * ch_dlayer_value_beside(l, cp, nrm));
           }
+          if (phi > 0.0) taken[i] += (float)(phi * ch_dlayer_value(l, c, NULL));
           continue;
         }
         const double nb[4][2] = {{c[0] - 1, c[1]}, {c[0] + 1, c[1]}, {c[0], c[1] + 1}, {c[0], c[1] - 1}};
@@ -427,6 +429,7 @@ static void layers_take_out(const ch_dci *d, float *values, int channels, float 
         if (!(phi > 0.0) && !varies) continue;
         double gw[2], w = ch_dlayer_value(l, c, gw);
         values[i * channels] -= (float)(phi * w);
+        taken[i] += (float)(phi * w);
         if (!varies && !border) continue;
         double src = 0.0;
         for (int j = 0; j < 4; j++) {
@@ -444,22 +447,6 @@ static void layers_take_out(const ch_dci *d, float *values, int channels, float 
           src += pf * (g[0] * (nb[j][0] - c[0]) + g[1] * (nb[j][1] - c[1]));
         }
         source[i * channels] += (float)(src - w * lap);
-      }
-    }
-}
-
-/* Puts the windowed layers back at every texel centre. */
-static void layers_put_back(const ch_dci *d, float *values, int channels) {
-  int W = d->samples.width, H = d->samples.height;
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < H; y++)
-    for (int k = 0; k < d->num_layers; k++) {
-      int r[4];
-      layer_texels(d, k, 0.0, r);
-      if (y < r[1] || y > r[3]) continue;
-      for (int x = r[0]; x <= r[2]; x++) {
-        double c[2] = {x, -y}, phi = ch_dci_layer_window(d, k, c);
-        if (phi > 0.0) values[((size_t)y * W + x) * channels] += (float)(phi * ch_dlayer_value(&d->layers[k], c, NULL));
       }
     }
 }
@@ -693,7 +680,8 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     for (int c = 0; c < colors; c++) v[1 + c] = s->curve[i] >= 0 ? s->color[6 * i + c] : 0.0f;
     if (any_blur) sigma[i] = s->curve[i] >= 0 ? (float)(set->curves[s->curve[i]].blur / texel) : 0.0f;
   }
-  float *source = NULL;
+  float *source = NULL, *taken = NULL;
+  t0 = ch_progress_seconds();
   if (!desc->no_singular) {
     int any_fixed = 0;
     for (size_t i = 0; i < n && !any_fixed; i++) any_fixed = d->fixed[i];
@@ -702,23 +690,34 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
     if (!st && any_fixed) st = sing_setup(set, d, err);
     if (!st && (d->num_sing || d->num_layers)) {
       source = calloc(n * channels, sizeof *source);
-      if (!source) st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the singular terms");
-      if (!st && d->num_layers) layers_take_out(d, values, channels, source);
+      taken = d->num_layers ? calloc(n, sizeof *taken) : NULL;
+      if (!source || (d->num_layers && !taken))
+        st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the singular terms");
+      if (!st && d->num_layers) layers_take_out(d, values, channels, source, taken);
       if (!st && d->num_sing) sing_take_out(d, values, channels, source);
     }
     if (st) {
+      free(source);
+      free(taken);
       free(values);
       free(sigma);
       ch_dci_free(d);
       return st;
     }
   }
+  d->seconds_terms = ch_progress_seconds() - t0;
   t0 = ch_progress_seconds();
   ch_diffuse_desc dd = {.tolerance = desc->tolerance, .source = source};
   st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
   free(source);
+  double t1 = ch_progress_seconds();
   if (!st && d->num_sing) sing_put_back(d, values, channels);
-  if (!st && d->num_layers) layers_put_back(d, values, channels);
+  if (!st && taken)
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++) values[i * channels] += taken[i];
+  free(taken);
+  d->seconds_terms += ch_progress_seconds() - t1;
+  t0 += ch_progress_seconds() - t1; /* the put-back is the terms' time, not the diffusion's */
   if (!st && any_blur) {
     /* The blur radius on its own: a radius needs no 1e-6 (1e-3 is far
      * below a texel), and a lone channel runs the solver's 1-lane path

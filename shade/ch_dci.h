@@ -41,6 +41,7 @@ typedef struct ch_dci {
   unsigned char *fixed;    /* W*H: 1 where the texel was a Dirichlet texel */
   ch_diffuse_stats stats;
   double seconds_samples, seconds_diffuse, seconds_blur;
+  double seconds_terms; /* the singular terms and layers: set up, taken out, put back */
   /* The singular terms taken out of h before the diffusion (see below):
    * points in the texel frame (x right, y up, texel (x, y) at (x, -y),
    * texel units), each with its window's radius; a grid over the windows. */
