@@ -16,7 +16,8 @@
  * usage: bench_featmap [MODELS_DIR] [--res 64,128,...] [--crops N] [--sets a,b]
  *                      [--no-accuracy] [--no-time] [--no-speed] [--max-build R]
  *                      [--dci-res N]  (the DCI behind h_step and the truth: 1024)
- *                      [--no-dci-singular]  (that DCI without its singular terms) */
+ *                      [--no-dci-singular]  (that DCI without its singular terms)
+ *                      [--no-dci-extrapolate]  (that DCI's fixed texels at their side's value) */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -240,15 +241,18 @@ static int measure(setup *su, int R, int crops, result *res, int *req, ch_error 
   return 0;
 }
 
-static int setup_init(setup *su, const ch_curve_set *set, int dci_res, int no_sing, int with_ref2, ch_error *err) {
+static int setup_init(setup *su, const ch_curve_set *set, int dci_res, int no_sing, int no_extra, int with_ref2,
+                      ch_error *err) {
   memset(su, 0, sizeof *su);
   su->set = set;
-  ch_height_desc hd = {.dci_resolution = dci_res, .step_method = CH_RECON_EXACT, .no_singular = no_sing};
+  ch_height_desc hd = {
+      .dci_resolution = dci_res, .step_method = CH_RECON_EXACT, .no_singular = no_sing, .no_extrapolate = no_extra};
   if (ch_height_init(&su->height, set, &hd, err)) return -1;
   ch_truth_desc td = {.grid = 64};
   if (ch_truth_create(&su->height, &td, &su->truth, err)) return -1;
   if (with_ref2 && su->height.has_steps) {
-    ch_height_desc h2 = {.dci_resolution = 2 * dci_res, .step_method = CH_RECON_EXACT, .no_singular = no_sing};
+    ch_height_desc h2 = {
+        .dci_resolution = 2 * dci_res, .step_method = CH_RECON_EXACT, .no_singular = no_sing, .no_extrapolate = no_extra};
     if (ch_height_init(&su->height2, set, &h2, err) || ch_truth_create(&su->height2, &td, &su->truth2, err)) return -1;
   }
   su->cum = malloc((size_t)(set->num_segments + 1) * sizeof *su->cum);
@@ -286,7 +290,7 @@ static int parse_list(const char *s, int *out, int max) {
 int main(int argc, char **argv) {
   const char *models = "models";
   int res[8] = {64, 128, 256, 512, 1024}, nres = 5, crops = 100, do_acc = 1, do_time = 1, do_speed = 1;
-  int max_build = 4096, dci_res = 1024, no_sing = 0;
+  int max_build = 4096, dci_res = 1024, no_sing = 0, no_extra = 0;
   const char *only = NULL;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--res") && i + 1 < argc) nres = parse_list(argv[++i], res, 8);
@@ -300,6 +304,8 @@ int main(int argc, char **argv) {
       dci_res = atoi(argv[++i]);
     else if (!strcmp(argv[i], "--no-dci-singular"))
       no_sing = 1;
+    else if (!strcmp(argv[i], "--no-dci-extrapolate"))
+      no_extra = 1;
     else models = argv[i];
   }
   static const char *bundled[] = {"glyphs", "ornament", "frame", "relief", "star", "spiral", "bricks", "panels",
@@ -325,7 +331,7 @@ int main(int argc, char **argv) {
         return 1;
       }
       setup su;
-      if (setup_init(&su, &set, dci_res, no_sing, 1, &err)) {
+      if (setup_init(&su, &set, dci_res, no_sing, no_extra, 1, &err)) {
         fprintf(stderr, "%s: %s\n", path, err.message);
         return 1;
       }
@@ -446,7 +452,7 @@ int main(int argc, char **argv) {
     ch_curve_set set;
     if (ch_curves_read_svg(path, &set, &err)) return 1;
     setup su;
-    if (setup_init(&su, &set, dci_res, no_sing, 0, &err)) return 1;
+    if (setup_init(&su, &set, dci_res, no_sing, no_extra, 0, &err)) return 1;
     int R = 1024;
     methods mm;
     memset(&mm, 0, sizeof mm);

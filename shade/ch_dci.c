@@ -2,8 +2,10 @@
  * itself follows Orzan et al.'s formulation: Laplace with the curves as
  * two-sided Dirichlet boundaries). Where the paper rasterises curve colours
  * into the texels a curve touches, we fix every texel within one texel of a
- * curve to its side's value, taken from the exact feature samples; texels
- * near open ends stay free so values flow round the ends, as in the paper.
+ * curve to its side's value, taken from the exact feature samples and
+ * extended to the texel's centre by the solution's slope (ch_dci.h: the
+ * curve, not the texel, is the boundary); texels near open ends stay free
+ * so values flow round the ends, as in the paper.
  *
  * Reblur (docs/spec.md §3, Jeschke et al. 2009): the blur radius is diffused like a
  * colour (the curve's radius on blurred curves, 0 on sharp ones), capped at
@@ -584,6 +586,100 @@ static void blur_pass(int W, int H, int channels, const float *sigma, const floa
 /* Blurs h (and rgb) where curves carry data-blur. values holds the diffused
  * channels interleaved (h, [r g b]); sigma is the diffused radius field,
  * capped here and kept as d->blur. */
+/* ---- fixed texels' values extrapolated to their centres (ch_dci.h) ---- */
+
+/* A fixed texel whose value is extrapolated: the four texels of its
+ * probe, their bilinear weights, and d / D. */
+typedef struct ghost {
+  size_t texel;
+  size_t probe[4];
+  float weight[4];
+  float ratio;
+} ghost;
+
+/* The probe of fixed texel i, if every texel of its bilinear footprint is
+ * on the same side of the same curve (nearest), not at an end and at
+ * least half a texel off the curve: else the probe would read another
+ * region (the far side of a slab thinner than D, another curve). */
+static int ghost_make(const ch_samples *s, size_t i, ghost *g) {
+  int R = s->width, H = s->height, x = (int)(i % (size_t)R), y = (int)(i / (size_t)R);
+  double d = s->distance[i];
+  if (!(d > 1e-4)) return 0; /* on the curve: its value is the curve's */
+  const double D = CH_DCI_EXTRAPOLATE_PROBE;
+  /* offset = SP - centre (x right, y up); the probe is SP + D n with n
+   * the unit vector from SP to the centre, in texel-centre coordinates
+   * (rows down) */
+  double ox = s->offset[2 * i], oy = s->offset[2 * i + 1];
+  double px = x + ox - D * ox / d, py = y - (oy - D * oy / d);
+  double fx0 = floor(px), fy0 = floor(py);
+  if (!(fx0 >= 0.0 && fy0 >= 0.0 && fx0 + 1.0 < R && fy0 + 1.0 < H)) return 0;
+  int x0 = (int)fx0, y0 = (int)fy0;
+  double fx = px - fx0, fy = py - fy0;
+  int curve = s->curve[i], side = s->side[i] & (CH_SIDE_LEFT | CH_SIDE_RIGHT);
+  for (int k = 0; k < 4; k++) {
+    size_t j = (size_t)(y0 + (k >> 1)) * R + (size_t)(x0 + (k & 1));
+    if (s->curve[j] != curve || (s->side[j] & (CH_SIDE_LEFT | CH_SIDE_RIGHT)) != side || (s->side[j] & CH_SIDE_END) ||
+        !(s->distance[j] >= 0.5f))
+      return 0;
+    g->probe[k] = j;
+  }
+  g->texel = i;
+  g->weight[0] = (float)((1.0 - fx) * (1.0 - fy));
+  g->weight[1] = (float)(fx * (1.0 - fy));
+  g->weight[2] = (float)((1.0 - fx) * fy);
+  g->weight[3] = (float)(fx * fy);
+  g->ratio = (float)(d / D);
+  return 1;
+}
+
+/* The fixed texels that extrapolate, in texel order, with their values as
+ * the first solve held them (base, channels each). */
+static ch_status ghosts_setup(const ch_dci *d, int channels, const float *values, ghost **out, float **base,
+                              size_t *count, ch_error *err) {
+  const ch_samples *s = &d->samples;
+  size_t n = (size_t)s->width * s->height, m = 0;
+  *out = NULL, *base = NULL, *count = 0;
+  for (size_t i = 0; i < n; i++) m += d->fixed[i];
+  if (!m) return CH_OK;
+  ghost *g = malloc(m * sizeof *g);
+  if (!g) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the fixed texels' extrapolation");
+  size_t k = 0;
+  for (size_t i = 0; i < n; i++)
+    if (d->fixed[i] && ghost_make(s, i, &g[k])) k++;
+  float *b = k ? malloc(k * channels * sizeof *b) : NULL;
+  if (k && !b) {
+    free(g);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the fixed texels' extrapolation");
+  }
+  for (size_t j = 0; j < k; j++) memcpy(b + j * channels, values + g[j].texel * channels, channels * sizeof *b);
+  *out = g, *base = b, *count = k;
+  return CH_OK;
+}
+
+/* One round: every ghost's value from the current solution (all read
+ * before any is written: the same bytes on any thread count). Returns
+ * whether any value changed (where h is one value per region, as between
+ * closed curves of one value all round, none does and no solve is due). */
+static int ghosts_update(const ghost *g, size_t count, const float *base, int channels, float *values,
+                         float *next) {
+  int changed = 0;
+#pragma omp parallel for schedule(static) reduction(| : changed)
+  for (size_t j = 0; j < count; j++)
+    for (int c = 0; c < channels; c++) {
+      double u = 0.0;
+      for (int k = 0; k < 4; k++) u += (double)g[j].weight[k] * values[g[j].probe[k] * channels + c];
+      double v = base[j * channels + c];
+      float old = values[g[j].texel * channels + c];
+      next[j * channels + c] = (float)(old + CH_DCI_EXTRAPOLATE_OMEGA * (v + g[j].ratio * (u - v) - old));
+      changed |= next[j * channels + c] != old;
+    }
+  if (!changed) return 0;
+#pragma omp parallel for schedule(static)
+  for (size_t j = 0; j < count; j++)
+    memcpy(values + g[j].texel * channels, next + j * channels, channels * sizeof *values);
+  return 1;
+}
+
 static ch_status reblur(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci *d, float *values, int channels,
                         float *sigma, ch_error *err) {
   ch_samples *s = &d->samples;
@@ -708,7 +804,39 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   d->seconds_terms = ch_progress_seconds() - t0;
   t0 = ch_progress_seconds();
   ch_diffuse_desc dd = {.tolerance = desc->tolerance, .source = source};
-  st = ch_diffuse_solve(R, R, channels, d->fixed, values, &dd, &d->stats, err);
+  ghost *ghosts = NULL;
+  float *ghost_base = NULL, *ghost_next = NULL;
+  size_t num_ghosts = 0;
+  if (!desc->no_extrapolate) {
+    st = ghosts_setup(d, channels, values, &ghosts, &ghost_base, &num_ghosts, err);
+    if (!st && num_ghosts && !(ghost_next = malloc(num_ghosts * channels * sizeof *ghost_next)))
+      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for the fixed texels' extrapolation");
+  }
+  /* the solves before the last only feed the next round's ghosts */
+  ch_diffuse_desc loose = dd;
+  if (num_ghosts) loose.tolerance = fmax(CH_DCI_EXTRAPOLATE_TOLERANCE, dd.tolerance);
+  if (!st) st = ch_diffuse_solve(R, R, channels, d->fixed, values, &loose, &d->stats, err);
+  int rounds = 0;
+  while (!st && num_ghosts) {
+    int update = rounds < CH_DCI_EXTRAPOLATE_ROUNDS && ghosts_update(ghosts, num_ghosts, ghost_base, channels, values,
+                                                                     ghost_next);
+    rounds += update;
+    /* the last solve is at the caller's tolerance (also when nothing
+     * changed: the first was looser) */
+    int final = !update || rounds == CH_DCI_EXTRAPOLATE_ROUNDS;
+    ch_diffuse_stats more;
+    st = ch_diffuse_solve(R, R, channels, d->fixed, values, final ? &dd : &loose, &more, err);
+    if (!st) {
+      more.iterations += d->stats.iterations;
+      more.seconds += d->stats.seconds;
+      d->stats = more;
+    }
+    if (final) break;
+  }
+  d->extrapolations = rounds;
+  free(ghosts);
+  free(ghost_base);
+  free(ghost_next);
   free(source);
   double t1 = ch_progress_seconds();
   if (!st && d->num_sing) sing_put_back(d, values, channels);

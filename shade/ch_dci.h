@@ -31,6 +31,8 @@ typedef struct ch_dci_desc {
                          are warped like the texture (diffusion-curves §3.2) */
   int no_singular;    /* 1: diffuse h_step as it is, without taking the
                          singular terms out (to measure what they give) */
+  int no_extrapolate; /* 1: fixed texels hold their side's value at the
+                         curve as it is (first order; see below) */
 } ch_dci_desc;
 
 typedef struct ch_dci {
@@ -40,6 +42,7 @@ typedef struct ch_dci {
   float *blur;             /* W*H blur radius in texels, or NULL (no blur) */
   unsigned char *fixed;    /* W*H: 1 where the texel was a Dirichlet texel */
   ch_diffuse_stats stats;
+  int extrapolations;      /* rounds of the fixed texels' extrapolation run */
   double seconds_samples, seconds_diffuse, seconds_blur;
   double seconds_terms; /* the singular terms and layers: set up, taken out, put back */
   /* The singular terms taken out of h before the diffusion (see below):
@@ -61,6 +64,27 @@ typedef struct ch_dci {
  * leaking across: a curve crossing the segment between two neighbouring
  * texel centres is within one texel of both. */
 #define CH_DCI_FIXED_BAND 1.0
+/* A fixed texel lies up to CH_DCI_FIXED_BAND off its curve, so holding the
+ * side's value there moves the boundary by up to a texel: h converges only
+ * at first order. Instead each holds the value at the curve extended along
+ * the curve's normal to its centre, v + d (u(D) - v) / D, with u(D) the
+ * solution (bilinear) CH_DCI_EXTRAPOLATE_PROBE texels out on its side: a
+ * ghost value (Gibou, Fedkiw, Cheng, Kang, "A second-order-accurate
+ * symmetric discretization of the Poisson equation on irregular domains",
+ * JCP 176, 2002, here with a linear extrapolation), second order. The
+ * values depend on the solution, so the solve is repeated from the last
+ * one: each round's change is at most d / D <= 1/2 of the last's, and
+ * over-relaxed by CH_DCI_EXTRAPOLATE_OMEGA three rounds reach what six
+ * plain ones do (a circle between two Dirichlet circles, whose h is a
+ * logarithm: mean error 1.1e-3 -> 1.5e-5 of the range at 1024^2). The
+ * solves before the last stop at CH_DCI_EXTRAPOLATE_TOLERANCE (they only
+ * feed the next round). Texels whose probe would read another region (a
+ * slab thinner than the probe, another curve, an end) keep the side's
+ * value. */
+#define CH_DCI_EXTRAPOLATE_PROBE 2.0
+#define CH_DCI_EXTRAPOLATE_ROUNDS 3
+#define CH_DCI_EXTRAPOLATE_OMEGA 1.4
+#define CH_DCI_EXTRAPOLATE_TOLERANCE 1e-4
 /* Exact closest points are computed this far from curves (texels); the
  * reconstruction reads a 5 x 5 neighbourhood. */
 #define CH_DCI_SAMPLE_BAND 3.0

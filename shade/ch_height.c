@@ -11,7 +11,8 @@ ch_status ch_height_init(ch_height *h, const ch_curve_set *set, const ch_height_
   ch_status st = ch_groove_field_init(&h->grooves, set, err);
   if (st) return st;
   if (h->has_steps) {
-    ch_dci_desc dd = {.resolution = desc->dci_resolution, .tolerance = desc->tolerance, .no_colors = 1, .no_singular = desc->no_singular};
+    ch_dci_desc dd = {.resolution = desc->dci_resolution, .tolerance = desc->tolerance, .no_colors = 1, .no_singular = desc->no_singular,
+                       .no_extrapolate = desc->no_extrapolate};
     const ch_curve_set *steps = set;
     float *scale = NULL;
     if (desc->warp) {

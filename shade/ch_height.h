@@ -25,6 +25,7 @@ typedef struct ch_height_desc {
                                    h_step(u, v) is read at C(u, v). Not
                                    owned; must outlive the height. */
   int no_singular;              /* 1: the DCI without its singular terms (ch_dci_desc) */
+  int no_extrapolate;           /* 1: the DCI's fixed texels at their side's value (ch_dci_desc) */
 } ch_height_desc;
 
 typedef struct ch_height {

@@ -499,6 +499,60 @@ static void test_singular_terms(void) {
   }
 }
 
+
+/* Between two circles held at different values h is a logarithm of the
+ * radius. Fixed texels holding their side's value move the boundary by up
+ * to a texel (first order: the error halves as R doubles); with their
+ * values extrapolated to their centres (ch_dci.h) it falls about four
+ * times. */
+static double annulus_error(const ch_curve_set *set, int R, int no_extrapolate) {
+  const double cx = 0.503, cy = 0.503, a = 0.1037, b = 0.4021;
+  ch_dci dci;
+  ch_error err = {0};
+  ch_dci_desc desc = {.resolution = R, .tolerance = 1e-8, .no_extrapolate = no_extrapolate};
+  if (ch_dci_build(set, &desc, &dci, &err)) {
+    fprintf(stderr, "%s\n", err.message);
+    return INFINITY;
+  }
+  CHECK(no_extrapolate ? dci.extrapolations == 0 : dci.extrapolations == CH_DCI_EXTRAPOLATE_ROUNDS);
+  double sum = 0.0;
+  long n = 0;
+  for (int y = 0; y < R; y++)
+    for (int x = 0; x < R; x++) {
+      double q[2];
+      ch_samples_center(&dci.samples, x, y, q);
+      double r = hypot(q[0] - cx, q[1] - cy);
+      if (r < a + 1.5 / R || r > b - 1.5 / R) continue;
+      double want = 0.01 - 0.01 * log(r / a) / log(b / a);
+      sum += fabs(dci.h[(size_t)y * R + x] - want) / 0.01;
+      n++;
+    }
+  ch_dci_free(&dci);
+  return n ? sum / n : INFINITY;
+}
+
+static void test_extrapolated_boundary(void) {
+  static const char svg[] =
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 100 100\"><g data-kind=\"step\">"
+      "<circle cx=\"50.3\" cy=\"49.7\" r=\"10.37\" data-left=\"0.01\" data-right=\"0.01\"/>"
+      "<circle cx=\"50.3\" cy=\"49.7\" r=\"40.21\" data-left=\"0\" data-right=\"0\"/></g></svg>";
+  ch_curve_set set;
+  ch_error err = {0};
+  REQUIRE(ch_curves_parse_svg(svg, sizeof svg - 1, "annulus.svg", &set, &err) == CH_OK);
+  double plain[2], ghost[2];
+  for (int k = 0; k < 2; k++) {
+    plain[k] = annulus_error(&set, 128 << (2 * k), 1);
+    ghost[k] = annulus_error(&set, 128 << (2 * k), 0);
+  }
+  fprintf(stderr, "  annulus, mean |h - log| / range at 128^2 and 512^2: side values %.3g, %.3g (%.1fx); "
+                  "extrapolated %.3g, %.3g (%.1fx)\n",
+          plain[0], plain[1], plain[0] / plain[1], ghost[0], ghost[1], ghost[0] / ghost[1]);
+  CHECK(plain[0] / plain[1] < 5.0);  /* first order: 4x over two doublings */
+  CHECK(ghost[0] / ghost[1] > 10.0); /* second order: 16x */
+  CHECK(ghost[1] < 0.1 * plain[1]);
+  ch_curves_free(&set);
+}
+
 int main(void) {
   RUN(test_samples_exact_and_propagated);
   RUN(test_piecewise_constant);
@@ -509,5 +563,6 @@ int main(void) {
   RUN(test_double_layer);
   RUN(test_singular_terms);
   RUN(test_crossing_window);
+  RUN(test_extrapolated_boundary);
   TEST_MAIN_END();
 }
