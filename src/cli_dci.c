@@ -112,9 +112,9 @@ static int run(int argc, char **argv) {
   if (!st && stats)
     fprintf(stderr,
             "chisel: dci %ldx%ld: feature samples %.1f ms, diffusion %.1f ms (%d levels, %d iterations, "
-            "residual %.2g), reblur %.1f ms\n",
+            "residual %.2g, %d rounds of the fixed texels' extrapolation), reblur %.1f ms\n",
             res, res, 1e3 * dci.seconds_samples, 1e3 * dci.seconds_diffuse, dci.stats.levels,
-            dci.stats.iterations, dci.stats.relative_residual[0], 1e3 * dci.seconds_blur);
+            dci.stats.iterations, dci.stats.relative_residual[0], dci.extrapolations, 1e3 * dci.seconds_blur);
   double t_write = omp_get_wtime();
   if (!st) st = ch_dci_to_image(&dci, &img, &err);
   if (!st) {
