@@ -1650,7 +1650,7 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
       double local[2] = {pt[0] - cj, pt[1] - ci};
       worst = fmax(worst, fm_curve_distance(&seg[which], local, 1.0, 1.0));
     }
-    if (worst > CH_FEATMAP_TIGHT) m->config[c] |= CH_FM_LOST_TIGHT;
+    if (worst > (m->linear ? CH_FEATMAP_TIGHT_LINEAR : CH_FEATMAP_TIGHT)) m->config[c] |= CH_FM_LOST_TIGHT;
   }
 
   m->stats.seconds_check = omp_get_wtime() - t_check;
