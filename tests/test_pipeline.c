@@ -133,9 +133,31 @@ static void test_errors(void) {
   CHECK(ch_pipeline_displace(&d, &r, &err) == CH_ERR_INPUT);
 }
 
+/* The paper's DCI in warped UV, on step curves that end and cross inside
+ * the square seen close: h stays within the steps' values (0 to 0.01)
+ * less the grooves' depth (0.008). */
+static void test_warped_dci_range(void) {
+  ch_error err = {0};
+  ch_camera cam;
+  const double view[7] = {0.5, 0.3, 0.3, 0.5, 0.5, 0.0, 40.0};
+  REQUIRE(ch_camera_init(&cam, view, &err) == CH_OK);
+  ch_displace_desc d = {.base_path = models("plane.obj"),
+                        .curves_path = models("torture/crossings.svg"),
+                        .target_triangles = 20000,
+                        .resolution = 256,
+                        .camera = &cam,
+                        .warp_dci = 1};
+  ch_displace_result r;
+  REQUIRE(ch_pipeline_displace(&d, &r, &err) == CH_OK);
+  CHECK(r.warped);
+  CHECK_MSG(r.min_h >= -0.0081 && r.max_h <= 0.0101, "h in [%g, %g]", r.min_h, r.max_h);
+  ch_displace_result_free(&r);
+}
+
 int main(void) {
   RUN(test_same_as_the_stages);
   RUN(test_no_snap_and_maps);
   RUN(test_errors);
+  RUN(test_warped_dci_range);
   TEST_MAIN_END();
 }
