@@ -901,6 +901,28 @@ static void across(const ch_curve_set *set, const ch_groove_field *f, int curve,
 static void step_gradient(const ch_height *h, double u, double v, int curve, int side, double g[2]) {
   const double e = 1e-5;
   ch_recon_sample rs;
+  if (curve >= 0) {
+    /* A stencil across the curve reads the other side's field (with an
+     * open curve's double layer, h_step's own jump): a point nearer than
+     * 2e takes the gradient 2e off the curve on its side instead (a corner
+     * 1e-5 UV from a step at R 1024 read 500 for a slope of 0.01). */
+    double q[2] = {u, v}, n[2];
+    ch_curve_point cp;
+    ch_curve_closest(h->set, curve, q, &cp);
+    if (cp.distance < 2.0 * e) {
+      if (cp.distance > 1e-12) {
+        n[0] = (q[0] - cp.point[0]) / cp.distance, n[1] = (q[1] - cp.point[1]) / cp.distance;
+        if ((cp.signed_distance >= 0.0) != (side == CH_SIDE_LEFT)) n[0] = -n[0], n[1] = -n[1];
+      } else {
+        double tg[2];
+        ch_bezier_tangent(h->set->segments[cp.segment].p, cp.t, tg);
+        double l = hypot(tg[0], tg[1]), s = side == CH_SIDE_LEFT ? 1.0 : -1.0;
+        n[0] = l > 0.0 ? -s * tg[1] / l : 0.0, n[1] = l > 0.0 ? s * tg[0] / l : 0.0;
+      }
+      u = cp.point[0] + 2.0 * e * n[0];
+      v = cp.point[1] + 2.0 * e * n[1];
+    }
+  }
   for (int axis = 0; axis < 2; axis++) {
     double p[2] = {u, v}, q[2] = {u, v};
     p[axis] += e;
