@@ -20,10 +20,11 @@ ch_status ch_height_init(ch_height *h, const ch_curve_set *set, const ch_height_
       /* The paper's DCI in warped UV is diffused as the paper does, without
        * the singular terms: there the cut reads h_step by side
        * (ch_height_step_side: in warped UV a point a hair off a curve may
-       * be on neither), and ch_recon_eval_side adds the terms back by the
-       * point's own side, not the side asked for (the crossings torture
-       * class seen close: +-0.28 for steps of 0 to 0.01, a mesh with h
-       * down to -0.52). The DCI in UV (the default) keeps them. */
+       * be on neither), and ch_recon_eval_side adds the double layers W
+       * back by the point's own side, not the side asked for (the
+       * crossings torture class seen close: +-0.28 for steps of 0 to
+       * 0.01, a mesh with h down to -0.52). The DCI in UV (the default)
+       * keeps them. */
       dd.no_singular = 1;
       st = ch_warp_curves(desc->warp, set, &h->warped, &h->warp_stats, err);
       steps = &h->warped;
