@@ -898,10 +898,10 @@ static void across(const ch_curve_set *set, const ch_groove_field *f, int curve,
   }
 }
 
-static void step_gradient(const ch_height *h, double u, double v, int curve, int side, double g[2]) {
+static void step_gradient(const ch_height *h, double u, double v, int curve, int side, double dist, double g[2]) {
   const double e = 1e-5;
   ch_recon_sample rs;
-  if (curve >= 0) {
+  if (curve >= 0 && fabs(dist) < 4.0 * e) { /* dist: the lattice's, a float; the exact one below */
     /* A stencil across the curve reads the other side's field (with an
      * open curve's double layer, h_step's own jump): a point nearer than
      * 2e takes the gradient 2e off the curve on its side instead (a corner
@@ -1753,7 +1753,8 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
           lattice_uv(&L, x, y, q);
           int c = m->curve[k];
           int step = c >= 0 && set->curves[c].kind == CH_CURVE_STEP;
-          step_gradient(h, q[0], q[1], step ? c : -1, m->dist[k] >= 0.0f ? CH_SIDE_LEFT : CH_SIDE_RIGHT, g);
+          step_gradient(h, q[0], q[1], step ? c : -1, m->dist[k] >= 0.0f ? CH_SIDE_LEFT : CH_SIDE_RIGHT, m->dist[k],
+                        g);
           if (m->sg_near && m->sg_near[k] >= 0) { /* the 1/r part is added back exactly */
             const ch_stepsing_point *pt = &m->singular[m->sg_near[k]];
             double tg[2], w = ch_featmap_singular_window(pt, hypot(q[0] - pt->p[0], q[1] - pt->p[1]));
