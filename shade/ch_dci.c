@@ -588,11 +588,10 @@ static void blur_pass(int W, int H, int channels, const float *sigma, const floa
  * capped here and kept as d->blur. */
 /* ---- fixed texels' values extrapolated to their centres (ch_dci.h) ---- */
 
-/* A fixed texel whose value is extrapolated: the four texels of its
- * probe, their bilinear weights, and d / D. */
+/* A fixed texel whose value is extrapolated: the first (top left) of the
+ * 2 x 2 texels of its probe, their bilinear weights, and d / D. */
 typedef struct ghost {
-  size_t texel;
-  size_t probe[4];
+  size_t texel, probe;
   float weight[4];
   float ratio;
 } ghost;
@@ -621,9 +620,9 @@ static int ghost_make(const ch_samples *s, size_t i, ghost *g) {
     if (s->curve[j] != curve || (s->side[j] & (CH_SIDE_LEFT | CH_SIDE_RIGHT)) != side || (s->side[j] & CH_SIDE_END) ||
         !(s->distance[j] >= 0.5f))
       return 0;
-    g->probe[k] = j;
   }
   g->texel = i;
+  g->probe = (size_t)y0 * R + (size_t)x0;
   g->weight[0] = (float)((1.0 - fx) * (1.0 - fy));
   g->weight[1] = (float)(fx * (1.0 - fy));
   g->weight[2] = (float)((1.0 - fx) * fy);
@@ -660,14 +659,15 @@ static ch_status ghosts_setup(const ch_dci *d, int channels, const float *values
  * before any is written: the same bytes on any thread count). Returns
  * whether any value changed (where h is one value per region, as between
  * closed curves of one value all round, none does and no solve is due). */
-static int ghosts_update(const ghost *g, size_t count, const float *base, int channels, float *values,
+static int ghosts_update(const ghost *g, size_t count, int width, const float *base, int channels, float *values,
                          float *next) {
+  const size_t offset[4] = {0, 1, (size_t)width, (size_t)width + 1};
   int changed = 0;
 #pragma omp parallel for schedule(static) reduction(| : changed)
   for (size_t j = 0; j < count; j++)
     for (int c = 0; c < channels; c++) {
       double u = 0.0;
-      for (int k = 0; k < 4; k++) u += (double)g[j].weight[k] * values[g[j].probe[k] * channels + c];
+      for (int k = 0; k < 4; k++) u += (double)g[j].weight[k] * values[(g[j].probe + offset[k]) * channels + c];
       double v = base[j * channels + c];
       float old = values[g[j].texel * channels + c];
       next[j * channels + c] = (float)(old + CH_DCI_EXTRAPOLATE_OMEGA * (v + g[j].ratio * (u - v) - old));
@@ -818,7 +818,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   if (!st) st = ch_diffuse_solve(R, R, channels, d->fixed, values, &loose, &d->stats, err);
   int rounds = 0;
   while (!st && num_ghosts) {
-    int update = rounds < CH_DCI_EXTRAPOLATE_ROUNDS && ghosts_update(ghosts, num_ghosts, ghost_base, channels, values,
+    int update = rounds < CH_DCI_EXTRAPOLATE_ROUNDS && ghosts_update(ghosts, num_ghosts, R, ghost_base, channels, values,
                                                                      ghost_next);
     rounds += update;
     /* the last solve is at the caller's tolerance (also when nothing
