@@ -83,6 +83,19 @@ static void pyramid_free(step_pyramid *p) {
   memset(p, 0, sizeof *p);
 }
 
+/* Widens the finest level's bounds by `widen` over the texels of a box
+ * (u0, v0, u1, v1) in the DCI's texel frame (x right, y up: texel (x, y) at
+ * (x, -y)). */
+static void widen_box(step_pyramid *p, int W, int H, double u0, double v0, double u1, double v1, float widen) {
+  int x0 = ch_clampi((int)floor(u0), 0, W - 1), x1 = ch_clampi((int)ceil(u1), 0, W - 1);
+  int y0 = ch_clampi((int)floor(-v1), 0, H - 1), y1 = ch_clampi((int)ceil(-v0), 0, H - 1);
+  for (int y = y0; y <= y1; y++)
+    for (int x = x0; x <= x1; x++) {
+      p->lo[0][(size_t)y * W + x] -= widen;
+      p->hi[0][(size_t)y * W + x] += widen;
+    }
+}
+
 static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) {
   const ch_samples *s = &d->samples;
   int W = s->width, H = s->height;
@@ -122,13 +135,7 @@ static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) 
     }
     float widen = (float)(2.0 * fabs(l->jump) * fmax(1.0, (turn + CH_PI) / (2.0 * CH_PI)));
     float g = (float)(d->layer_far[k] + 1.5);
-    int x0 = ch_clampi((int)floor(l->box[0] - g), 0, W - 1), x1 = ch_clampi((int)ceil(l->box[2] + g), 0, W - 1);
-    int y0 = ch_clampi((int)floor(-l->box[3] - g), 0, H - 1), y1 = ch_clampi((int)ceil(-l->box[1] + g), 0, H - 1);
-    for (int y = y0; y <= y1; y++)
-      for (int x = x0; x <= x1; x++) {
-        p->lo[0][(size_t)y * W + x] -= widen;
-        p->hi[0][(size_t)y * W + x] += widen;
-      }
+    widen_box(p, W, H, l->box[0] - g, l->box[1] - g, l->box[2] + g, l->box[3] + g, widen);
   }
   for (int k = 0; k < d->num_sing; k++) {
     const ch_stepsing_point *pt = &d->sing[k];
@@ -142,13 +149,7 @@ static ch_status pyramid_build(step_pyramid *p, const ch_dci *d, ch_error *err) 
       tmax = fmax(tmax, fmax(pt->value[j], e));
     }
     float widen = (float)(tmax - tmin), reach = (float)(pt->radius + 1.5);
-    int x0 = ch_clampi((int)floor(pt->p[0] - reach), 0, W - 1), x1 = ch_clampi((int)ceil(pt->p[0] + reach), 0, W - 1);
-    int y0 = ch_clampi((int)floor(-pt->p[1] - reach), 0, H - 1), y1 = ch_clampi((int)ceil(-pt->p[1] + reach), 0, H - 1);
-    for (int y = y0; y <= y1; y++)
-      for (int x = x0; x <= x1; x++) {
-        p->lo[0][(size_t)y * W + x] -= widen;
-        p->hi[0][(size_t)y * W + x] += widen;
-      }
+    widen_box(p, W, H, pt->p[0] - reach, pt->p[1] - reach, pt->p[0] + reach, pt->p[1] + reach, widen);
   }
   while (p->w[p->levels - 1] > 1 || p->h[p->levels - 1] > 1) {
     int l = p->levels, pw = p->w[l - 1], ph = p->h[l - 1];
