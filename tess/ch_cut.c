@@ -442,7 +442,7 @@ static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const c
 }
 
 ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch_error *err) {
-  o->pos = malloc(3 * (size_t)(o->npos > 0 ? o->npos : 1) * sizeof *o->pos);
+  o->pos = ch_alloc_large(3 * (size_t)(o->npos > 0 ? o->npos : 1), sizeof *o->pos, 0);
   if (!o->pos) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for %d vertices", o->npos);
   int failed = 0;
 #pragma omp parallel for schedule(dynamic, 1024) reduction(| : failed)
@@ -496,14 +496,14 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   m->positions = o->pos;
   m->num_faces = o->ntri;
   m->num_corners = (int)nc;
-  m->face_start = malloc(((size_t)o->ntri + 1) * sizeof *m->face_start);
-  m->corner_position = malloc((nc ? nc : 1) * sizeof *m->corner_position);
-  m->corner_uv = malloc((nc ? nc : 1) * sizeof *m->corner_uv);
-  m->corner_normal = malloc((nc ? nc : 1) * sizeof *m->corner_normal);
-  int *start = malloc((np + 1) * sizeof *start);        /* a vertex's corners in order */
-  int *order = malloc((nc ? nc : 1) * sizeof *order);
-  int *born = malloc((nc ? nc : 1) * sizeof *born); /* per corner: a normal is born here */
-  double *fn = malloc(4 * (size_t)(o->ntri > 0 ? o->ntri : 1) * sizeof *fn); /* per face: normal, length */
+  m->face_start = ch_alloc_large((size_t)o->ntri + 1, sizeof *m->face_start, 0);
+  m->corner_position = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_position, 0);
+  m->corner_uv = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_uv, 0);
+  m->corner_normal = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_normal, 0);
+  int *start = ch_alloc_large(np + 1, sizeof *start, 0); /* a vertex's corners in order */
+  int *order = ch_alloc_large(nc ? nc : 1, sizeof *order, 0);
+  int *born = ch_alloc_large(nc ? nc : 1, sizeof *born, 0); /* per corner: a normal is born here */
+  double *fn = ch_alloc_large(4 * (size_t)(o->ntri > 0 ? o->ntri : 1), sizeof *fn, 0); /* per face: normal, length */
   if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !born ||
       !fn)
     goto nomem;
@@ -562,7 +562,7 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
    * born; a UV is born where corner_uv points to its own corner). */
   int nslot = 0;
   for (size_t c = 0; c < nc; c++) born[c] = born[c] ? nslot++ : -1;
-  m->normals = malloc(3 * (size_t)(nslot > 0 ? nslot : 1) * sizeof *m->normals);
+  m->normals = ch_alloc_large(3 * (size_t)(nslot > 0 ? nslot : 1), sizeof *m->normals, 0);
   if (!m->normals) goto nomem;
   m->num_normals = nslot;
   /* The sums, each vertex's corners in order: the born corner's weight
@@ -592,7 +592,7 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
   /* Ranks of the born UVs (order then holds them, -1 where none is born). */
   int nuv = 0;
   for (size_t c = 0; c < nc; c++) order[c] = m->corner_uv[c] == (int)c ? nuv++ : -1;
-  m->uvs = malloc(2 * (size_t)(nuv > 0 ? nuv : 1) * sizeof *m->uvs);
+  m->uvs = ch_alloc_large(2 * (size_t)(nuv > 0 ? nuv : 1), sizeof *m->uvs, 0);
   if (!m->uvs) goto nomem;
   m->num_uvs = nuv;
 #pragma omp parallel for schedule(static)

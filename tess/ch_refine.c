@@ -24,9 +24,7 @@ static int grow(void **p, int *cap, int need, size_t size) {
   if (need <= *cap) return 0;
   int n = *cap ? *cap : 1024;
   while (n < need) n = n > (1 << 29) ? need : n + n / 4 + 1;
-  void *q = realloc(*p, (size_t)n * size);
-  if (!q) return -1;
-  *p = q;
+  if (ch_alloc_resize(p, (size_t)*cap, (size_t)n, size)) return -1;
   *cap = n;
   return 0;
 }
@@ -78,11 +76,12 @@ void ch_refine_free_edges(ch_refine_edge *edges, int n) {
 ch_status ch_refine_build_edges(ch_refine_mesh *w, ch_error *err) {
   size_t n = 3 * (size_t)w->ntris;
   int nv = w->nverts;
-  int *start = calloc((size_t)nv + 1, sizeof *start), *fill = malloc(((size_t)nv + 1) * sizeof *fill);
-  int(*entry)[2] = malloc(n * sizeof *entry); /* other vertex, corner */
+  int *start = ch_alloc_large((size_t)nv + 1, sizeof *start, 1);
+  int *fill = ch_alloc_large((size_t)nv + 1, sizeof *fill, 0);
+  int(*entry)[2] = ch_alloc_large(n, sizeof *entry, 0); /* other vertex, corner */
   size_t cap_index = n > 3 * (size_t)w->cap_tris ? n : 3 * (size_t)w->cap_tris; /* the triangles' room too */
-  w->edges = malloc(n * sizeof *w->edges);
-  w->tri_edge = malloc(cap_index * sizeof *w->tri_edge);
+  w->edges = ch_alloc_large(n, sizeof *w->edges, 0);
+  w->tri_edge = ch_alloc_large(cap_index, sizeof *w->tri_edge, 0);
   if (!start || !fill || !entry || !w->edges || !w->tri_edge) {
     free(start);
     free(fill);
@@ -600,7 +599,7 @@ static int split_mask(const ch_refine_mesh *w, int t) {
  * (resized with the triangles) tells the children from the untouched. */
 ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *err) {
   int n0 = w->ntris, e0 = w->nedges;
-  int *first = malloc(((size_t)n0 + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
+  int *first = ch_alloc_large((size_t)n0 + 1, sizeof *first, 0); /* per parent: its first appended child and inner edge */
   if (!first) return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
   /* Children beyond the first (inner edges alike) per parent, then their
    * offsets: the masks in parallel (a serial scan of every triangle each

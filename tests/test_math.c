@@ -62,6 +62,29 @@ static void test_grow(void) {
   free(p);
 }
 
+/* ch_alloc_resize keeps the contents through every path: small to small,
+ * small to large (the copy into huge pages), large to larger, shrinking;
+ * and refuses an overflowing size with the array kept. */
+static void test_resize(void) {
+  int *p = NULL;
+  REQUIRE(ch_alloc_resize((void **)&p, 0, 1000, sizeof *p) == 0 && p);
+  for (int i = 0; i < 1000; i++) p[i] = 3 * i + 1;
+  size_t sizes[] = {5000, 4u << 20, 9u << 20, 2000}; /* the last two: above 8 MB, then a shrink */
+  size_t have = 1000;
+  int kept = 1;
+  for (int k = 0; k < 4; k++) {
+    REQUIRE(ch_alloc_resize((void **)&p, have, sizes[k], sizeof *p) == 0 && p);
+    size_t keep = have < sizes[k] ? have : sizes[k];
+    for (size_t i = 0; i < keep; i++) kept &= p[i] == (int)(3 * i + 1);
+    for (size_t i = keep; i < sizes[k]; i++) p[i] = (int)(3 * i + 1);
+    have = sizes[k];
+  }
+  CHECK(kept);
+  int *q = p;
+  CHECK(ch_alloc_resize((void **)&p, have, (size_t)-1 / 2, sizeof *p) == -1 && p == q);
+  free(p);
+}
+
 /* The clock runs forward with wall time: a 30 ms sleep reads as 30 ms or
  * more (and, even on a loaded machine, well under 10 s). */
 static void test_clock(void) {
@@ -75,6 +98,7 @@ static void test_clock(void) {
 int main(void) {
   RUN(test_math);
   RUN(test_grow);
+  RUN(test_resize);
   RUN(test_clock);
   TEST_MAIN_END();
 }

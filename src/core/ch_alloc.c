@@ -8,6 +8,19 @@
 
 enum { HUGE_PAGE = 2 << 20 };
 
+/* Offers the 2 MiB pages inside [p, p + bytes) for transparent huge
+ * pages (the kernel's own choice where they are off). */
+static void advise_huge(void *p, size_t bytes) {
+#ifdef MADV_HUGEPAGE
+  uintptr_t a = ((uintptr_t)p + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE;
+  uintptr_t b = ((uintptr_t)p + bytes) / HUGE_PAGE * HUGE_PAGE;
+  if (b > a) madvise((void *)a, b - a, MADV_HUGEPAGE);
+#else
+  (void)p;
+  (void)bytes;
+#endif
+}
+
 void *ch_alloc_large(size_t count, size_t size, int zero) {
   if (size && count > SIZE_MAX / size) return NULL;
   size_t bytes = count * size;
@@ -15,11 +28,30 @@ void *ch_alloc_large(size_t count, size_t size, int zero) {
   void *p = NULL;
   size_t rounded = (bytes + HUGE_PAGE - 1) / HUGE_PAGE * HUGE_PAGE;
   if (posix_memalign(&p, HUGE_PAGE, rounded) != 0) return NULL;
-#ifdef MADV_HUGEPAGE
-  madvise(p, rounded, MADV_HUGEPAGE);
-#endif
+  advise_huge(p, rounded);
   if (zero) memset(p, 0, bytes);
   return p;
+}
+
+int ch_alloc_resize(void **array, size_t old_count, size_t new_count, size_t size) {
+  if (size && new_count > SIZE_MAX / size) return -1;
+  size_t bytes = new_count * size;
+  if (*array && (new_count <= old_count || bytes < 4 * (size_t)HUGE_PAGE)) {
+    void *p = realloc(*array, bytes ? bytes : 1);
+    if (!p) return -1;
+    *array = p;
+    return 0;
+  }
+  /* Growth to a large size: copied into huge pages. realloc would copy
+   * too where the block came from the heap (after a large free, glibc
+   * serves even 100 MB from the heap's top), into pages faulted 4 KiB at
+   * a time. */
+  void *p = ch_alloc_large(new_count, size, 0);
+  if (!p) return -1;
+  if (*array) memcpy(p, *array, old_count * size);
+  free(*array);
+  *array = p;
+  return 0;
 }
 
 int ch_alloc_grow(void **array, int *cap, int need, size_t elem, int first_cap) {

@@ -15,6 +15,14 @@ extern "C" {
  * first-touch page faults otherwise cost as much as a pass over the data. */
 void *ch_alloc_large(size_t count, size_t size, int zero);
 
+/* Resizes *array, which holds old_count elements of size bytes, to
+ * new_count, keeping the first min(old, new) (0 on success; -1 on overflow
+ * or when out of memory, *array then untouched). Growth to a large size
+ * moves the contents into memory from ch_alloc_large: realloc's new pages
+ * would be faulted in 4 KiB at a time (a 118 MB array of triangles took
+ * 0.34 s to grow on a virtual machine, against 0.03 s this way). */
+int ch_alloc_resize(void **array, size_t old_count, size_t new_count, size_t size);
+
 /* Grows the realloc'ed array *array of *cap elements of elem bytes so that
  * it holds at least need: capacity first_cap when empty, then doubled (or
  * need itself past 2^29, so int capacities do not overflow). 0 on success
