@@ -104,7 +104,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
     double nb = rp.base, no = rp.count, miss = fabs(no - (double)target);
     xs[pass] = nb;
     ys[pass] = no;
-    if (count_only && miss <= 0.04 * (double)target) {
+    if (count_only && !rp.estimated && miss <= 0.04 * (double)target) {
       count_only = 0;
       rq.kind = CH_COUNT_FINISH;
       if ((st = fn(ctx, &rq, &rp))) break;

@@ -60,6 +60,8 @@ typedef struct ch_count_reply {
    * last level takes the finer ones too); all 0 says that what the
    * features add does not grow with the base. */
   double level_added[CH_COUNT_LEVELS];
+  int estimated; /* PILOT: count and level_added were estimated from a
+                    sample of the surface: no cut to FINISH */
 } ch_count_reply;
 
 /* One run (or a FINISH/KEEP) as the request says; returns CH_OK, or an

@@ -19,6 +19,7 @@
 #include "ch_warp.h"
 
 int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h) {
+  if (o->count_only) return o->npos++;
   int i = o->npos - o->first_pos;
   if (i + 1 > o->cap_pos) {
     int cap = o->cap_pos ? 2 * o->cap_pos : 4096;
@@ -41,6 +42,10 @@ int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h) {
 int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
                    uint64_t group) {
   if (a == b || b == c || c == a) return 0; /* collapsed: a wall of zero height */
+  if (o->count_only) {
+    o->ntri++;
+    return 0;
+  }
   if (o->ntri + 1 > o->cap_tri) {
     int cap = o->cap_tri ? 2 * o->cap_tri : 4096;
     int *t = realloc(o->tri, (size_t)cap * 3 * sizeof *t);

@@ -35,6 +35,8 @@ typedef struct ch_cut_out {
   uint64_t *group; /* per triangle: piece label or WALL_GROUP */
   double *uv;      /* 6 per triangle: corner UVs */
   int ntri, cap_tri;
+  int count_only; /* vertices and triangles are numbered and counted, not
+                     stored (a sampled pilot's count: the cut's own) */
 } ch_cut_out;
 
 /* Frees o's arrays and zeroes it. */

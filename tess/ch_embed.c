@@ -36,6 +36,62 @@ double ch_embed_angle_deg(double reference_edge) { return fmin(10.0, fmax(1.0, 1
  * a margin for the cleanup's estimate). */
 #define LANDED 0.045
 
+/* A sampled pilot refines and cuts only the triangles in every other tile
+ * of a SAMPLE_TILES^2 checkerboard over UV (lines much longer than a
+ * tile cross the black and the white tiles alike), where its base has at
+ * least SAMPLE_MIN_BASE triangles (about 200 a tile: a few hundred
+ * triangles hold a junction's refinement). */
+#define SAMPLE_TILES 16
+#define SAMPLE_MIN_BASE 50000
+
+/* Whether triangle T is in a sampled pilot's tiles (by its centroid). */
+static int sample_tile(const ch_refine_tri *T) {
+  double u = (T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, v = (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0;
+  long i = (long)floor(u * SAMPLE_TILES), j = (long)floor(v * SAMPLE_TILES);
+  return ((i + j) & 1) == 0;
+}
+
+/* Thinning pays where the target is coarse (measured on the plane's sets:
+ * at 130k triangles L1 13-80% lower on the u and box sets, the normals'
+ * p95 up to 1.3 degrees; at 520k and 2.1M L1 only 7-17% lower for 25-130%
+ * more time, from the bigger base it leaves room for and runs the count
+ * model then misses). Below a mean edge of 1/360 (about 260k triangles
+ * over the UV square) the cut is left as it is. */
+static int thins(const ch_embed_desc *desc, double reference_edge) {
+  return !(desc && desc->no_thinning) && reference_edge >= 1.0 / 360.0;
+}
+
+/* A sampled pilot's count: the crossings' copies numbered from first[]
+ * (as the cut numbers them), then the triangles in its tiles cut into
+ * parts that count and store nothing (the cut's own count: the same code
+ * decides it). Returns the triangles those tiles' cut makes. */
+static long count_sampled_cut(const ch_label_ctx *lb, ch_refine_mesh *w, const int *first, double tol) {
+#pragma omp parallel for schedule(dynamic, 1024)
+  for (int i = 0; i < w->nedges; i++) {
+    ch_refine_edge *e = &w->edges[i];
+    for (int c = 0, k = first[i]; c < e->ncross; c++) {
+      ch_refine_crossing *x = &e->cross[c];
+      int wall = !(fabs(x->ha - x->hb) <= tol);
+      x->copy_a = k;
+      x->copy_b = k + wall;
+      k += 1 + wall;
+    }
+  }
+  enum { COUNT_CHUNK = 4096 };
+  int nchunks = (w->ntris + COUNT_CHUNK - 1) / COUNT_CHUNK;
+  long tris = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : tris)
+  for (int c = 0; c < nchunks; c++) {
+    ch_cut_out part = {.count_only = 1};
+    ch_embed_stats ps = {0};
+    int t1 = (c + 1) * COUNT_CHUNK < w->ntris ? (c + 1) * COUNT_CHUNK : w->ntris;
+    for (int t = c * COUNT_CHUNK; t < t1; t++)
+      if (sample_tile(&w->tris[t])) ch_cut_triangle(lb, w, t, tol, &part, &ps);
+    tris += part.ntri;
+  }
+  return tris;
+}
+
 /* What a count-only run leaves for embed_finish: its cut. */
 typedef struct embed_kept {
   ch_cut_out o;
@@ -219,6 +275,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   double t0 = omp_get_wtime();
   ch_refine_mesh w = {.surface = surface};
   unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
+  unsigned char *edge_sampled = NULL; /* a sampled pilot's: the edges of its tiles' triangles */
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
   ch_status st = CH_OK;
@@ -255,10 +312,18 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       longest_edge =
           fmax(longest_edge, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
   }
+  int sampled = pilot->count_only && !pilot->full && pilot->sampled;
+  double sampled_area = 0.0;
+  long sampled_base = 0;
   for (int t = 0; t < w.ntris; t++) { /* in order: the same sum for any thread count */
     const ch_refine_tri *T = &w.tris[t];
-    uv_area += 0.5 * fabs((T->uv[1][0] - T->uv[0][0]) * (T->uv[2][1] - T->uv[0][1]) -
+    double a = 0.5 * fabs((T->uv[1][0] - T->uv[0][0]) * (T->uv[2][1] - T->uv[0][1]) -
                           (T->uv[2][0] - T->uv[0][0]) * (T->uv[1][1] - T->uv[0][1]));
+    uv_area += a;
+    if (sampled && sample_tile(T)) {
+      sampled_area += a;
+      sampled_base++;
+    }
   }
   if (failed) {
     st = ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a tessellation corner is outside its face's UV");
@@ -342,6 +407,19 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.seconds_labels += tb - ta;
     stats.seconds_edges += tc - tb;
     int oom = 0;
+    if (sampled) {
+      unsigned char *es = realloc(edge_sampled, (size_t)(w.nedges > 0 ? w.nedges : 1));
+      if (!es) goto nomem;
+      edge_sampled = es;
+      memset(es, 0, (size_t)w.nedges);
+#pragma omp parallel for schedule(static)
+      for (int t = 0; t < w.ntris; t++)
+        if (sample_tile(&w.tris[t]))
+          for (int k = 0; k < 3; k++) {
+#pragma omp atomic write
+            es[w.tri_edge[3 * (size_t)t + k]] = 1;
+          }
+    }
     /* (in blocks, so a long search reports how far it is) */
     for (int i0 = 0, block = w.nedges / 32 > 4096 ? w.nedges / 32 : 4096; i0 < w.nedges && !oom; i0 += block) {
       report(desc, pilot, round, "crossings", (double)i0 / w.nedges);
@@ -349,7 +427,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
       for (int i = i0; i < i1; i++) {
         ch_refine_edge *e = &w.edges[i];
-        if (e->ncross < 0) oom |= ch_refine_crossings(&lb, &w, e, delta);
+        if (e->ncross < 0 && (!edge_sampled || edge_sampled[i])) oom |= ch_refine_crossings(&lb, &w, e, delta);
       }
     }
     if (oom) goto nomem;
@@ -363,7 +441,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
      * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
     for (int t = 0; t < w.ntris; t++)
-      refine[t] = (unsigned char)((!fresh || fresh[t]) && ch_refine_needed(&lb, &w, t, round >= 8, round));
+      refine[t] = (unsigned char)((!fresh || fresh[t]) && (!sampled || sample_tile(&w.tris[t])) &&
+                                  ch_refine_needed(&lb, &w, t, round >= 8, round));
     double te = omp_get_wtime();
     stats.seconds_classify += te - td;
     int split = 0, first_new = w.nverts;
@@ -410,6 +489,27 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         free(first);
         goto nomem;
       }
+    }
+    if (sampled) {
+      /* What the tiles' cut adds over their base triangles, scaled by the
+       * area (as are the crossings and splits by level). */
+      long tris = count_sampled_cut(&lb, &w, first, tol);
+      free(first);
+      double scale = sampled_area > 0.0 ? uv_area / sampled_area : 1.0;
+      stats.triangles = tm->num_faces + llround(scale * (double)(tris - sampled_base));
+      for (int d = 0; d < CH_EMBED_LEVELS; d++) {
+        stats.crossings_at_level[d] = (int)lround(scale * stats.crossings_at_level[d]);
+        stats.splits_at_level[d] = (int)lround(scale * stats.splits_at_level[d]);
+      }
+      if ((double)stats.triangles > cap) {
+        st = over_cap(err, pilot, cap, "the cut after round", stats.refine_rounds, tm->num_faces);
+        goto done;
+      }
+      stats.angle_deg = angle_deg;
+      stats.seconds_refine = t1 - t0;
+      stats.seconds_cut = omp_get_wtime() - t1;
+      if (stats_out) *stats_out = stats;
+      goto done;
     }
     int n = (int)total;
     o.face = ch_alloc_large((size_t)(n > 0 ? n : 1), sizeof *o.face, 0);
@@ -560,13 +660,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     }
     if (oom) goto nomem;
   }
-  /* Thinning pays where the target is coarse (measured on the plane's
-   * sets: at 130k triangles L1 13-80% lower on the u and box sets, the
-   * normals' p95 up to 1.3 degrees; at 520k and 2.1M L1 only 7-17% lower
-   * for 25-130% more time, from the bigger base it leaves room for and
-   * runs the count model then misses). Below a mean edge of 1/360 (about
-   * 260k triangles over the UV square) the cut is left as it is. */
-  if (!(desc && desc->no_thinning) && reference_edge >= 1.0 / 360.0) {
+  if (thins(desc, reference_edge)) {
     double tt = omp_get_wtime();
     report(desc, pilot, stats.refine_rounds, "thinning", -1.0);
     int thinned = ch_cut_thin(&lb, tess, longest_edge, &o);
@@ -594,6 +688,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
 done:
+  free(edge_sampled);
   ch_cut_out_free(&o);
   ch_label_free(&lb);
   free_working_mesh(&w);
@@ -709,6 +804,11 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   r->pilot.count_only = 1;
   r->pilot.full = rq->kind == CH_COUNT_FULL;
   r->pilot.run = rq->run;
+  /* Pilots of large targets sample the surface (their count is what the
+   * level model needs, not their cut; a pilot that would land is not
+   * finished then, but the targets where one lands are small). */
+  r->pilot.sampled = rq->kind == CH_COUNT_PILOT && !r->d.warp && r->cur_tess.mesh.num_faces >= SAMPLE_MIN_BASE &&
+                     !thins(&r->d, r->pilot.reference_edge);
   int over = 0;
   r->pilot.over_cap = &over;
   st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats, &r->kept, r->err);
@@ -721,6 +821,7 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   if (st) return st;
   rp->base = r->cur_tess.mesh.num_faces;
   rp->count = (double)r->cur_stats.triangles;
+  rp->estimated = r->pilot.sampled;
   for (int d = 0; d < CH_EMBED_LEVELS; d++) /* (two triangles for each) */
     rp->level_added[d < CH_COUNT_LEVELS ? d : CH_COUNT_LEVELS - 1] +=
         2.0 * (r->cur_stats.crossings_at_level[d] + r->cur_stats.splits_at_level[d]);

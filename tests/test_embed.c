@@ -424,6 +424,40 @@ static void test_thinning(void) {
   scene_free(&s);
 }
 
+/* A pilot of a large target refines and cuts only every other UV tile and
+ * scales what they add up by the area: on the bundled glyphs and ornament
+ * (grooves, junctions, ends) its count and what it adds per level agree
+ * with the whole surface's pilot, the independent answer, within 5% (they
+ * measure 1-2.5% apart); it keeps no mesh. */
+static void test_sampled_pilot(void) {
+  const char *sets[] = {"glyphs", "ornament"};
+  for (int i = 0; i < 2; i++) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/curves/%s.svg", CHISEL_MODELS, sets[i]);
+    scene s;
+    REQUIRE(scene_load(&s, "plane", NULL, path, CH_SCHEME_BILINEAR, 60000));
+    ch_embed_stats stats[2];
+    double added[2] = {0.0, 0.0};
+    for (int k = 0; k < 2; k++) {
+      ch_error err = {0};
+      ch_embed_pilot pilot = {.count_only = 1, .reference_edge = 0.0014, .run = 1, .sampled = k};
+      ch_mesh m;
+      REQUIRE(ch_embed_run(s.surface, &s.tess, &s.height, NULL, &pilot, &m, &stats[k], &err) == CH_OK);
+      CHECK(m.num_faces == 0);
+      for (int d = 0; d < CH_EMBED_LEVELS; d++) added[k] += 2.0 * (stats[k].crossings_at_level[d] + stats[k].splits_at_level[d]);
+      ch_mesh_free(&m);
+    }
+    double base = s.tess.mesh.num_faces;
+    printf("  %s: base %.0f, pilot %ld triangles (levels add %.0f), sampled %ld (%.0f)\n", sets[i], base,
+           stats[0].triangles, added[0], stats[1].triangles, added[1]);
+    CHECK_MSG(fabs((double)(stats[1].triangles - stats[0].triangles)) <= 0.05 * (double)(stats[0].triangles - base),
+              "%s: sampled %ld against %ld", sets[i], stats[1].triangles, stats[0].triangles);
+    CHECK_MSG(fabs(added[1] - added[0]) <= 0.05 * added[0], "%s: levels add %.0f against %.0f", sets[i], added[1],
+              added[0]);
+    scene_free(&s);
+  }
+}
+
 /* Walls only where h jumps: none around a v cap (the side flips across
  * the line beyond the end, the value does not), some around a bevel cap;
  * and the mesh follows h there. */
@@ -929,6 +963,7 @@ int main(void) {
   RUN(test_deterministic);
   RUN(test_u_lines_follow_normals);
   RUN(test_thinning);
+  RUN(test_sampled_pilot);
   RUN(test_cap_walls);
   RUN(test_corner_wedge_walls);
   RUN(test_seam_slivers);
