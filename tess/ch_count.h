@@ -17,7 +17,8 @@
  * through the last two runs. Where the model says the u lines would take
  * more than 7/8 of the target, their angle step is coarsened (by 1.5, up
  * to 4 times) and the pilot reruns. A pilot that lands within 4% is
- * finished from its cut, not run again.
+ * finished from its cut, not run again (unless its count was estimated
+ * from a sample of the surface: ch_count_reply.estimated).
  *
  * The model runs nothing itself: it calls back, so it can be driven by
  * analytic count functions in a test as well as by the real embedding. */
