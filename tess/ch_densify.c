@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_alloc.h"
 #include "ch_cut_internal.h"
 #include "ch_embed_internal.h"
 #include "ch_height.h"
@@ -260,20 +261,39 @@ static int fans_build(const ch_cut_out *o, vertex_fans *f) {
   f->start = calloc((size_t)o->npos + 1, sizeof *f->start);
   f->count = calloc((size_t)o->npos + 1, sizeof *f->count);
   f->cap = n + n / 8 + 1024;
-  f->tri = malloc(f->cap * sizeof *f->tri);
+  f->tri = ch_alloc_large(f->cap, sizeof *f->tri, 0);
   if (!f->start || !f->count || !f->tri) return -1;
-  for (size_t c = 0; c < n; c++) f->count[o->tri[c]]++;
+  /* Counted and filled in parallel, then each fan sorted: the same fans in
+   * triangle order as one serial pass (which took 0.1 s at 2.1M). */
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < n; c++) {
+#pragma omp atomic
+    f->count[o->tri[c]]++;
+  }
   int at = 0;
   for (int v = 0; v < o->npos; v++) {
     f->start[v] = at;
     at += f->count[v];
     f->count[v] = 0;
   }
+#pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++)
     for (int k = 0; k < 3; k++) {
-      int v = o->tri[3 * (size_t)t + k];
-      f->tri[f->start[v] + f->count[v]++] = t;
+      int v = o->tri[3 * (size_t)t + k], slot;
+#pragma omp atomic capture
+      slot = f->count[v]++;
+      f->tri[f->start[v] + slot] = t;
     }
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int v = 0; v < o->npos; v++) {
+    int *ts = &f->tri[f->start[v]];
+    for (int i = 1; i < f->count[v]; i++)
+      for (int j = i; j > 0 && ts[j - 1] > ts[j]; j--) {
+        int x = ts[j];
+        ts[j] = ts[j - 1];
+        ts[j - 1] = x;
+      }
+  }
   f->len = n;
   return 0;
 }
@@ -396,20 +416,23 @@ static void fan_drop(vertex_fans *f, int w, int t) {
   f->count[w] = j;
 }
 
+/* How many fan entries collapse_apply appends for v into u: u's fan and
+ * v's kept triangles, less the triangles on edge u-v (which leave u's fan
+ * too). */
+static size_t collapse_appends(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
+  int on_edge = 0;
+  for (int j = 0; j < f->count[v]; j++) on_edge += corner_of(o, f->tri[f->start[v] + j], u) >= 0;
+  return (size_t)(f->count[u] - on_edge) + (size_t)(f->count[v] - on_edge);
+}
+
 /* Collapses v into u: the two triangles on edge u-v go (first corner -1,
  * out of their corners' fans), v's others take u (and its UV in this
- * chart) in v's place and join u's fan, in triangle order at the end of
- * tri. Returns the triangles removed, -1 when out of memory. */
-static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
+ * chart) in v's place and join u's fan, in triangle order at tri[at..]
+ * (collapse_appends entries). Returns the triangles removed. Touches only
+ * v's fan, its triangles and its neighbours' fans: collapses whose fans
+ * share no vertex run in parallel. */
+static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u, size_t at) {
   int nv = f->count[v], removed = 0;
-  size_t need = f->len + (size_t)f->count[u] + (size_t)nv;
-  if (need > f->cap) {
-    size_t cap = need + need / 4;
-    int *q = realloc(f->tri, cap * sizeof *q);
-    if (!q) return -1;
-    f->tri = q;
-    f->cap = cap;
-  }
   const int *tv = &f->tri[f->start[v]];
   const double *uvu = NULL;
   for (int j = 0; j < nv && !uvu; j++) {
@@ -436,11 +459,10 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
   }
   /* u's fan and v's kept triangles, merged in triangle order */
   const int *tu = &f->tri[f->start[u]];
-  int nu = f->count[u], i = 0, j = 0, *out = &f->tri[f->len];
+  int nu = f->count[u], i = 0, j = 0, *out = &f->tri[at];
   for (int m = 0; m < nu + nk; m++) out[m] = j >= nk || (i < nu && tu[i] < kept[j]) ? tu[i++] : kept[j++];
-  f->start[u] = (int)f->len;
+  f->start[u] = (int)at;
   f->count[u] = nu + nk;
-  f->len += (size_t)(nu + nk);
   f->count[v] = 0;
   return removed;
 }
@@ -510,15 +532,35 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds) {
       chosen[take++] = (collapse){0.0, v, u};
     }
     if (take == 0) break;
-    for (long i = 0; i < take; i++) {
-      int r = collapse_apply(o, &f, chosen[i].v, chosen[i].u);
-      if (r < 0) {
+    /* The round's collapses share no vertex of their fans: applied in
+     * parallel, each appending at the offset the serial order gives it. */
+    size_t *at = malloc(((size_t)take + 1) * sizeof *at);
+    if (!at) {
+      removed = -1;
+      goto done;
+    }
+#pragma omp parallel for schedule(static)
+    for (long i = 0; i < take; i++) at[i + 1] = collapse_appends(o, &f, chosen[i].v, chosen[i].u);
+    at[0] = f.len;
+    for (long i = 0; i < take; i++) at[i + 1] += at[i];
+    if (at[take] > f.cap) {
+      size_t cap = at[take] + at[take] / 4;
+      if (ch_alloc_resize((void **)&f.tri, f.cap, cap, sizeof *f.tri)) {
+        free(at);
         removed = -1;
         goto done;
       }
-      removed += r;
+      f.cap = cap;
+    }
+    long gone = 0;
+#pragma omp parallel for schedule(static) reduction(+ : gone)
+    for (long i = 0; i < take; i++) {
+      gone += collapse_apply(o, &f, chosen[i].v, chosen[i].u, at[i]);
       remap[chosen[i].v] = -1;
     }
+    f.len = at[take];
+    free(at);
+    removed += gone;
     /* The touched vertices' candidates again (no other fan changed), the
      * rest in the order they had. */
 #pragma omp parallel for schedule(static)
