@@ -764,6 +764,8 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     return CH_OK;
   }
   if (rq->kind == CH_COUNT_FINISH) {
+    if (!r->kept.o.tri) /* (a sampled pilot keeps no cut: ch_count_reply.estimated) */
+      return ch_error_set(r->err, CH_ERR_INTERNAL, "feature embedding: a pilot without a cut to finish");
     r->cur_stats = r->kept.stats;
     st = embed_finish(r->surface, r->height, &r->kept.o, r->finish_target, &r->cur_stats, &r->cur, r->err);
     ch_cut_out_free(&r->kept.o);

@@ -52,11 +52,12 @@ typedef struct ch_embed_pilot {
   int full;              /* with count_only: a full run whose cut the caller
                             finishes (progress does not call it a pilot) */
   int sampled;           /* with count_only and not full: only the triangles
-                            in every other UV tile (a checkerboard of
-                            SAMPLE_TILES^2) are refined and cut, and the
-                            count and the levels are scaled up from them
-                            (set on return where the run did so: no cut is
-                            kept) */
+                            in every other UV tile (a 16 x 16 checkerboard)
+                            are refined and their cut counted, and the
+                            count and the levels are scaled up from them by
+                            the UV area; no cut is kept. For runs with no
+                            thinning (ch_embed_to_target sets it where the
+                            target is large enough) */
 } ch_embed_pilot;
 
 /* ch_embed_build with the pilot knobs (NULL: as ch_embed_build). Same
