@@ -192,7 +192,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   o->pos = NULL; /* now out's */
   {
     /* A line through a vertex of the tessellation puts its boundary point
-     * within rounding of that vertex (a bisection's 1e-14 of the edge, or
+     * within rounding of that vertex (a bisection's 1e-12 of the edge, or
      * a level function's root a few 1e-9 off, and next to a u groove's rim,
      * where the profile is vertical, heights 1e-9 apart): collapse those
      * edges (where the mesh stays manifold) rather than keep zero-area

@@ -229,13 +229,80 @@ static double level_value(const ch_label_ctx *lb, const ch_refine_mesh *w, const
   return kind == LEVEL_RIM ? fabs(v) : v;
 }
 
+/* How closely a crossing is found, as a fraction of its edge: at 2M
+ * triangles 1e-15 in UV, ten times the rounding of a UV near 1 and far
+ * below what an output keeps (the OBJ's 9 digits). The search once went
+ * to 1e-14, under the noise of the distances themselves (t = s / w is
+ * read to about 1e-14): its last steps chased that noise (13 closest-point
+ * queries a line on glyphs at 2.1M, 8 at 1e-12). */
+#define CROSSING_TOL 1e-12
+
+enum { LEVEL_HISTORY = 6 };
+
 /* The last groove level read at the far end of a crossing search: the
  * search after a line starts again towards the same sample (x1), so its
  * value is read once per sample, not once per line. c < 0: empty. */
 typedef struct level_cache {
   double x, t;
   int c, segment;
+  /* Every t of groove hc read on the edge so far (the last LEVEL_HISTORY):
+   * all the lines of a groove are level sets of the one smooth t, so what
+   * was read finding one line places the next (see level_guess). */
+  int hc, hn, hnext;
+  double hx[LEVEL_HISTORY], ht[LEVEL_HISTORY];
 } level_cache;
+
+/* Remembers t(x) of groove c. */
+static void history_add(level_cache *h, int c, double x, double t) {
+  if (h->hc != c) {
+    h->hc = c;
+    h->hn = h->hnext = 0;
+  }
+  h->hx[h->hnext] = x;
+  h->ht[h->hnext] = t;
+  h->hnext = (h->hnext + 1) % LEVEL_HISTORY;
+  if (h->hn < LEVEL_HISTORY) h->hn++;
+}
+
+/* Where t(x) = target by inverse interpolation (quadratic through the
+ * three points read nearest the target in t, or the secant through two)
+ * of groove c's history; 0 if there is too little of it or the guess
+ * falls outside (lo, hi). *slope gets dt/dx there. Inverse quadratic
+ * interpolation as in Brent's method (Brent 1973, ch. 4); its error
+ * falls as the cube of the points' distances, and consecutive lines are
+ * close: the first guess is most often within 1e-10 of the edge. */
+static int level_guess(const level_cache *h, int c, double target, double lo, double hi, double *x, double *slope) {
+  if (h->hc != c || h->hn < 2) return 0;
+  int pick[3], np = 0;
+  unsigned used = 0;
+  while (np < 3) {
+    int best = -1;
+    for (int i = 0; i < h->hn; i++) {
+      if (used & (1u << i)) continue;
+      int apart = 1;
+      for (int j = 0; j < np; j++) apart &= fabs(h->hx[i] - h->hx[pick[j]]) > 1e-12 && h->ht[i] != h->ht[pick[j]];
+      if (apart && (best < 0 || fabs(h->ht[i] - target) < fabs(h->ht[best] - target))) best = i;
+    }
+    if (best < 0) break;
+    used |= 1u << best;
+    pick[np++] = best;
+  }
+  if (np < 2) return 0;
+  double x0 = h->hx[pick[0]], t0 = h->ht[pick[0]], x1 = h->hx[pick[1]], t1 = h->ht[pick[1]];
+  double s01 = (x1 - x0) / (t1 - t0), g;
+  if (np == 3) {
+    double x2 = h->hx[pick[2]], t2 = h->ht[pick[2]];
+    double s12 = (x2 - x1) / (t2 - t1), s012 = (s12 - s01) / (t2 - t0);
+    g = x0 + (target - t0) * (s01 + (target - t1) * s012); /* Newton's form of x(t) */
+    *slope = 1.0 / (s01 + (2.0 * target - t0 - t1) * s012);
+  } else {
+    g = x0 + (target - t0) * s01;
+    *slope = 1.0 / s01;
+  }
+  if (!(g > lo && g < hi) || !isfinite(*slope) || *slope == 0.0) return 0;
+  *x = g;
+  return 1;
+}
 
 /* t = s / w of groove c at x along e (level_value's LEVEL_LINE), through
  * cache where it holds that point. */
@@ -246,6 +313,7 @@ static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
     return cache->t;
   }
   double t = level_value(lb, w, e, LEVEL_LINE, c, -1, x, segment);
+  history_add(cache, c, x, t);
   cache->x = x;
   cache->t = t;
   cache->c = c;
@@ -262,16 +330,26 @@ static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
  * enough for the search. On return [*a, *b] brackets the root (in either
  * order) and *fa is f(*a)'s sign. */
 static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind, int64_t c,
-                       int seg, double target, double tol, double *a, double *b, double *fa, double *fb) {
+                       int seg, double target, double tol, double *a, double *b, double *fa, double *fb,
+                       level_cache *history) {
   int side = 0;
+  if (kind != LEVEL_LINE) history = NULL;
   for (int it = 0; it < 80 && fabs(*b - *a) > tol; it++) {
-    double m = (*a * *fb - *b * *fa) / (*fb - *fa);
+    double m = (*a * *fb - *b * *fa) / (*fb - *fa), model_slope = 0.0;
+    /* (a few guesses only: where t jumps, at the side change beyond an
+     * open end, the history has nothing to say and bisection decides) */
+    int guessed = history && it < 4 &&
+                  level_guess(history, (int)c, target, fmin(*a, *b), fmax(*a, *b), &m, &model_slope);
     if (!(m > fmin(*a, *b) && m < fmax(*a, *b))) m = 0.5 * (*a + *b);
     double fm = level_value(lb, w, e, kind, c, seg, m, NULL) - target;
+    if (history) history_add(history, (int)c, m, fm + target);
     /* On the level itself a line's label is still the lower piece's:
      * keep bracketing. */
     if (fm == 0.0) fm = -1e-300;
+    /* the secant's slope, or the model's where that is flatter: the
+     * stop asks the smaller step of the two to be below tol / 4 */
     double slope = (fm - *fb) / (m - *b);
+    if (guessed && fabs(model_slope) < fabs(slope)) slope = model_slope;
     if (fabs(fm) <= 0.25 * tol * fabs(slope)) {
       /* the side of m - tol / 2 is the one opposite to fm's along the slope */
       double lo = m - 0.5 * tol, hi = m + 0.5 * tol, flo = (slope > 0.0) == (fm > 0.0) ? -fm : fm;
@@ -302,9 +380,9 @@ static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch
  * bracket widens until they confirm it. */
 static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
                            level_kind kind, int64_t c, int seg, double target, double x0, double f0, double x1, double f1,
-                           double *lo, double *hi, uint64_t *lhi) {
+                           double *lo, double *hi, uint64_t *lhi, level_cache *history) {
   double a = x0, b = x1, fa = f0, fb = f1;
-  level_root(lb, w, e, kind, c, seg, target, 1e-14, &a, &b, &fa, &fb);
+  level_root(lb, w, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
   double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
   if (!(near < far)) return 0;
   static const double widen[] = {0.0, 1e-13, 1e-11, 1e-9};
@@ -322,9 +400,10 @@ static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
 
 /* The fast paths of the crossing search: where two labels differ by one
  * level function, its level set is found by false position in a dozen
- * closest-point queries and confirmed by the labels at both ends of the
- * bracket, which bisection then closes (a bracket of ~1e-14 already: no
- * step; one the labels cannot confirm: bisection from the samples, 46
+ * closest-point queries (for a groove's lines, most often two from where
+ * the lines before it were found) and confirmed by the labels at both
+ * ends of the bracket, which bisection then closes (a bracket of
+ * CROSSING_TOL already: no step; one the labels cannot confirm: bisection from the samples, 46
  * label evaluations, as every crossing took before but lines and rims).
  * - between two pieces of one groove (its break lines, the many lines of a
  *   u profile), or out of a groove through its lines towards the rim, one
@@ -346,13 +425,14 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
     int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
     const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
     double ta = level_value(lb, w, e, LEVEL_LINE, c, -1, x0, &sa);
+    history_add(cache, c, x0, ta);
     double tb = groove_level(lb, w, e, c, x1, &sb, cache);
     if (!g1) k1 = k0 + (tb > ta ? 1 : -1);
     if (k1 != k0 && k1 >= 1 && k1 <= nb - 1) {
       double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
       if (ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)
         narrow_to_level(lb, w, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo,
-                        hi, lhi);
+                        hi, lhi, cache);
       return;
     }
   }
@@ -361,39 +441,39 @@ static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
     double fa = level_value(lb, w, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
     double fb = fabs(groove_level(lb, w, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi);
+      narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1)) {
     /* two grooves: where the deeper carve (or the higher raise) changes */
     int64_t c = (int64_t)GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
     double fa = level_value(lb, w, e, LEVEL_PAIR, c, -1, x0, NULL);
     double fb = level_value(lb, w, e, LEVEL_PAIR, c, -1, x1, NULL);
-    if (fa != 0.0 && fa * fb < 0.0) narrow_to_level(lb, w, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+    if (fa != 0.0 && fa * fb < 0.0) narrow_to_level(lb, w, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) == (s1 >> 1) && lb->height->step_method == CH_RECON_EXACT) {
     int c = (int)(s0 >> 1) - 1; /* one step curve's two sides */
     double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
     double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+      narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && !s0 != !s1) { /* a loop's wall from outside, or the edge of a step curve's radius */
     int c = (int)((s0 ? s0 : s1) >> 1) - 1;
     if (lb->step_outer && lb->height->step_method == CH_RECON_EXACT) {
       double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
       double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
       if (fa != 0.0 && fa * fb < 0.0 &&
-          narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi))
+          narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL))
         return;
     }
     double fa = level_value(lb, w, e, LEVEL_REACH, c, -1, x0, &sa) - lb->radius;
     double fb = level_value(lb, w, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi);
+      narrow_to_level(lb, w, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) != (s1 >> 1)) {
     /* where the nearest step curve changes */
     int64_t c = (int64_t)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int64_t)((s1 >> 1) - 1);
     double fa = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x0, NULL);
     double fb = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x1, NULL);
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi);
+      narrow_to_level(lb, w, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   }
 }
 
@@ -413,8 +493,8 @@ static void record_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, con
   c->copy_a = c->copy_b = -1;
 }
 
-/* How far from a vertex on a UV seam the edge's own chart is read (about
- * the crossings' 1e-14). */
+/* How far from a vertex on a UV seam the edge's own chart is read (below
+ * CROSSING_TOL). */
 #define SEAM_X 0x1p-47
 
 int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
@@ -423,7 +503,7 @@ int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
 
 /* Every boundary between pieces along e. Labels are sampled about delta
  * apart; from each sample whose label differs from the next, bisection
- * (in the bracket a fast path narrowed) finds a change to about 1e-14 of
+ * (in the bracket a fast path narrowed) finds a change to CROSSING_TOL of
  * the edge, and the search goes on from there, so lines closer together
  * than the samples (the break lines near a u groove's rim) are all found.
  * h is read on both sides. */
@@ -457,7 +537,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * change at the vertex itself, a wall of no width, which no level
    * function brackets; bisection took 46 labels to close in on it. */
   int seam_a = ch_refine_on_seam(w, e->a, pa), seam_b = ch_refine_on_seam(w, e->b, pb);
-  level_cache cache = {0.0, 0.0, -1, -1};
+  level_cache cache = {.c = -1, .segment = -1, .hc = -1};
   /* An edge with MAX_NODES crossings makes every triangle holding it one
    * that cannot be cut: the search stops there (what is found is kept). */
   for (int i = 1; i <= n && count < MAX_NODES; i++) {
@@ -467,7 +547,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
       narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi, &cache);
-      if (lo == x0 && hi == x1 && hi - lo > 1e-14) { /* no fast path: a change at a seam vertex? */
+      if (lo == x0 && hi == x1 && hi - lo > CROSSING_TOL) { /* no fast path: a change at a seam vertex? */
         if (x0 == 0.0 && seam_a) {
           uint64_t chart = edge_label(lb, w, e, SEAM_X);
           if (chart != l0) { /* the first label on the edge's side differs: the change is at a */
@@ -478,7 +558,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
           lo = 1.0 - SEAM_X; /* the last label on the edge's side is l0's: the change is at b */
         }
       }
-      for (int it = 0; it < BISECTIONS && hi - lo > 1e-14; it++) {
+      for (int it = 0; it < BISECTIONS && hi - lo > CROSSING_TOL; it++) {
         double mid = 0.5 * (lo + hi);
         uint64_t lm = edge_label(lb, w, e, mid);
         if (lm == l0) {
@@ -493,7 +573,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
          * times, it tries again between l0 and the label the bracket now
          * ends on, most often the only change left in it (a dozen
          * one-curve evaluations instead of 40 more labels). */
-        if (crowded && it % 6 == 5 && hi - lo > 1e-14) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi, &cache);
+        if (crowded && it % 6 == 5 && hi - lo > CROSSING_TOL) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi, &cache);
       }
       record_crossing(lb, w, e, lo, hi, l0, lhi, &list[count++]);
       x0 = hi;

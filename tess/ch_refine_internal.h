@@ -90,8 +90,8 @@ typedef enum ch_refine_cut { CUT_NONE, CUT_REGIONS, CUT_COMPLEX } ch_refine_cut;
 
 /* Every boundary between pieces along e. Labels are sampled about delta
  * apart; from each sample whose label differs from the next, bisection
- * (in the bracket a fast path narrowed) finds a change to about 1e-14 of
- * the edge, and the search goes on from there, so lines closer together
+ * (in the bracket a fast path narrowed) finds a change to 1e-12 of the
+ * edge, and the search goes on from there, so lines closer together
  * than the samples (the break lines near a u groove's rim) are all found.
  * h is read on both sides. */
 int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refine_edge *e,

@@ -316,6 +316,11 @@ static void exact_normal(const ch_height *h, double x, double y, double n[3]) {
 /* The worst angle (degrees) between a facet's normal and the exact normal
  * (-h_u, -h_v, 1) at its centroid, over the non-wall triangles whose
  * corners all lie within |t| <= 0.45 of the u groove (off its rims). */
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
 static double u_groove_worst_normal(const ch_mesh *m, const ch_height *h) {
   double worst = 0.0;
   for (int f = 0; f < m->num_faces; f++) {
@@ -367,6 +372,30 @@ static void test_u_lines_follow_normals(void) {
     }
     printf("  angle step %4.1f deg: worst corner normal error %.2f deg\n", steps[k], worst_vn);
     if (k == 0) CHECK_MSG(worst_vn <= 0.3 * steps[0], "corner normals off by %.2f deg", worst_vn);
+    if (k == 0) {
+      /* Every line of the straight groove is y = constant: the vertices
+       * found on one (within 1e-7 of each other, far closer than two lines)
+       * agree to the crossing search's 1e-12 of an edge (edges here are
+       * under 0.02 long), not just to the labels' sampling. */
+      int n = 0, lines = 0;
+      double *ys = malloc((size_t)out.num_positions * sizeof *ys), spread = 0.0;
+      REQUIRE(ys);
+      for (int v = 0; v < out.num_positions; v++) {
+        double y = out.positions[3 * (size_t)v + 1];
+        if (fabs(y - 0.5) < 0.499 * 0.05 && fabs(out.positions[3 * (size_t)v] - 0.5) < 0.4) ys[n++] = y;
+      }
+      qsort(ys, (size_t)n, sizeof *ys, cmp_double);
+      for (int i = 0, j; i < n; i = j) {
+        for (j = i + 1; j < n && ys[j] - ys[j - 1] < 1e-7; j++) {
+        }
+        if (j - i < 4) continue;
+        lines++;
+        spread = fmax(spread, ys[j - 1] - ys[i]);
+      }
+      printf("  %d lines of 4 vertices or more, spread up to %.2g in y\n", lines, spread);
+      CHECK_MSG(lines >= 20 && spread <= 4e-14, "%d lines, vertices on one spread by %g", lines, spread);
+      free(ys);
+    }
 
     printf("  angle step %4.1f deg: %d triangles, worst facet normal error %.2f deg\n", steps[k], out.num_faces,
            worst[k]);
