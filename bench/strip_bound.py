@@ -24,6 +24,12 @@ import sys
 import xml.etree.ElementTree as ET
 
 
+def fail(message):
+    """One line on stderr, exit status 2 (bad input)."""
+    sys.stderr.write("strip_bound: %s\n" % message)
+    sys.exit(2)
+
+
 def cubic(p0, p1, p2, p3, n=200):
     out = []
     for i in range(n):
@@ -36,14 +42,20 @@ def cubic(p0, p1, p2, p3, n=200):
 def path_points(d):
     """Dense points of a path of M, C, S (absolute) and a (relative
     semicircles: the end point diametrically opposite the start)."""
-    tok = re.findall(r"[MCSa]|-?[0-9.]+(?:e-?[0-9]+)?", d)
+    tok = re.findall(r"[A-Za-z]|-?[0-9.]+(?:e-?[0-9]+)?", d)
     i, pts, cur, lastc = 0, [], None, None
-    num = lambda k: float(tok[i + k])
+    def num(k):
+        if i + k >= len(tok) or tok[i + k].isalpha():
+            fail("a path command without its numbers")
+        return float(tok[i + k])
+
     cmd = None
     while i < len(tok):
-        if tok[i] in "MCSa":
+        if tok[i].isalpha():
             cmd = tok[i]
             i += 1
+            if cmd not in "MCSa":
+                fail("path command %r: only M, C, S and semicircle a are read" % cmd)
         if cmd == "M":
             cur = (num(0), num(1))
             i += 2
@@ -59,8 +71,10 @@ def path_points(d):
             i += 4
         elif cmd == "a":
             r, sweep, dx, dy = num(0), num(4), num(5), num(6)
+            if not r > 0:
+                fail("an arc of radius %g" % r)
             if abs(math.hypot(dx, dy) - 2 * r) > 1e-9 * r:
-                raise SystemExit("strip_bound: only semicircle arcs are read")
+                fail("only semicircle arcs are read")
             cx, cy = cur[0] + dx / 2, cur[1] + dy / 2
             a0 = math.atan2(cur[1] - cy, cur[0] - cx)
             sign = 1 if sweep else -1  # SVG's y runs down: sweep 1 is increasing angle
@@ -70,7 +84,7 @@ def path_points(d):
             cur = (cur[0] + dx, cur[1] + dy)
             i += 7
         else:
-            raise SystemExit("strip_bound: unsupported path command %r" % cmd)
+            fail("path data before any command")
     pts.append(cur)
     return pts
 
@@ -102,13 +116,22 @@ def u_grooves(svg):
         for ch in el:
             walk(ch, a, rot)
 
-    walk(ET.parse(svg).getroot(), {}, [])
+    try:
+        root = ET.parse(svg).getroot()
+    except (OSError, ET.ParseError) as e:
+        fail("%s: %s" % (svg, e))
+    walk(root, {}, [])
     return out
 
 
 def main():
     svg = sys.argv[1] if len(sys.argv) > 1 else "models/curves/spiral.svg"
-    nsamples = int(sys.argv[2]) if len(sys.argv) > 2 else 150000
+    try:
+        nsamples = int(sys.argv[2]) if len(sys.argv) > 2 else 150000
+    except ValueError:
+        fail("SAMPLES %r is not a whole number" % sys.argv[2])
+    if nsamples < 1:
+        fail("SAMPLES must be at least 1")
     random.seed(1)
     grooves = []
     for pts, w, depth in u_grooves(svg):
@@ -126,7 +149,7 @@ def main():
         length = sum(math.hypot(pts[i][0] - pts[i - 1][0], pts[i][1] - pts[i - 1][1]) for i in range(1, n))
         print("u groove: length %.3f, turning %.0f deg, width %.3f, depth %.3f" % (length, math.degrees(turn[-1]), w, depth))
     if not grooves:
-        raise SystemExit("strip_bound: no u groove in %s" % svg)
+        fail("no u groove in %s" % svg)
 
     cells = 128
     grid = {}
