@@ -56,11 +56,22 @@ void ch_refine_edge_point(const ch_refine_mesh *w, const ch_refine_edge *e, doub
   if (st) ch_refine_lerp2(t->st[i], t->st[j], x, st);
 }
 
-static uint64_t edge_label(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, double x) {
-  if (x <= 0.0) return w->verts[e->a].label;
-  if (x >= 1.0) return w->verts[e->b].label;
+/* What the crossing search walks along: a straight UV segment from a to b
+ * (an edge in its canonical triangle's chart, or a spoke of a junction),
+ * with the labels of its two ends. */
+typedef struct span {
+  double a[2], b[2];
+  uint64_t la, lb;
+} span;
+
+/* The point at fraction x from a (ch_refine_edge_point's for an edge). */
+static void span_point(const span *s, double x, double uv[2]) { ch_refine_lerp2(s->a, s->b, x, uv); }
+
+static uint64_t span_label(const ch_label_ctx *lb, const span *s, double x) {
+  if (x <= 0.0) return s->la;
+  if (x >= 1.0) return s->lb;
   double uv[2];
-  ch_refine_edge_point(w, e, x, uv, NULL);
+  span_point(s, x, uv);
   return ch_label_at(lb, uv);
 }
 
@@ -204,10 +215,10 @@ static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2]) {
  * in 64 bits: any number of curves),
  * or only its segment seg when seg >= 0 (both bracket ends nearest it);
  * *segment gets the nearest segment when asked. */
-static double level_value(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind,
-                          int64_t c, int seg, double x, int *segment) {
+static double level_value(const ch_label_ctx *lb, const span *e, level_kind kind, int64_t c, int seg, double x,
+                          int *segment) {
   double uv[2];
-  ch_refine_edge_point(w, e, x, uv, NULL);
+  span_point(e, x, uv);
   if (kind == LEVEL_PAIR)
     return groove_carve(lb, (int)(c / MAX_CURVES_LABELLED), uv) - groove_carve(lb, (int)(c % MAX_CURVES_LABELLED), uv);
   if (kind == LEVEL_NEAREST)
@@ -308,13 +319,12 @@ static int level_guess(const level_cache *h, int c, double target, double lo, do
 
 /* t = s / w of groove c at x along e (level_value's LEVEL_LINE), through
  * cache where it holds that point. */
-static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, int c, double x,
-                           int *segment, level_cache *cache) {
+static double groove_level(const ch_label_ctx *lb, const span *e, int c, double x, int *segment, level_cache *cache) {
   if (cache->c == c && cache->x == x) {
     *segment = cache->segment;
     return cache->t;
   }
-  double t = level_value(lb, w, e, LEVEL_LINE, c, -1, x, segment);
+  double t = level_value(lb, e, LEVEL_LINE, c, -1, x, segment);
   history_add(cache, c, x, t);
   cache->x = x;
   cache->t = t;
@@ -332,9 +342,8 @@ static double groove_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
  * enough for the search. On return [*a, *b] brackets the root (in either
  * order) and *fa is f(*a)'s sign. history (LEVEL_LINE only, or NULL):
  * the groove's t read on the edge, for level_guess. */
-static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, level_kind kind, int64_t c,
-                       int seg, double target, double tol, double *a, double *b, double *fa, double *fb,
-                       level_cache *history) {
+static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, int64_t c, int seg, double target,
+                       double tol, double *a, double *b, double *fa, double *fb, level_cache *history) {
   int side = 0;
   for (int it = 0; it < 80 && fabs(*b - *a) > tol; it++) {
     double m = (*a * *fb - *b * *fa) / (*fb - *fa), model_slope = 0.0;
@@ -343,7 +352,7 @@ static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch
     int guessed = history && it < 4 &&
                   level_guess(history, (int)c, target, fmin(*a, *b), fmax(*a, *b), &m, &model_slope);
     if (!(m > fmin(*a, *b) && m < fmax(*a, *b))) m = 0.5 * (*a + *b);
-    double fm = level_value(lb, w, e, kind, c, seg, m, NULL) - target;
+    double fm = level_value(lb, e, kind, c, seg, m, NULL) - target;
     if (history) history_add(history, (int)c, m, fm + target);
     /* On the level itself a line's label is still the lower piece's:
      * keep bracketing. */
@@ -380,18 +389,18 @@ static void level_root(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch
  * labels decide by their own evaluation, which can put the change a few
  * roundings away (on a step curve itself the side is rounding): the
  * bracket widens until they confirm it. */
-static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
-                           level_kind kind, int64_t c, int seg, double target, double x0, double f0, double x1, double f1,
-                           double *lo, double *hi, uint64_t *lhi, level_cache *history) {
+static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, level_kind kind, int64_t c, int seg,
+                           double target, double x0, double f0, double x1, double f1, double *lo, double *hi,
+                           uint64_t *lhi, level_cache *history) {
   double a = x0, b = x1, fa = f0, fb = f1;
-  level_root(lb, w, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
+  level_root(lb, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
   double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
   if (!(near < far)) return 0;
   static const double widen[] = {0.0, 1e-13, 1e-11, 1e-9};
   for (int k = 0; k < 4; k++) {
     double l = fmax(x0, near - widen[k]), h = fmin(x1, far + widen[k]);
-    uint64_t next = edge_label(lb, w, e, h);
-    if (next == l0 || edge_label(lb, w, e, l) != l0) continue;
+    uint64_t next = span_label(lb, e, h);
+    if (next == l0 || span_label(lb, e, l) != l0) continue;
     *lo = l;
     *hi = h;
     *lhi = next;
@@ -418,81 +427,122 @@ static int narrow_to_level(const ch_label_ctx *lb, const ch_refine_mesh *w, cons
  *   exact curve): its signed distance = 0;
  * - at the edge of a step curve's radius: distance = radius; where the
  *   nearest step curve changes: the two distances equal. */
-static void narrow_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, uint64_t l0,
-                            uint64_t l1, double x0, double x1, double *lo, double *hi, uint64_t *lhi,
-                            level_cache *cache) {
+static void narrow_crossing(const ch_label_ctx *lb, const span *e, uint64_t l0, uint64_t l1, double x0, double x1,
+                            double *lo, double *hi, uint64_t *lhi, level_cache *cache) {
   uint64_t g0 = l0 >> 32, g1 = l1 >> 32, s0 = l0 & 0xffffffffu, s1 = l1 & 0xffffffffu;
   int sa = -1, sb = -1;
   if (s0 == s1 && g0 && (!g1 || (g0 >> 8) == (g1 >> 8))) { /* lines of one groove */
     int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
     const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
-    double ta = level_value(lb, w, e, LEVEL_LINE, c, -1, x0, &sa);
+    double ta = level_value(lb, e, LEVEL_LINE, c, -1, x0, &sa);
     history_add(cache, c, x0, ta);
-    double tb = groove_level(lb, w, e, c, x1, &sb, cache);
+    double tb = groove_level(lb, e, c, x1, &sb, cache);
     if (!g1) k1 = k0 + (tb > ta ? 1 : -1);
     if (k1 != k0 && k1 >= 1 && k1 <= nb - 1) {
       double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
       if (ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)
-        narrow_to_level(lb, w, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo,
-                        hi, lhi, cache);
+        narrow_to_level(lb, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo, hi,
+                        lhi, cache);
       return;
     }
   }
   if (s0 == s1 && (!g0 != !g1)) { /* a rim (the outermost piece of the groove on one side) */
     int c = GROOVE_CURVE(g0 ? g0 : g1);
-    double fa = level_value(lb, w, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
-    double fb = fabs(groove_level(lb, w, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
+    double fa = level_value(lb, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
+    double fb = fabs(groove_level(lb, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1)) {
     /* two grooves: where the deeper carve (or the higher raise) changes */
     int64_t c = (int64_t)GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
-    double fa = level_value(lb, w, e, LEVEL_PAIR, c, -1, x0, NULL);
-    double fb = level_value(lb, w, e, LEVEL_PAIR, c, -1, x1, NULL);
-    if (fa != 0.0 && fa * fb < 0.0) narrow_to_level(lb, w, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
+    double fa = level_value(lb, e, LEVEL_PAIR, c, -1, x0, NULL);
+    double fb = level_value(lb, e, LEVEL_PAIR, c, -1, x1, NULL);
+    if (fa != 0.0 && fa * fb < 0.0)
+      narrow_to_level(lb, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) == (s1 >> 1) && lb->height->step_method == CH_RECON_EXACT) {
     int c = (int)(s0 >> 1) - 1; /* one step curve's two sides */
-    double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
-    double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
+    double fa = level_value(lb, e, LEVEL_STEP, c, -1, x0, &sa);
+    double fb = level_value(lb, e, LEVEL_STEP, c, -1, x1, &sb);
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && !s0 != !s1) { /* a loop's wall from outside, or the edge of a step curve's radius */
     int c = (int)((s0 ? s0 : s1) >> 1) - 1;
     if (lb->step_outer && lb->height->step_method == CH_RECON_EXACT) {
-      double fa = level_value(lb, w, e, LEVEL_STEP, c, -1, x0, &sa);
-      double fb = level_value(lb, w, e, LEVEL_STEP, c, -1, x1, &sb);
+      double fa = level_value(lb, e, LEVEL_STEP, c, -1, x0, &sa);
+      double fb = level_value(lb, e, LEVEL_STEP, c, -1, x1, &sb);
       if (fa != 0.0 && fa * fb < 0.0 &&
-          narrow_to_level(lb, w, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL))
+          narrow_to_level(lb, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL))
         return;
     }
-    double fa = level_value(lb, w, e, LEVEL_REACH, c, -1, x0, &sa) - lb->radius;
-    double fb = level_value(lb, w, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
+    double fa = level_value(lb, e, LEVEL_REACH, c, -1, x0, &sa) - lb->radius;
+    double fb = level_value(lb, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) != (s1 >> 1)) {
     /* where the nearest step curve changes */
     int64_t c = (int64_t)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int64_t)((s1 >> 1) - 1);
-    double fa = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x0, NULL);
-    double fb = level_value(lb, w, e, LEVEL_NEAREST, c, -1, x1, NULL);
+    double fa = level_value(lb, e, LEVEL_NEAREST, c, -1, x0, NULL);
+    double fb = level_value(lb, e, LEVEL_NEAREST, c, -1, x1, NULL);
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, w, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   }
 }
 
 /* Records the change from piece la (at lo) to piece lb_ (at hi) along e,
  * at the middle of [lo, hi], with h read just inside each piece. */
-static void record_crossing(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_edge *e, double lo,
-                            double hi, uint64_t la, uint64_t lb_, ch_refine_crossing *c) {
+static void record_crossing(const ch_label_ctx *lb, const span *e, double lo, double hi, uint64_t la, uint64_t lb_,
+                            ch_refine_crossing *c) {
   double uv[2], at[2];
   c->x = 0.5 * (lo + hi);
   c->la = la;
   c->lb = lb_;
-  ch_refine_edge_point(w, e, c->x, at, NULL);
-  ch_refine_edge_point(w, e, lo, uv, NULL);
+  span_point(e, c->x, at);
+  span_point(e, lo, uv);
   c->ha = ch_label_piece_height(lb, la, uv, at);
-  ch_refine_edge_point(w, e, hi, uv, NULL);
+  span_point(e, hi, uv);
   c->hb = ch_label_piece_height(lb, lb_, uv, at);
   c->copy_a = c->copy_b = -1;
+}
+
+/* Bisection in [*lo, *hi] (label l0 at *lo, another, *lhi, at *hi) until
+ * the bracket is below CROSSING_TOL, for the change nearest *lo's side
+ * that the labels show. */
+static void bisect_change(const ch_label_ctx *lb, const span *s, uint64_t l0, int crowded, level_cache *cache,
+                          double *lo, double *hi, uint64_t *lhi) {
+  for (int it = 0; it<BISECTIONS && * hi - *lo> CROSSING_TOL; it++) {
+    double mid = 0.5 * (*lo + *hi);
+    uint64_t lm = span_label(lb, s, mid);
+    if (lm == l0) {
+      *lo = mid;
+    } else {
+      *hi = mid;
+      *lhi = lm;
+    }
+    /* Where grooves crowd (many crossing each other), many changes
+     * between two samples defeat the fast path and every label is a
+     * sum over all of them: once bisection has cut the bracket 64
+     * times, it tries again between l0 and the label the bracket now
+     * ends on, most often the only change left in it (a dozen
+     * one-curve evaluations instead of 40 more labels). */
+    if (crowded && it % 6 == 5 && *hi - *lo > CROSSING_TOL)
+      narrow_crossing(lb, s, l0, *lhi, *lo, *hi, lo, hi, lhi, cache);
+  }
+}
+
+/* Whether grooves crowd at uv (see bisect_change). */
+static int crowded_at(const ch_label_ctx *lb, const double a[2], const double b[2]) {
+  return ch_groove_field_count(&lb->height->grooves, 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])) > CROWDED_CELL;
+}
+
+void ch_refine_segment_change(const ch_label_ctx *lb, const double p[2], const double q[2], uint64_t lp, uint64_t lq,
+                              double *lo, double *hi) {
+  span s = {.a = {p[0], p[1]}, .b = {q[0], q[1]}, .la = lp, .lb = lq};
+  level_cache cache = {.c = -1, .segment = -1, .hc = -1};
+  uint64_t lhi = lq;
+  *lo = 0.0;
+  *hi = 1.0;
+  narrow_crossing(lb, &s, lp, lq, 0.0, 1.0, lo, hi, &lhi, &cache);
+  bisect_change(lb, &s, lp, crowded_at(lb, p, q), &cache, lo, hi, &lhi);
 }
 
 /* How far from a vertex on a UV seam the edge's own chart is read (below
@@ -513,6 +563,13 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
   double pa[2], pb[2];
   ch_refine_edge_point(w, e, 0.0, pa, NULL);
   ch_refine_edge_point(w, e, 1.0, pb, NULL);
+  /* (the corners themselves: ch_refine_edge_point's formula along it) */
+  const ch_refine_tri *T = &w->tris[e->tri];
+  int ka = T->v[e->k] == e->a ? e->k : (e->k + 1) % 3, kb = ka == e->k ? (e->k + 1) % 3 : e->k;
+  span s = {.a = {T->uv[ka][0], T->uv[ka][1]},
+            .b = {T->uv[kb][0], T->uv[kb][1]},
+            .la = w->verts[e->a].label,
+            .lb = w->verts[e->b].label};
   if (ch_label_quiet(lb, pa) && ch_label_quiet(lb, pb)) {
     e->ncross = 0;
     e->cross = NULL;
@@ -533,7 +590,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
   int count = 0;
   double x0 = 0.0;
   uint64_t l0 = w->verts[e->a].label;
-  int crowded = ch_groove_field_count(&lb->height->grooves, 0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])) > CROWDED_CELL;
+  int crowded = crowded_at(lb, pa, pb);
   /* A vertex on a UV seam was labelled in another chart than this edge's:
    * where h differs across the seam the edge starts (or ends) with a
    * change at the vertex itself, a wall of no width, which no level
@@ -544,40 +601,24 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * that cannot be cut: the search stops there (what is found is kept). */
   for (int i = 1; i <= n && count < MAX_NODES; i++) {
     double x1 = (double)i / n;
-    uint64_t l1 = edge_label(lb, w, e, x1);
+    uint64_t l1 = span_label(lb, &s, x1);
     while (l0 != l1 && count < MAX_NODES) {
       double lo = x0, hi = x1;
       uint64_t lhi = l1;
-      narrow_crossing(lb, w, e, l0, l1, x0, x1, &lo, &hi, &lhi, &cache);
+      narrow_crossing(lb, &s, l0, l1, x0, x1, &lo, &hi, &lhi, &cache);
       if (lo == x0 && hi == x1 && hi - lo > CROSSING_TOL) { /* no fast path: a change at a seam vertex? */
         if (x0 == 0.0 && seam_a) {
-          uint64_t chart = edge_label(lb, w, e, SEAM_X);
+          uint64_t chart = span_label(lb, &s, SEAM_X);
           if (chart != l0) { /* the first label on the edge's side differs: the change is at a */
             hi = SEAM_X;
             lhi = chart;
           }
-        } else if (x1 == 1.0 && seam_b && edge_label(lb, w, e, 1.0 - SEAM_X) == l0) {
+        } else if (x1 == 1.0 && seam_b && span_label(lb, &s, 1.0 - SEAM_X) == l0) {
           lo = 1.0 - SEAM_X; /* the last label on the edge's side is l0's: the change is at b */
         }
       }
-      for (int it = 0; it < BISECTIONS && hi - lo > CROSSING_TOL; it++) {
-        double mid = 0.5 * (lo + hi);
-        uint64_t lm = edge_label(lb, w, e, mid);
-        if (lm == l0) {
-          lo = mid;
-        } else {
-          hi = mid;
-          lhi = lm;
-        }
-        /* Where grooves crowd (many crossing each other), many changes
-         * between two samples defeat the fast path and every label is a
-         * sum over all of them: once bisection has cut the bracket 64
-         * times, it tries again between l0 and the label the bracket now
-         * ends on, most often the only change left in it (a dozen
-         * one-curve evaluations instead of 40 more labels). */
-        if (crowded && it % 6 == 5 && hi - lo > CROSSING_TOL) narrow_crossing(lb, w, e, l0, lhi, lo, hi, &lo, &hi, &lhi, &cache);
-      }
-      record_crossing(lb, w, e, lo, hi, l0, lhi, &list[count++]);
+      bisect_change(lb, &s, l0, crowded, &cache, &lo, &hi, &lhi);
+      record_crossing(lb, &s, lo, hi, l0, lhi, &list[count++]);
       x0 = hi;
       l0 = lhi;
     }

@@ -97,6 +97,13 @@ typedef enum ch_refine_cut { CUT_NONE, CUT_REGIONS, CUT_COMPLEX } ch_refine_cut;
 int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refine_edge *e,
                         double delta); /* 0, or -1: out of memory */
 
+/* The first change of label on the UV segment from p (label lp) towards q
+ * (label lq, another), as the crossing search finds it on an edge (its
+ * fast paths, then bisection): at fractions [*lo, *hi] of the segment,
+ * 1e-12 of it apart, p's label at *lo and another at *hi. */
+void ch_refine_segment_change(const ch_label_ctx *lb, const double p[2], const double q[2], uint64_t lp, uint64_t lq,
+                              double *lo, double *hi);
+
 /* out = a + x (b - a). */
 void ch_refine_lerp2(const double a[2], const double b[2], double x, double out[2]);
 
