@@ -154,6 +154,12 @@ static int emit_region(const ch_refine_node *nodes, int m, const int *idx, int l
   return bad;
 }
 
+/* How closely a junction's spokes, and the pieces' ends next to it, are
+ * found: 2^-30 of the segment searched (as JUNCTION_BISECTIONS), which
+ * moves the junction by about that share of its triangle (1e-12 UV at
+ * 2M triangles), far below the output's digits. */
+#define SPOKE_TOL 0x1p-30
+
 typedef struct cut_context {
   const ch_surface *surface;
   const ch_label_ctx *lb;
@@ -187,15 +193,10 @@ static void junction_point(const cut_context *cx, const ch_refine_node *nodes, c
   for (int k = 0; k < n; k++) {
     int km = (k + n - 1) % n;
     if (ch_label_at(cx->lb, inner[km]) != piece[km] || ch_label_at(cx->lb, inner[k]) != piece[k]) continue;
-    double lo = 0.0, hi = 1.0, q[2];
-    for (int it = 0; it < BISECTIONS; it++) {
-      double mid = 0.5 * (lo + hi);
-      ch_refine_lerp2(inner[km], inner[k], mid, q);
-      if (ch_label_at(cx->lb, q) == piece[km])
-        lo = mid;
-      else
-        hi = mid;
-    }
+    /* (the crossing search's fast paths: most spokes are a level set of
+     * one curve, found in a few one-curve evaluations, not 46 labels) */
+    double lo, hi, q[2];
+    ch_refine_segment_change(cx->lb, inner[km], inner[k], piece[km], piece[k], SPOKE_TOL, &lo, &hi);
     ch_refine_lerp2(inner[km], inner[k], 0.5 * (lo + hi), q);
     const double *x = nodes[idx[pos[k]]].uv;
     double d[2] = {q[0] - x[0], q[1] - x[1]}, len_d = ch_dist2d(d[0], d[1]);
@@ -250,20 +251,30 @@ static int emit_junction(const cut_context *cx, const ch_refine_node *nodes, con
    * share it where the spoke's crossing has one copy (no wall there). */
   int j[MAX_NODES], group[MAX_NODES];
   double hj[MAX_NODES];
+  uint64_t at_junction = ch_label_at(cx->lb, juv);
   for (int k = 0; k < n; k++) {
     const ch_refine_node *a = &nodes[idx[pos[k]]], *b = &nodes[idx[(pos[k] + 1) % len]];
     uint64_t piece = a->lnext;
-    double target[2] = {(juv[0] + a->uv[0] + b->uv[0]) / 3.0, (juv[1] + a->uv[1] + b->uv[1]) / 3.0};
-    double lo = 0.0, hi = 1.0, q[2];
-    for (int it = 0; it < JUNCTION_BISECTIONS; it++) {
-      double mid = 0.5 * (lo + hi);
-      ch_refine_lerp2(juv, target, mid, q);
-      if (ch_label_at(cx->lb, q) == piece)
-        hi = mid;
-      else
-        lo = mid;
+    double target[2] = {(juv[0] + a->uv[0] + b->uv[0]) / 3.0, (juv[1] + a->uv[1] + b->uv[1]) / 3.0}, q[2];
+    uint64_t at_target = ch_label_at(cx->lb, target);
+    if (at_junction == piece || at_target != piece) {
+      /* the junction itself in the piece (a step off it), or the piece
+       * not where it was expected: bisection for any point of it */
+      double lo = 0.0, hi = 1.0;
+      for (int it = 0; it < JUNCTION_BISECTIONS; it++) {
+        double mid = 0.5 * (lo + hi);
+        ch_refine_lerp2(juv, target, mid, q);
+        if (ch_label_at(cx->lb, q) == piece)
+          hi = mid;
+        else
+          lo = mid;
+      }
+      ch_refine_lerp2(juv, target, hi, q);
+    } else { /* from inside the piece to where it ends towards the junction */
+      double lo, hi;
+      ch_refine_segment_change(cx->lb, target, juv, piece, at_junction, SPOKE_TOL, &lo, &hi);
+      ch_refine_lerp2(target, juv, lo, q);
     }
-    ch_refine_lerp2(juv, target, hi, q);
     hj[k] = ch_label_piece_height(cx->lb, piece, q, juv);
   }
   /* Groups: runs of pieces joined across wall-free spokes (spoke k lies

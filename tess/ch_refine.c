@@ -409,6 +409,26 @@ static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, l
   return 0;
 }
 
+/* From piece k0 of groove line set g0 (l0's) to piece k1 of the same set
+ * (k1 < 0: the next one the way t goes from x0 to x1) across its line:
+ * -1 where there is no such line (k1 beyond the set: a rim), else whether
+ * narrow_to_level confirmed it. */
+static int narrow_to_line(const ch_label_ctx *lb, const span *e, uint64_t l0, int k1, double x0, double x1,
+                          double *lo, double *hi, uint64_t *lhi, level_cache *cache) {
+  uint64_t g0 = l0 >> 32;
+  int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), nb, sa = -1, sb = -1;
+  const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
+  double ta = level_value(lb, e, LEVEL_LINE, c, -1, x0, &sa);
+  history_add(cache, c, x0, ta);
+  double tb = groove_level(lb, e, c, x1, &sb, cache);
+  if (k1 < 0) k1 = k0 + (tb > ta ? 1 : -1);
+  if (!(k1 != k0 && k1 >= 1 && k1 <= nb - 1)) return -1;
+  double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
+  if (!(ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)) return 0;
+  return narrow_to_level(lb, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo, hi,
+                         lhi, cache);
+}
+
 /* The fast paths of the crossing search: where two labels differ by one
  * level function, its level set is found by false position in a dozen
  * closest-point queries (for a groove's lines, most often two from where
@@ -431,21 +451,8 @@ static void narrow_crossing(const ch_label_ctx *lb, const span *e, uint64_t l0, 
                             double *lo, double *hi, uint64_t *lhi, level_cache *cache) {
   uint64_t g0 = l0 >> 32, g1 = l1 >> 32, s0 = l0 & 0xffffffffu, s1 = l1 & 0xffffffffu;
   int sa = -1, sb = -1;
-  if (s0 == s1 && g0 && (!g1 || (g0 >> 8) == (g1 >> 8))) { /* lines of one groove */
-    int c = GROOVE_CURVE(g0), k0 = (int)(g0 & 0xff), k1 = (int)(g1 & 0xff), nb;
-    const double *br = ch_label_lines_of(lb, c, GROOVE_LEVEL(g0), &nb);
-    double ta = level_value(lb, e, LEVEL_LINE, c, -1, x0, &sa);
-    history_add(cache, c, x0, ta);
-    double tb = groove_level(lb, e, c, x1, &sb, cache);
-    if (!g1) k1 = k0 + (tb > ta ? 1 : -1);
-    if (k1 != k0 && k1 >= 1 && k1 <= nb - 1) {
-      double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
-      if (ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)
-        narrow_to_level(lb, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo, hi,
-                        lhi, cache);
-      return;
-    }
-  }
+  if (s0 == s1 && g0 && (!g1 || (g0 >> 8) == (g1 >> 8))) /* lines of one groove */
+    if (narrow_to_line(lb, e, l0, g1 ? (int)(g1 & 0xff) : -1, x0, x1, lo, hi, lhi, cache) >= 0) return;
   if (s0 == s1 && (!g0 != !g1)) { /* a rim (the outermost piece of the groove on one side) */
     int c = GROOVE_CURVE(g0 ? g0 : g1);
     double fa = level_value(lb, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
@@ -457,8 +464,12 @@ static void narrow_crossing(const ch_label_ctx *lb, const span *e, uint64_t l0, 
     int64_t c = (int64_t)GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
     double fa = level_value(lb, e, LEVEL_PAIR, c, -1, x0, NULL);
     double fb = level_value(lb, e, LEVEL_PAIR, c, -1, x1, NULL);
-    if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
+    /* Where the first groove's lines come first (a u groove running
+     * into another: its lines until the other is deeper), its next line;
+     * the labels tell (one level root and two labels, not bisection). */
+    if (!(fa != 0.0 && fa * fb < 0.0 &&
+          narrow_to_level(lb, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL)))
+      narrow_to_line(lb, e, l0, -1, x0, x1, lo, hi, lhi, cache);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) == (s1 >> 1) && lb->height->step_method == CH_RECON_EXACT) {
     int c = (int)(s0 >> 1) - 1; /* one step curve's two sides */
     double fa = level_value(lb, e, LEVEL_STEP, c, -1, x0, &sa);
@@ -505,11 +516,11 @@ static void record_crossing(const ch_label_ctx *lb, const span *e, double lo, do
 }
 
 /* Bisection in [*lo, *hi] (label l0 at *lo, another, *lhi, at *hi) until
- * the bracket is below CROSSING_TOL, for the change nearest *lo's side
- * that the labels show. */
+ * the bracket is below tol, for the change nearest *lo's side that the
+ * labels show. */
 static void bisect_change(const ch_label_ctx *lb, const span *s, uint64_t l0, int crowded, level_cache *cache,
-                          double *lo, double *hi, uint64_t *lhi) {
-  for (int it = 0; it<BISECTIONS && * hi - *lo> CROSSING_TOL; it++) {
+                          double tol, double *lo, double *hi, uint64_t *lhi) {
+  for (int it = 0; it < BISECTIONS && (*hi - *lo) > tol; it++) {
     double mid = 0.5 * (*lo + *hi);
     uint64_t lm = span_label(lb, s, mid);
     if (lm == l0) {
@@ -524,7 +535,7 @@ static void bisect_change(const ch_label_ctx *lb, const span *s, uint64_t l0, in
      * times, it tries again between l0 and the label the bracket now
      * ends on, most often the only change left in it (a dozen
      * one-curve evaluations instead of 40 more labels). */
-    if (crowded && it % 6 == 5 && *hi - *lo > CROSSING_TOL)
+    if (crowded && it % 6 == 5 && (*hi - *lo) > tol)
       narrow_crossing(lb, s, l0, *lhi, *lo, *hi, lo, hi, lhi, cache);
   }
 }
@@ -535,14 +546,14 @@ static int crowded_at(const ch_label_ctx *lb, const double a[2], const double b[
 }
 
 void ch_refine_segment_change(const ch_label_ctx *lb, const double p[2], const double q[2], uint64_t lp, uint64_t lq,
-                              double *lo, double *hi) {
+                              double tol, double *lo, double *hi) {
   span s = {.a = {p[0], p[1]}, .b = {q[0], q[1]}, .la = lp, .lb = lq};
   level_cache cache = {.c = -1, .segment = -1, .hc = -1};
   uint64_t lhi = lq;
   *lo = 0.0;
   *hi = 1.0;
   narrow_crossing(lb, &s, lp, lq, 0.0, 1.0, lo, hi, &lhi, &cache);
-  bisect_change(lb, &s, lp, crowded_at(lb, p, q), &cache, lo, hi, &lhi);
+  bisect_change(lb, &s, lp, crowded_at(lb, p, q), &cache, tol, lo, hi, &lhi);
 }
 
 /* How far from a vertex on a UV seam the edge's own chart is read (below
@@ -617,7 +628,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
           lo = 1.0 - SEAM_X; /* the last label on the edge's side is l0's: the change is at b */
         }
       }
-      bisect_change(lb, &s, l0, crowded, &cache, &lo, &hi, &lhi);
+      bisect_change(lb, &s, l0, crowded, &cache, CROSSING_TOL, &lo, &hi, &lhi);
       record_crossing(lb, &s, lo, hi, l0, lhi, &list[count++]);
       x0 = hi;
       l0 = lhi;

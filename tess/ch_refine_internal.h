@@ -99,10 +99,11 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
 
 /* The first change of label on the UV segment from p (label lp) towards q
  * (label lq, another), as the crossing search finds it on an edge (its
- * fast paths, then bisection): at fractions [*lo, *hi] of the segment,
- * 1e-12 of it apart, p's label at *lo and another at *hi. */
+ * fast paths to 1e-12 of the segment, then bisection to tol of it): at
+ * fractions [*lo, *hi] of the segment, p's label at *lo and another at
+ * *hi. */
 void ch_refine_segment_change(const ch_label_ctx *lb, const double p[2], const double q[2], uint64_t lp, uint64_t lq,
-                              double *lo, double *hi);
+                              double tol, double *lo, double *hi);
 
 /* out = a + x (b - a). */
 void ch_refine_lerp2(const double a[2], const double b[2], double x, double out[2]);
