@@ -79,13 +79,14 @@ int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const d
  * when the surface does not evaluate a new vertex. */
 long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_out *o, long extra, int max_rounds);
 
-/* Removes about `fewer` triangles (2 per collapse) where h is smooth: each
- * round collapses the shortest allowed edges of the vertices inside plain
- * pieces (h_step alone, off UV seams), one per fan, into a neighbour that
- * keeps its place on the surface. o's positions must be evaluated. Returns
- * how many it removed (fewer where no collapse is allowed), -1 when out of
- * memory. */
-long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds);
+/* Removes about `fewer` triangles (2 per collapse) where h is smooth:
+ * shortest first, a vertex inside a plain piece (h_step alone, off UV
+ * seams) collapses along its shortest allowed edge into a neighbour that
+ * keeps its place on the surface. o's positions must be evaluated. Serial
+ * after a parallel start; the result does not depend on the thread count.
+ * Returns how many it removed (fewer where no collapse is allowed), -1
+ * when out of memory. */
+long ch_cut_coarsen(ch_cut_out *o, long fewer);
 
 /* Thins o's groove layers (ch_thin.h) and drops the vertices it frees;
  * returns how many, -1 when out of memory. */

@@ -310,32 +310,6 @@ static int corner_of(const ch_cut_out *o, int t, int v) {
   return -1;
 }
 
-/* Whether v sits inside one plain piece, off UV seams, its triangles one
- * closed fan (each next corner is another's previous once). */
-static int interior_plain(const ch_cut_out *o, const vertex_fans *f, int v) {
-  int n = f->count[v];
-  if (n < 3 || n > 32) return 0;
-  const int *ts = &f->tri[f->start[v]];
-  uint64_t group = o->group[ts[0]];
-  if (!plain(group)) return 0;
-  const double *uv0 = &o->uv[6 * (size_t)ts[0] + 2 * (size_t)corner_of(o, ts[0], v)];
-  int next[32], prev[32];
-  for (int i = 0; i < n; i++) {
-    int t = ts[i], k = corner_of(o, t, v);
-    if (o->group[t] != group) return 0;
-    const double *uv = &o->uv[6 * (size_t)t + 2 * (size_t)k];
-    if (uv[0] != uv0[0] || uv[1] != uv0[1]) return 0;
-    next[i] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
-    prev[i] = o->tri[3 * (size_t)t + (size_t)(k + 2) % 3];
-  }
-  for (int i = 0; i < n; i++) { /* each next is exactly one other's prev */
-    int m = 0;
-    for (int j = 0; j < n; j++) m += prev[j] == next[i];
-    if (m != 1) return 0;
-  }
-  return 1;
-}
-
 /* Twice the UV area of triangle t with corner k's UV replaced by uv. */
 static double uv_area_with(const ch_cut_out *o, int t, int k, const double uv[2]) {
   double c[3][2];
@@ -384,28 +358,35 @@ static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) 
   return 1;
 }
 
-typedef struct collapse {
-  double length2;
-  int v, u;
-} collapse;
-
-static int shortest_first(const void *a, const void *b) {
-  const collapse *x = a, *y = b;
-  if (x->length2 != y->length2) return x->length2 < y->length2 ? -1 : 1;
-  if (x->v != y->v) return x->v < y->v ? -1 : 1;
-  return x->u < y->u ? -1 : x->u > y->u;
-}
-
 /* Vertex v's shortest edge squared as a collapse candidate, INFINITY
- * where v is not inside a plain piece. */
-static collapse candidate(const ch_cut_out *o, const vertex_fans *f, int v) {
-  double bl = INFINITY;
-  int inside = interior_plain(o, f, v);
-  for (int i = f->start[v]; i < f->start[v] + f->count[v] && inside; i++) {
-    int t = f->tri[i], k = corner_of(o, t, v), u = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
-    bl = fmin(bl, dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)u]));
+ * where v is not inside a plain piece: one piece, off UV seams (one UV in
+ * every triangle), its triangles one closed fan (each next corner is
+ * another's previous once). */
+static double candidate(const ch_cut_out *o, const vertex_fans *f, int v) {
+  int n = f->count[v];
+  if (n < 3 || n > 32) return INFINITY;
+  const int *ts = &f->tri[f->start[v]];
+  uint64_t group = o->group[ts[0]];
+  if (!plain(group)) return INFINITY;
+  const double *uv0 = &o->uv[6 * (size_t)ts[0] + 2 * (size_t)corner_of(o, ts[0], v)], *pv = &o->pos[3 * (size_t)v];
+  int next[32], prev[32];
+  double shortest = INFINITY;
+  for (int i = 0; i < n; i++) {
+    int t = ts[i], k = corner_of(o, t, v);
+    if (o->group[t] != group) return INFINITY;
+    const double *uv = &o->uv[6 * (size_t)t + 2 * (size_t)k];
+    if (uv[0] != uv0[0] || uv[1] != uv0[1]) return INFINITY;
+    next[i] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
+    prev[i] = o->tri[3 * (size_t)t + (size_t)(k + 2) % 3];
+    double d = dist2(pv, &o->pos[3 * (size_t)next[i]]);
+    shortest = d < shortest ? d : shortest;
   }
-  return (collapse){bl, v, -1};
+  for (int i = 0; i < n; i++) {
+    int m = 0;
+    for (int j = 0; j < n; j++) m += prev[j] == next[i];
+    if (m != 1) return INFINITY;
+  }
+  return shortest;
 }
 
 /* Drops triangle t from vertex w's fan (keeping its order). */
@@ -467,120 +448,141 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u, size_t at
   return removed;
 }
 
-long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds) {
+/* The collapse candidates, an indexed min-heap by (length2, v): at[v] is
+ * v's place in it, -1 when out (not a candidate, or no collapse allowed
+ * until its fan changes). A vertex's key changes in place. */
+typedef struct cand_heap {
+  double *length2; /* per vertex */
+  int *at;         /* per vertex */
+  int *v;          /* the heap */
+  int n;
+} cand_heap;
+
+static int heap_less(const cand_heap *h, int a, int b) {
+  return h->length2[a] < h->length2[b] || (h->length2[a] == h->length2[b] && a < b);
+}
+
+static void heap_place(cand_heap *h, int i, int v) {
+  h->v[i] = v;
+  h->at[v] = i;
+}
+
+static void heap_up(cand_heap *h, int i) {
+  int v = h->v[i];
+  while (i > 0 && heap_less(h, v, h->v[(i - 1) / 2])) {
+    heap_place(h, i, h->v[(i - 1) / 2]);
+    i = (i - 1) / 2;
+  }
+  heap_place(h, i, v);
+}
+
+static void heap_down(cand_heap *h, int i) {
+  int v = h->v[i];
+  for (;;) {
+    int l = 2 * i + 1, m = -1;
+    if (l < h->n) m = l;
+    if (l + 1 < h->n && heap_less(h, h->v[l + 1], h->v[l])) m = l + 1;
+    if (m < 0 || !heap_less(h, h->v[m], v)) break;
+    heap_place(h, i, h->v[m]);
+    i = m;
+  }
+  heap_place(h, i, v);
+}
+
+/* Takes v out of the heap (if in). */
+static void heap_remove(cand_heap *h, int v) {
+  int i = h->at[v];
+  if (i < 0) return;
+  h->at[v] = -1;
+  if (i == --h->n) return;
+  int w = h->v[h->n]; /* the last, in v's place: up or down from there */
+  heap_place(h, i, w);
+  heap_up(h, i);
+  heap_down(h, h->at[w]);
+}
+
+/* Sets v's key (INFINITY: out of the heap). */
+static void heap_set(cand_heap *h, int v, double length2) {
+  if (!(length2 < INFINITY)) {
+    heap_remove(h, v);
+    return;
+  }
+  h->length2[v] = length2;
+  if (h->at[v] < 0) {
+    heap_place(h, h->n++, v);
+    heap_up(h, h->n - 1);
+  } else {
+    heap_up(h, h->at[v]);
+    heap_down(h, h->at[v]);
+  }
+}
+
+long ch_cut_coarsen(ch_cut_out *o, long fewer) {
   long removed = 0;
   size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
   vertex_fans f = {0};
-  /* c: the candidates in order; fresh: a round's collapses, then the
-   * candidates it changed */
-  collapse *c = malloc(np * sizeof *c), *fresh = malloc(np * sizeof *fresh), *chosen = fresh;
-  unsigned char *touched = calloc(np, 1);
-  int *dirty = malloc(np * sizeof *dirty), *remap = malloc(np * sizeof *remap);
-  if (!c || !fresh || !touched || !dirty || !remap || fans_build(o, &f)) {
+  cand_heap heap = {.length2 = malloc(np * sizeof *heap.length2),
+                    .at = malloc(np * sizeof *heap.at),
+                    .v = malloc(np * sizeof *heap.v)};
+  int *remap = malloc(np * sizeof *remap);
+  if (!heap.length2 || !heap.at || !heap.v || !remap || fans_build(o, &f)) {
     removed = -1;
     goto done;
   }
-  /* Every vertex by its shortest edge (in parallel), then in that order,
-   * shortest first, those inside a plain piece whose fan no collapse
-   * taken before touched, with their shortest allowed edge, until
-   * enough: the checks run only on the vertices tried. Later rounds work
-   * on the same arrays (removed triangles and vertices stay until the
-   * end, out of every fan) and sort again only the vertices a collapse
-   * touched: rebuilding the fans, the order and the arrays each round was
-   * most of the coarsening's time (spiral at 2.1M: 570 ms). */
+  /* Every vertex inside a plain piece by its shortest edge (in parallel),
+   * then shortest first, one at a time (the greedy order of Garland and
+   * Heckbert 1997, with edge length for the cost): a vertex collapses
+   * along its shortest allowed edge, and its neighbours, whose fans and
+   * edges that changed, are weighed again. (Collapsing in rounds of
+   * collapses that share no fan, in parallel, rescanned every candidate
+   * each round for the one in nine a round could take.) */
 #pragma omp parallel for schedule(static)
-  for (int v = 0; v < o->npos; v++) c[v] = candidate(o, &f, v);
-  /* (only the vertices inside plain pieces are sorted: on spiral at 2.1M
-   * a seventh of them, and sorting all was 40% of each round) */
-  int nc = 0;
+  for (int v = 0; v < o->npos; v++) {
+    heap.length2[v] = candidate(o, &f, v);
+    heap.at[v] = -1;
+    remap[v] = v;
+  }
   for (int v = 0; v < o->npos; v++)
-    if (c[v].length2 < INFINITY) c[nc++] = c[v];
-  qsort(c, (size_t)nc, sizeof *c, shortest_first);
-  for (int v = 0; v < o->npos; v++) remap[v] = v;
-  for (int round = 0; round < max_rounds && removed + 1 < fewer; round++) {
-    long take = 0, want = (fewer - removed) / 2;
-    int ndirty = 0;
-    for (int i = 0; i < nc && take < want; i++) {
-      int v = c[i].v, ok = !touched[v];
-      for (int j = f.start[v]; j < f.start[v] + f.count[v] && ok; j++)
-        for (int a = 0; a < 3; a++) ok &= !touched[o->tri[3 * (size_t)f.tri[j] + a]];
-      if (!ok) continue;
-      /* its edges shortest first (ties: the lower vertex), the first allowed */
-      int n = f.count[v], us[32], u = -1;
-      double ls[32];
-      for (int a = 0; a < n; a++) {
-        int t = f.tri[f.start[v] + a], k = corner_of(o, t, v);
-        us[a] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
-        ls[a] = dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)us[a]]);
+    if (heap.length2[v] < INFINITY) heap_place(&heap, heap.n++, v);
+  for (int i = heap.n / 2; i-- > 0;) heap_down(&heap, i);
+  while (removed + 1 < fewer && heap.n > 0) {
+    int v = heap.v[0];
+    heap_remove(&heap, v);
+    /* its edges shortest first (ties: the lower vertex), the first allowed */
+    int n = f.count[v], us[32], u = -1;
+    double ls[32];
+    for (int a = 0; a < n; a++) {
+      int t = f.tri[f.start[v] + a], k = corner_of(o, t, v);
+      us[a] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
+      ls[a] = dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)us[a]]);
+    }
+    for (int a = 1; a < n; a++)
+      for (int b = a; b > 0 && (ls[b] < ls[b - 1] || (ls[b] == ls[b - 1] && us[b] < us[b - 1])); b--) {
+        double tl = ls[b];
+        int tu = us[b];
+        ls[b] = ls[b - 1], us[b] = us[b - 1];
+        ls[b - 1] = tl, us[b - 1] = tu;
       }
-      for (int a = 1; a < n; a++)
-        for (int b = a; b > 0 && (ls[b] < ls[b - 1] || (ls[b] == ls[b - 1] && us[b] < us[b - 1])); b--) {
-          double tl = ls[b];
-          int tu = us[b];
-          ls[b] = ls[b - 1], us[b] = us[b - 1];
-          ls[b - 1] = tl, us[b - 1] = tu;
-        }
-      for (int a = 0; a < n && u < 0; a++)
-        if (collapse_ok(o, &f, v, us[a])) u = us[a];
-      if (u < 0) continue;
-      for (int j = f.start[v]; j < f.start[v] + f.count[v]; j++)
-        for (int a = 0; a < 3; a++) {
-          int w = o->tri[3 * (size_t)f.tri[j] + a];
-          if (!touched[w]) dirty[ndirty++] = w;
-          touched[w] = 1;
-        }
-      chosen[take++] = (collapse){0.0, v, u};
-    }
-    if (take == 0) break;
-    /* The round's collapses share no vertex of their fans: applied in
-     * parallel, each appending at the offset the serial order gives it. */
-    size_t *at = malloc(((size_t)take + 1) * sizeof *at);
-    if (!at) {
-      removed = -1;
-      goto done;
-    }
-#pragma omp parallel for schedule(static)
-    for (long i = 0; i < take; i++) at[i + 1] = collapse_appends(o, &f, chosen[i].v, chosen[i].u);
-    at[0] = f.len;
-    for (long i = 0; i < take; i++) at[i + 1] += at[i];
-    if (at[take] > f.cap) {
-      size_t cap = at[take] + at[take] / 4;
+    for (int a = 0; a < n && u < 0; a++)
+      if (collapse_ok(o, &f, v, us[a])) u = us[a];
+    if (u < 0) continue; /* (weighed again if its fan changes) */
+    size_t need = collapse_appends(o, &f, v, u);
+    if (f.len + need > f.cap) {
+      size_t cap = f.len + need + (f.len + need) / 4;
       if (ch_alloc_resize((void **)&f.tri, f.cap, cap, sizeof *f.tri)) {
-        free(at);
         removed = -1;
         goto done;
       }
       f.cap = cap;
     }
-    long gone = 0;
-#pragma omp parallel for schedule(static) reduction(+ : gone)
-    for (long i = 0; i < take; i++) {
-      gone += collapse_apply(o, &f, chosen[i].v, chosen[i].u, at[i]);
-      remap[chosen[i].v] = -1;
-    }
-    f.len = at[take];
-    free(at);
-    removed += gone;
-    /* The touched vertices' candidates again (no other fan changed), the
-     * rest in the order they had. */
-#pragma omp parallel for schedule(static)
-    for (int i = 0; i < ndirty; i++) fresh[i] = candidate(o, &f, dirty[i]);
-    int nf = 0;
-    for (int i = 0; i < ndirty; i++)
-      if (fresh[i].length2 < INFINITY) fresh[nf++] = fresh[i];
-    qsort(fresh, (size_t)nf, sizeof *fresh, shortest_first);
-    int nk = 0;
-    for (int i = 0; i < nc; i++)
-      if (!touched[c[i].v]) c[nk++] = c[i];
-    /* merged from the back, in place */
-    for (int i = nk - 1, j = nf - 1, k = nk + nf - 1; j >= 0; k--)
-      c[k] = i >= 0 && shortest_first(&c[i], &fresh[j]) > 0 ? c[i--] : fresh[j--];
-    nc = nk + nf;
-    for (int k = 0; k < ndirty; k++) touched[dirty[k]] = 0;
+    removed += collapse_apply(o, &f, v, u, f.len);
+    f.len += need;
+    remap[v] = -1;
+    /* v's neighbours (u among them): their fans or edges changed */
+    for (int a = 0; a < n; a++) heap_set(&heap, us[a], candidate(o, &f, us[a]));
   }
   {
-    /* Compact: vertices in order, triangles in order (as after each
-     * round: the order is the same). */
+    /* Compact: vertices in order, triangles in order. */
     int nv = 0;
     for (int v = 0; v < o->npos; v++) {
       if (remap[v] < 0) continue;
@@ -607,7 +609,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer, int max_rounds) {
     o->ntri = nt;
   }
 done:
-  free(c), free(fresh), free(touched), free(dirty), free(remap);
+  free(heap.length2), free(heap.at), free(heap.v), free(remap);
   fans_free(&f);
   return removed;
 }

@@ -29,12 +29,8 @@ double ch_embed_angle_deg(double reference_edge) { return fmin(10.0, fmax(1.0, 1
 /* Rounds of ch_cut_densify: each can double the quiet part's triangles. */
 #define DENSIFY_ROUNDS 4
 /* The largest share of the target a full run may take that way (or give
- * back where it went over: ch_cut_coarsen, in at most COARSEN_ROUNDS). */
+ * back where it went over: ch_cut_coarsen). */
 #define DENSIFY_SHARE 0.15
-/* (Each round takes at most half of what is left, fewer where collapses
- * block their neighbours: 6 rounds gave back 59% of 70k on ornament at
- * 520k, 12 rounds 85%, and the run landed instead of running again.) */
-#define COARSEN_ROUNDS 12
 /* Within this share of the target a run has landed (docs/spec.md §5's 5%, less
  * a margin for the cleanup's estimate). */
 #define LANDED 0.045
@@ -157,7 +153,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
     stats->densified = added;
   } else if (-extra > LANDED * (double)target && -extra <= DENSIFY_SHARE * (double)target) {
     /* over it: fewer triangles where h is smooth, the features' untouched */
-    long removed = ch_cut_coarsen(o, -extra, COARSEN_ROUNDS);
+    long removed = ch_cut_coarsen(o, -extra);
     if (removed < 0) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     stats->densified = -removed;
   }
