@@ -510,8 +510,16 @@ static void record_crossing(const ch_label_ctx *lb, const span *e, double lo, do
   span_point(e, c->x, at);
   span_point(e, lo, uv);
   c->ha = ch_label_piece_height(lb, la, uv, at);
-  span_point(e, hi, uv);
-  c->hb = ch_label_piece_height(lb, lb_, uv, at);
+  /* Across a u groove's line both pieces read its profile at `at` (and
+   * nothing else without step curves): the same height, read once. */
+  uint64_t ga = la >> 32, gb = lb_ >> 32;
+  if (ga && gb && GROOVE_CURVE(ga) == GROOVE_CURVE(gb) && !lb->height->has_steps &&
+      lb->set->curves[GROOVE_CURVE(ga)].profile.kind == CH_PROFILE_U) {
+    c->hb = c->ha;
+  } else {
+    span_point(e, hi, uv);
+    c->hb = ch_label_piece_height(lb, lb_, uv, at);
+  }
   c->copy_a = c->copy_b = -1;
 }
 
@@ -520,7 +528,10 @@ static void record_crossing(const ch_label_ctx *lb, const span *e, double lo, do
  * labels show. */
 static void bisect_change(const ch_label_ctx *lb, const span *s, uint64_t l0, int crowded, level_cache *cache,
                           double tol, double *lo, double *hi, uint64_t *lhi) {
-  for (int it = 0; it < BISECTIONS && (*hi - *lo) > tol; it++) {
+  /* (a bracket a fast path left is m -+ tol / 2, whose width rounds to
+   * a hair over tol about half the time: not a reason for another label) */
+  double stop = tol * (1.0 + 0x1p-20);
+  for (int it = 0; it < BISECTIONS && (*hi - *lo) > stop; it++) {
     double mid = 0.5 * (*lo + *hi);
     uint64_t lm = span_label(lb, s, mid);
     if (lm == l0) {
@@ -535,7 +546,7 @@ static void bisect_change(const ch_label_ctx *lb, const span *s, uint64_t l0, in
      * times, it tries again between l0 and the label the bracket now
      * ends on, most often the only change left in it (a dozen
      * one-curve evaluations instead of 40 more labels). */
-    if (crowded && it % 6 == 5 && (*hi - *lo) > tol)
+    if (crowded && it % 6 == 5 && (*hi - *lo) > stop)
       narrow_crossing(lb, s, l0, *lhi, *lo, *hi, lo, hi, lhi, cache);
   }
 }
