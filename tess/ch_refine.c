@@ -529,8 +529,9 @@ static void record_crossing(const ch_label_ctx *lb, const span *e, double lo, do
 static void bisect_change(const ch_label_ctx *lb, const span *s, uint64_t l0, int crowded, level_cache *cache,
                           double tol, double *lo, double *hi, uint64_t *lhi) {
   /* (a bracket a fast path left is m -+ tol / 2, whose width rounds to
-   * a hair over tol about half the time: not a reason for another label) */
-  double stop = tol * (1.0 + 0x1p-20);
+   * a hair over tol about half the time, by up to 2.2e-16 for fractions
+   * up to 1 (two half ulps): not a reason for another label) */
+  double stop = tol + 0x1p-50;
   for (int it = 0; it < BISECTIONS && (*hi - *lo) > stop; it++) {
     double mid = 0.5 * (*lo + *hi);
     uint64_t lm = span_label(lb, s, mid);
