@@ -48,9 +48,19 @@ static const char digit_pairs[201] =
     "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
     "8081828384858687888990919293949596979899";
 
+/* The decimal digits of v: four at a time, then by comparison (a loop
+ * multiplying by 10 took a third of put_uint's time on 7-digit indices). */
+static int decimal_digits(unsigned long v) {
+  int n = 1;
+  while (v >= 10000) {
+    v /= 10000;
+    n += 4;
+  }
+  return n + (v >= 10) + (v >= 100) + (v >= 1000);
+}
+
 static char *put_uint(char *o, unsigned long v) {
-  int n = 1; /* its digits, then written from the last */
-  for (unsigned long p = 10; n < 20 && v >= p; p *= 10) n++;
+  int n = decimal_digits(v); /* then written from the last */
   char *end = o + n;
   while (v >= 100) {
     unsigned long q = v / 100, r = v - 100 * q;
