@@ -1052,6 +1052,21 @@ static int coarse_at_step_corner(const ch_label_ctx *lb, const double uv[3][2], 
 /* Whether triangle t needs splitting: its crossings do not make chords and
  * one junction, or a piece that none of its boundary touches hides inside,
  * or it is coarse over a rounded cap. */
+/* Whether pieces a and b are neighbours in one line set of a groove (k
+ * and k + 1: piece k lies between lines k - 1 and k); *t gets the line
+ * between them. */
+static int line_between(const ch_label_ctx *lb, uint64_t a, uint64_t b, double *t) {
+  uint64_t ga = a >> 32, gb = b >> 32;
+  if (!ga || (ga >> 8) != (gb >> 8) || (uint32_t)a != (uint32_t)b) return 0;
+  int ka = (int)(ga & 0xff), kb = (int)(gb & 0xff), nb;
+  if (ka - kb != 1 && kb - ka != 1) return 0;
+  const double *br = ch_label_lines_of(lb, GROOVE_CURVE(ga), GROOVE_LEVEL(ga), &nb);
+  int k = ka < kb ? ka : kb;
+  if (k < 1 || k > nb - 2) return 0;
+  *t = br[k];
+  return 1;
+}
+
 int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int only_uncut, int round) {
   const ch_refine_tri *T = &w->tris[t];
   if (ch_label_quiet(lb, T->uv[0]) && ch_label_quiet(lb, T->uv[1]) && ch_label_quiet(lb, T->uv[2])) return 0;
@@ -1106,8 +1121,13 @@ int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int
        * the chords keep within the tolerance (in units of the width) of
        * the curved line they follow, measured by t at the chord's middle
        * against t at its ends. */
-      double tp = ch_label_groove_distance(lb, c, p->uv) / cv->width,
-             tq = ch_label_groove_distance(lb, c, q->uv) / cv->width;
+      double tp, tq, line;
+      if (line_between(lb, p->lprev, p->lnext, &line)) {
+        tp = tq = line; /* both ends lie on that line (to 1e-12 of their edges) */
+      } else {
+        tp = ch_label_groove_distance(lb, c, p->uv) / cv->width;
+        tq = ch_label_groove_distance(lb, c, q->uv) / cv->width;
+      }
       double tm = ch_label_groove_distance(lb, c, mid) / cv->width;
       err = fabs(tm - 0.5 * (tp + tq)) * fabs(cv->depth);
     } else {
