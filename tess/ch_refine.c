@@ -286,19 +286,24 @@ static void history_add(level_cache *h, int c, double x, double t) {
  * edge, the next within about 2e-7). */
 static int level_guess(const level_cache *h, int c, double target, double lo, double hi, double *x, double *slope) {
   if (h->hc != c || h->hn < 2) return 0;
-  int pick[3], np = 0;
-  unsigned used = 0;
-  while (np < 3) {
-    int best = -1;
-    for (int i = 0; i < h->hn; i++) {
-      if (used & (1u << i)) continue;
-      int apart = 1;
-      for (int j = 0; j < np; j++) apart &= fabs(h->hx[i] - h->hx[pick[j]]) > 1e-12 && h->ht[i] != h->ht[pick[j]];
-      if (apart && (best < 0 || fabs(h->ht[i] - target) < fabs(h->ht[best] - target))) best = i;
+  /* the reads by distance from the target in t (ties: the earlier slot),
+   * then the first three of them apart from each other in x and t */
+  int order[LEVEL_HISTORY], pick[3], np = 0;
+  double dist[LEVEL_HISTORY];
+  for (int i = 0; i < h->hn; i++) {
+    double d = fabs(h->ht[i] - target);
+    int j = i;
+    for (; j > 0 && d < dist[j - 1]; j--) {
+      dist[j] = dist[j - 1];
+      order[j] = order[j - 1];
     }
-    if (best < 0) break;
-    used |= 1u << best;
-    pick[np++] = best;
+    dist[j] = d;
+    order[j] = i;
+  }
+  for (int o = 0; o < h->hn && np < 3; o++) {
+    int i = order[o], apart = 1;
+    for (int j = 0; j < np; j++) apart &= fabs(h->hx[i] - h->hx[pick[j]]) > 1e-12 && h->ht[i] != h->ht[pick[j]];
+    if (apart) pick[np++] = i;
   }
   if (np < 2) return 0;
   double x0 = h->hx[pick[0]], t0 = h->ht[pick[0]], x1 = h->hx[pick[1]], t1 = h->ht[pick[1]];
