@@ -75,12 +75,12 @@ static int inverse_bilinear(const double p[4][2], const double q[2], double eps,
 
 /* The patches of one face: the quad itself, or one per corner. */
 static int face_patches(const ch_surface *s, int face, patch *out) {
-  int n = ch_surface_face_size(s, face);
-  int np = n == 4 ? 1 : n;
+  int n = ch_surface_face_size(s, face), np;
+  const double *uvs = ch_surface_patch_uvs(s, face, &np);
+  if (!uvs || np != (n == 4 ? 1 : n)) return -1;
   for (int k = 0; k < np; k++) {
     patch *p = &out[k];
     p->face = face;
-    double corner[4][2];
     if (n == 4) {
       p->origin[0] = p->origin[1] = 0.0;
       p->scale = 1.0;
@@ -88,12 +88,7 @@ static int face_patches(const ch_surface *s, int face, patch *out) {
       ch_surface_corner_param(s, face, k, p->origin);
       p->scale = 0.5;
     }
-    static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    for (int c = 0; c < 4; c++) {
-      corner[c][0] = p->origin[0] + p->scale * local[c][0];
-      corner[c][1] = p->origin[1] + p->scale * local[c][1];
-      if (ch_surface_eval_uv(s, face, corner[c][0], corner[c][1], p->uv[c]) != CH_OK) return -1;
-    }
+    memcpy(p->uv, &uvs[8 * (size_t)k], sizeof p->uv);
     p->box[0] = p->box[1] = INFINITY;
     p->box[2] = p->box[3] = -INFINITY;
     for (int c = 0; c < 4; c++) {

@@ -292,6 +292,28 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
   for (int v = 0; v < np; v++)
     if (S->vertex_face[v] >= 0) S->vertex_out[v] = nu++;
   S->num_used_vertices = nu;
+  /* The patches' corner UVs, evaluated once: locating a point in a face
+   * (ch_surface_locate, for every vertex the refinement adds) read them
+   * through Bfr four times a patch, every time. */
+  S->patch_start.assign(nf + 1, 0);
+  for (int f = 0; f < nf; f++) {
+    int n = mesh->face_start[f + 1] - mesh->face_start[f], npatch = n == 4 ? 1 : n;
+    S->patch_start[f + 1] = S->patch_start[f] + npatch;
+  }
+  S->patch_uv.assign(8 * (size_t)S->patch_start[nf], 0.0);
+  static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  for (int f = 0; f < nf; f++)
+    for (int k = 0; k < S->patch_start[f + 1] - S->patch_start[f]; k++) {
+      double origin[2] = {0.0, 0.0}, scale = 1.0;
+      if (S->patch_start[f + 1] - S->patch_start[f] > 1) {
+        S->pos[f].GetParameterization().GetVertexCoord(k, origin);
+        scale = 0.5;
+      }
+      for (int c = 0; c < 4; c++) {
+        double st[2] = {origin[0] + scale * local[c][0], origin[1] + scale * local[c][1]};
+        eval_uv(S, f, st, &S->patch_uv[8 * (size_t)(S->patch_start[f] + k) + 2 * (size_t)c]);
+      }
+    }
   return CH_OK;
 }
 
@@ -347,6 +369,15 @@ extern "C" ch_status ch_surface_corner_param(const ch_surface *S, int face, int 
   if (!n || k < 0 || k >= n) return CH_ERR_INPUT;
   S->pos[face].GetParameterization().GetVertexCoord(k, st);
   return CH_OK;
+}
+
+extern "C" const double *ch_surface_patch_uvs(const ch_surface *S, int face, int *num_patches) {
+  if (!S || face < 0 || face >= S->num_faces) {
+    if (num_patches) *num_patches = 0;
+    return nullptr;
+  }
+  if (num_patches) *num_patches = S->patch_start[face + 1] - S->patch_start[face];
+  return &S->patch_uv[8 * (size_t)S->patch_start[face]];
 }
 
 extern "C" ch_status ch_surface_edge_param(const ch_surface *S, int face, int k, double x,

@@ -84,6 +84,14 @@ ch_status ch_surface_corner_param(const ch_surface *surface, int face, int k, do
 ch_status ch_surface_edge_param(const ch_surface *surface, int face, int k, double x,
                                 double st[2]);
 
+/* The UV map is bilinear on each of a face's patches (docs/spec.md §1): a
+ * quad is one patch, (s,t) in [0,1]^2; an n-gon's are its n sub-faces,
+ * patch k at corner k's (s,t), half a unit wide. The UVs at their corners
+ * (s,t) + (0,0), (1,0), (1,1), (0,1) times the patch's size, 8 numbers a
+ * patch, as ch_surface_eval_uv gives them (evaluated once, at creation);
+ * *num_patches gets their count. NULL (and 0) when face is out of range. */
+const double *ch_surface_patch_uvs(const ch_surface *surface, int face, int *num_patches);
+
 typedef struct ch_surface_point {
   double position[3]; /* B */
   double dpds[3], dpdt[3];

@@ -73,6 +73,10 @@ struct ch_surface {
   /* Base vertices: output index (-1 unused), owner face and corner. */
   int num_used_vertices = 0;
   std::vector<int> vertex_out, vertex_face, vertex_corner;
+  /* The UVs at the corners of each face's bilinear patches (ch_surface_patch_uvs):
+   * 8 per patch, face f's from patch_start[f]. */
+  std::vector<int> patch_start;
+  std::vector<double> patch_uv;
 };
 
 namespace ch_surface_detail {
