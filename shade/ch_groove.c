@@ -11,11 +11,6 @@
 #include "ch_bezier.h"
 #include "ch_math.h"
 
-/* Whether segment s is certainly farther from q than best (a squared
- * distance): its control points' box (which holds the curve) is, with the
- * segment tree's relative slack and 1e-13 more for the rounding of the
- * closest point itself, so skipping it changes no answer, ties included.
- * (A tenth to a fifth of the closest points the labels asked for.) */
 static double min3(double a, double b, double c) {
   double m = a < b ? a : b;
   return m < c ? m : c;
@@ -26,6 +21,11 @@ static double max3(double a, double b, double c) {
   return m > c ? m : c;
 }
 
+/* Whether segment s is certainly farther from q than best (a squared
+ * distance): its control points' box (which holds the curve) is, with the
+ * segment tree's relative slack and 1e-13 more for the rounding of the
+ * closest point itself, so skipping it changes no answer, ties included.
+ * (A tenth to a fifth of the closest points the labels asked for.) */
 static int farther_than(const ch_segment *s, const double q[2], double best) {
   if (!(best < INFINITY)) return 0;
   /* (comparisons, not fmin/fmax: those are library calls without
