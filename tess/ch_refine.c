@@ -43,15 +43,18 @@ void ch_refine_locate_st(const ch_surface *surface, int face, const double uv[2]
   if (ch_surface_locate(surface, face, uv, found) == CH_OK) memcpy(st, found, sizeof found);
 }
 
+/* The corners of e's canonical triangle at e->a (*i) and e->b (*j). */
+static void edge_corners(const ch_refine_mesh *w, const ch_refine_edge *e, int *i, int *j) {
+  int k1 = (e->k + 1) % 3;
+  *i = w->tris[e->tri].v[e->k] == e->a ? e->k : k1;
+  *j = *i == e->k ? k1 : e->k;
+}
+
 /* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
 void ch_refine_edge_point(const ch_refine_mesh *w, const ch_refine_edge *e, double x, double uv[2], double st[2]) {
   const ch_refine_tri *t = &w->tris[e->tri];
-  int i = e->k, j = (e->k + 1) % 3;
-  if (t->v[i] != e->a) {
-    int tmp = i;
-    i = j;
-    j = tmp;
-  }
+  int i, j;
+  edge_corners(w, e, &i, &j);
   if (uv) ch_refine_lerp2(t->uv[i], t->uv[j], x, uv);
   if (st) ch_refine_lerp2(t->st[i], t->st[j], x, st);
 }
@@ -588,16 +591,17 @@ int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
  * than the samples (the break lines near a u groove's rim) are all found.
  * h is read on both sides. */
 int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refine_edge *e, double delta) {
-  double pa[2], pb[2];
-  ch_refine_edge_point(w, e, 0.0, pa, NULL);
-  ch_refine_edge_point(w, e, 1.0, pb, NULL);
-  /* (the corners themselves: ch_refine_edge_point's formula along it) */
+  /* (from the canonical triangle's corners: ch_refine_edge_point's points) */
   const ch_refine_tri *T = &w->tris[e->tri];
-  int ka = T->v[e->k] == e->a ? e->k : (e->k + 1) % 3, kb = ka == e->k ? (e->k + 1) % 3 : e->k;
+  int ka, kb;
+  edge_corners(w, e, &ka, &kb);
   span s = {.a = {T->uv[ka][0], T->uv[ka][1]},
             .b = {T->uv[kb][0], T->uv[kb][1]},
             .la = w->verts[e->a].label,
             .lb = w->verts[e->b].label};
+  double pa[2], pb[2];
+  span_point(&s, 0.0, pa);
+  span_point(&s, 1.0, pb);
   if (ch_label_quiet(lb, pa) && ch_label_quiet(lb, pb)) {
     e->ncross = 0;
     e->cross = NULL;
@@ -617,7 +621,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
   ch_refine_crossing list[MAX_NODES];
   int count = 0;
   double x0 = 0.0;
-  uint64_t l0 = w->verts[e->a].label;
+  uint64_t l0 = s.la;
   int crowded = crowded_at(lb, pa, pb);
   /* A vertex on a UV seam was labelled in another chart than this edge's:
    * where h differs across the seam the edge starts (or ends) with a

@@ -316,11 +316,6 @@ static void exact_normal(const ch_height *h, double x, double y, double n[3]) {
 /* The worst angle (degrees) between a facet's normal and the exact normal
  * (-h_u, -h_v, 1) at its centroid, over the non-wall triangles whose
  * corners all lie within |t| <= 0.45 of the u groove (off its rims). */
-static int cmp_double(const void *a, const void *b) {
-  double x = *(const double *)a, y = *(const double *)b;
-  return (x > y) - (x < y);
-}
-
 static double u_groove_worst_normal(const ch_mesh *m, const ch_height *h) {
   double worst = 0.0;
   for (int f = 0; f < m->num_faces; f++) {
@@ -384,7 +379,7 @@ static void test_u_lines_follow_normals(void) {
         double y = out.positions[3 * (size_t)v + 1];
         if (fabs(y - 0.5) < 0.499 * 0.05 && fabs(out.positions[3 * (size_t)v] - 0.5) < 0.4) ys[n++] = y;
       }
-      qsort(ys, (size_t)n, sizeof *ys, cmp_double);
+      qsort(ys, (size_t)n, sizeof *ys, ch_cmp_double);
       for (int i = 0, j; i < n; i = j) {
         for (j = i + 1; j < n && ys[j] - ys[j - 1] < 1e-7; j++) {
         }
