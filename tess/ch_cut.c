@@ -505,7 +505,7 @@ static void corner_weight(const ch_cut_out *o, const double *fn, size_t t, int k
  * corners' weights are worked out where they are summed, from each face's
  * normal and length (32 bytes a triangle): kept per corner, they were the
  * largest array at the embedding's peak (72 bytes a triangle). */
-ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
+ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   size_t nc = 3 * (size_t)o->ntri, np = (size_t)(o->npos > 0 ? o->npos : 1);
   m->num_positions = o->npos;
@@ -530,9 +530,17 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err) {
     const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
     double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
     double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+    double e3[3] = {p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2]};
     double *f = &fn[4 * (size_t)t];
     ch_cross3(e1, e2, f);
     f[3] = sqrt(ch_dot3(f, f));
+    /* A sliver (a boundary point within rounding of a vertex, before the
+     * cleanup collapses it) has a corner near 180 degrees, so the largest
+     * weight of its vertex's, and a normal that rounding decides: it would
+     * tilt that vertex's normal by tens of degrees for the real triangles
+     * around it. */
+    double longest = sqrt(fmax(ch_dot3(e1, e1), fmax(ch_dot3(e2, e2), ch_dot3(e3, e3))));
+    if (!(f[3] >= thin * longest)) f[3] = 0.0;
     for (int k = 0; k < 3; k++) m->corner_position[3 * (size_t)t + k] = v[k];
   }
   m->face_start[o->ntri] = (int)nc;

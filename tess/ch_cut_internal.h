@@ -47,10 +47,12 @@ void ch_cut_out_free(ch_cut_out *o);
  * does not evaluate). */
 ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch_error *err);
 
-/* Per-corner normals: the area-weighted mean of the face normals around a
+/* Per-corner normals: the angle-weighted mean of the face normals around a
  * vertex among the triangles of the same group (piece, or wall), so they
- * are smooth inside a piece and split at its boundary. */
-ch_status ch_cut_build_mesh(const ch_cut_out *o, ch_mesh *m, ch_error *err);
+ * are smooth inside a piece and split at its boundary. Triangles thinner
+ * than `thin` (twice their area over their longest edge) count for
+ * nothing: their normal is rounding noise. */
+ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_error *err);
 
 /* Cuts triangle t into its pieces, with walls where h jumps, into o (fans
  * it where it cannot be cut, counted in stats->unresolved); tol: how close

@@ -190,7 +190,10 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
     if (cv->profile.kind == CH_PROFILE_U) /* one group over its slices and line sets */
       o->group[t] = (gr & ~((UINT64_C(0xff) | (UINT64_C(3) << 28)) << 32)) | (UINT64_C(1) << 32);
   }
-  if ((st = ch_cut_build_mesh(o, out, err))) return st;
+  /* (edges shorter than this are collapsed below; triangles thinner than it
+   * count for nothing in the normals) */
+  double eps = collapse_length(o->pos, o->npos);
+  if ((st = ch_cut_build_mesh(o, eps, out, err))) return st;
   o->pos = NULL; /* now out's */
   {
     /* A line through a vertex of the tessellation puts its boundary point
@@ -201,8 +204,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
      * slivers and copies of one point, which print as one in the OBJ. 1e-8
      * of the size is far below any feature (the u lines' first offset is
      * about 1e-3 of the groove's width) and changes no accuracy figure. */
-    if (ch_mesh_collapse_short_edges(out, collapse_length(out->positions, out->num_positions)) < 0 ||
-        ch_mesh_remove_pillows(out) < 0) {
+    if (ch_mesh_collapse_short_edges(out, eps) < 0 || ch_mesh_remove_pillows(out) < 0) {
       ch_mesh_free(out);
       return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     }

@@ -401,6 +401,46 @@ static void test_u_lines_follow_normals(void) {
   scene_free(&s);
 }
 
+/* A v groove whose crease runs along the base's own edges (x = 0.5 on the
+ * plane's grid): the boundary points land within rounding of the base's
+ * vertices and leave slivers until the cleanup collapses them. Every piece
+ * is planar, so every corner normal must be its face's; a sliver's
+ * rounding-noise normal, weighted by its corner of nearly 180 degrees, had
+ * turned the vertices along one side of the crease by 43 degrees. */
+static const char v_on_edges_svg[] =
+    "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+    "<path d='M 50 -10 V 110' data-profile='v' data-width='3' data-depth='0.016'/></svg>";
+
+static void test_v_crease_on_base_edges(void) {
+  scene s;
+  REQUIRE(scene_load(&s, "plane", v_on_edges_svg, NULL, CH_SCHEME_BILINEAR, 20000));
+  int on_crease = 0; /* base vertices on the crease: the case this is about */
+  for (int v = 0; v < s.tess.mesh.num_positions; v++) on_crease += s.tess.mesh.positions[3 * (size_t)v] == 0.5;
+  ch_mesh out;
+  ch_embed_stats stats;
+  ch_error err = {0};
+  REQUIRE(ch_embed_build(s.surface, &s.tess, &s.height, NULL, &out, &stats, &err) == CH_OK);
+  double worst = 0.0;
+  for (int f = 0; f < out.num_faces; f++) {
+    if (fabs(uv_area(&out, f)) < 1e-10) continue; /* walls (none here) and slivers */
+    int c0 = out.face_start[f];
+    const double *a = pos(&out, c0), *b = pos(&out, c0 + 1), *d = pos(&out, c0 + 2);
+    double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]}, n[3];
+    ch_cross3(e1, e2, n);
+    for (int k = 0; k < 3; k++) {
+      const double *vn = &out.normals[3 * (size_t)out.corner_normal[c0 + k]];
+      double x[3];
+      ch_cross3(n, vn, x);
+      worst = fmax(worst, atan2(sqrt(ch_dot3(x, x)), ch_dot3(n, vn)) * 180.0 / CH_PI);
+    }
+  }
+  printf("  %d base vertices on the crease; worst corner normal against its face's: %.3g deg\n", on_crease, worst);
+  CHECK_MSG(on_crease >= 10, "the base has only %d vertices on the crease", on_crease);
+  CHECK_MSG(worst < 0.01, "a corner normal is %.3g deg off its planar face's", worst);
+  ch_mesh_free(&out);
+  scene_free(&s);
+}
+
 /* A u circle: the refinement halves triangles along it (isotropically)
  * until its lines' chords are short enough; thinning (the default) takes
  * the vertices that adds along the lines out again, and keeps the facets'
@@ -986,6 +1026,7 @@ int main(void) {
   RUN(test_torus_closed);
   RUN(test_deterministic);
   RUN(test_u_lines_follow_normals);
+  RUN(test_v_crease_on_base_edges);
   RUN(test_thinning);
   RUN(test_sampled_pilot);
   RUN(test_cap_walls);
