@@ -222,6 +222,7 @@ ch_status ch_accuracy_reference_init(ch_accuracy_reference *ref, const ch_height
 
 typedef struct raster_tri {
   int p[3];   /* position indices, counter-clockwise in the snapped xy */
+  int c[3];   /* its corners (for their normals), in the same order */
   int j0, j1; /* sample rows it may cover */
 } raster_tri;
 
@@ -251,6 +252,38 @@ static void face_normal(const double *pos, const int p[3], double n[3]) {
   n[0] = e1[1] * e2[2] - e1[2] * e2[1];
   n[1] = e1[2] * e2[0] - e1[0] * e2[2];
   n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+}
+
+/* The mesh's corner normals of triangle rt interpolated at (x, y) by its
+ * barycentric coordinates in xy (what a renderer's smooth shading shows
+ * there), oriented to n_z > 0; 0 when the mesh has no normals or they
+ * cancel. */
+static int shading_normal(const ch_mesh *mesh, const raster_tri *rt, double x, double y, double n[3]) {
+  if (!mesh->normals || !mesh->corner_normal) return 0;
+  const double *a = mesh->positions + 3 * (size_t)rt->p[0], *b = mesh->positions + 3 * (size_t)rt->p[1],
+               *c = mesh->positions + 3 * (size_t)rt->p[2];
+  double d = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+  if (!(fabs(d) > 0.0)) return 0;
+  double w1 = ((x - a[0]) * (c[1] - a[1]) - (y - a[1]) * (c[0] - a[0])) / d;
+  double w2 = ((b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0])) / d, w[3] = {1.0 - w1 - w2, w1, w2};
+  n[0] = n[1] = n[2] = 0.0;
+  for (int k = 0; k < 3; k++) {
+    int i = mesh->corner_normal[rt->c[k]];
+    if (i < 0 || i >= mesh->num_normals) return 0;
+    const double *m = mesh->normals + 3 * (size_t)i;
+    double l = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+    if (!(l > 0.0)) return 0;
+    for (int j = 0; j < 3; j++) n[j] += w[k] * m[j] / l;
+  }
+  if (n[2] < 0.0) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+  return n[0] * n[0] + n[1] * n[1] + n[2] * n[2] > 0.0;
+}
+
+/* The angle between a and b in degrees: atan2(|a x b|, a . b), accurate
+ * for small angles. */
+static double angle_deg(const double a[3], const double b[3]) {
+  double cx = a[1] * b[2] - a[2] * b[1], cy = a[2] * b[0] - a[0] * b[2], cz = a[0] * b[1] - a[1] * b[0];
+  return atan2(sqrt(cx * cx + cy * cy + cz * cz), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * (180.0 / PI_);
 }
 
 typedef struct raster {
@@ -308,8 +341,10 @@ static ch_status rasterise(const ch_mesh *mesh, int G, raster *r, ch_error *err)
   for (int f = 0; f < mesh->num_faces; f++) {
     int c0 = mesh->face_start[f], k = mesh->face_start[f + 1] - c0;
     for (int t = 1; t + 1 < k; t++) {
-      raster_tri rt = {{mesh->corner_position[c0], mesh->corner_position[c0 + t],
-                        mesh->corner_position[c0 + t + 1]}, 0, 0};
+      raster_tri rt = {{mesh->corner_position[c0], mesh->corner_position[c0 + t], mesh->corner_position[c0 + t + 1]},
+                       {c0, c0 + t, c0 + t + 1},
+                       0,
+                       0};
       if (!valid[rt.p[0]] || !valid[rt.p[1]] || !valid[rt.p[2]]) {
         far++;
         continue;
@@ -327,6 +362,9 @@ static ch_status rasterise(const ch_mesh *mesh, int G, raster *r, ch_error *err)
         int tmp = rt.p[1];
         rt.p[1] = rt.p[2];
         rt.p[2] = tmp;
+        tmp = rt.c[1];
+        rt.c[1] = rt.c[2];
+        rt.c[2] = tmp;
       }
       int64_t ylo = ay < by ? (ay < cy ? ay : cy) : (by < cy ? by : cy);
       int64_t yhi = ay > by ? (ay > cy ? ay : cy) : (by > cy ? by : cy);
@@ -485,27 +523,31 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
   }
   double hmax = ref->max_abs_h > 0.0 ? ref->max_abs_h : 1.0;
   double wrong_tol = 0.1 * hmax;
-  double *row = calloc(4 * (size_t)G, sizeof *row);  /* l1 sum, angle sum per row */
-  long *cnt = calloc(5 * (size_t)G, sizeof *cnt);    /* covered, band, wrong, normal, counted */
+  double *row = calloc(4 * (size_t)G, sizeof *row); /* l1 sum, angle sum, shading angle sum per row */
+  long *cnt = calloc(6 * (size_t)G, sizeof *cnt);   /* covered, band, wrong, normal, counted, shading */
   double *angles = malloc(n * sizeof *angles);
-  if (!row || !cnt || !angles) {
+  int shaded = mesh->normals && mesh->corner_normal;
+  double *shading = shaded ? malloc(n * sizeof *shading) : NULL;
+  if (!row || !cnt || !angles || (shaded && !shading)) {
     free(row);
     free(cnt);
     free(angles);
+    free(shading);
     raster_free(&r);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory measuring the mesh");
   }
   const double *pos = mesh->positions;
 #pragma omp parallel for schedule(dynamic, 8)
   for (int j = 0; j < G; j++) {
-    double l1 = 0.0, asum = 0.0;
-    long covered = 0, band = 0, wrong = 0, nn = 0, counted = 0;
-    double *arow = angles + (size_t)j * G;
+    double l1 = 0.0, asum = 0.0, ssum = 0.0;
+    long covered = 0, band = 0, wrong = 0, nn = 0, counted = 0, ns_count = 0;
+    double *arow = angles + (size_t)j * G, *srow = shading ? shading + (size_t)j * G : NULL;
     for (int i = 0; i < G; i++) {
       size_t k = (size_t)j * G + i;
       if (ref->mask && !ref->mask[k]) {
         if (ref->error_map) ref->error_map[k] = NAN;
         if (ref->normal_map) ref->normal_map[k] = NAN;
+        if (ref->shading_map) ref->shading_map[k] = NAN;
         continue;
       }
       counted++;
@@ -514,6 +556,7 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
       double err_h = t >= 0 ? fabs(r.z[k] - h) : INFINITY;
       if (ref->error_map) ref->error_map[k] = t >= 0 ? (float)((r.z[k] - h) / hmax) : NAN;
       if (ref->normal_map) ref->normal_map[k] = NAN;
+      if (ref->shading_map) ref->shading_map[k] = NAN;
       if (t >= 0) {
         covered++;
         l1 += err_h;
@@ -526,37 +569,44 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
         double nf[3], me[3] = {-(double)ref->grad[2 * k], -(double)ref->grad[2 * k + 1], 1.0};
         face_normal(pos, r.tris[t].p, nf);
         if (nf[2] < 0.0) nf[0] = -nf[0], nf[1] = -nf[1], nf[2] = -nf[2];
-        double cx = nf[1] * me[2] - nf[2] * me[1];
-        double cy = nf[2] * me[0] - nf[0] * me[2];
-        double cz = nf[0] * me[1] - nf[1] * me[0];
-        double dot = nf[0] * me[0] + nf[1] * me[1] + nf[2] * me[2];
-        double a = atan2(sqrt(cx * cx + cy * cy + cz * cz), dot) * (180.0 / PI_);
+        double a = angle_deg(nf, me), ns[3];
+        if (srow && shading_normal(mesh, &r.tris[t], (i + 0.5) / G, (j + 0.5) / G, ns)) {
+          double b = angle_deg(ns, me);
+          srow[ns_count++] = b;
+          if (ref->shading_map) ref->shading_map[k] = (float)b;
+          ssum += b;
+        }
         arow[nn++] = a;
         if (ref->normal_map) ref->normal_map[k] = (float)a;
         asum += a;
       }
     }
-    row[2 * (size_t)j] = l1;
-    row[2 * (size_t)j + 1] = asum;
-    cnt[5 * (size_t)j] = covered;
-    cnt[5 * (size_t)j + 1] = band;
-    cnt[5 * (size_t)j + 2] = wrong;
-    cnt[5 * (size_t)j + 3] = nn;
-    cnt[5 * (size_t)j + 4] = counted;
+    row[4 * (size_t)j] = l1;
+    row[4 * (size_t)j + 1] = asum;
+    row[4 * (size_t)j + 2] = ssum;
+    cnt[6 * (size_t)j] = covered;
+    cnt[6 * (size_t)j + 1] = band;
+    cnt[6 * (size_t)j + 2] = wrong;
+    cnt[6 * (size_t)j + 3] = nn;
+    cnt[6 * (size_t)j + 4] = counted;
+    cnt[6 * (size_t)j + 5] = ns_count;
   }
-  double l1 = 0.0, asum = 0.0;
-  long covered = 0, band = 0, wrong = 0, nn = 0, counted = 0;
+  double l1 = 0.0, asum = 0.0, ssum = 0.0;
+  long covered = 0, band = 0, wrong = 0, nn = 0, counted = 0, ns = 0;
   for (int j = 0; j < G; j++) {
-    l1 += row[2 * (size_t)j];
-    asum += row[2 * (size_t)j + 1];
-    covered += cnt[5 * (size_t)j];
-    band += cnt[5 * (size_t)j + 1];
-    wrong += cnt[5 * (size_t)j + 2];
-    counted += cnt[5 * (size_t)j + 4];
-    long rn = cnt[5 * (size_t)j + 3];
+    l1 += row[4 * (size_t)j];
+    asum += row[4 * (size_t)j + 1];
+    ssum += row[4 * (size_t)j + 2];
+    covered += cnt[6 * (size_t)j];
+    band += cnt[6 * (size_t)j + 1];
+    wrong += cnt[6 * (size_t)j + 2];
+    counted += cnt[6 * (size_t)j + 4];
+    long rn = cnt[6 * (size_t)j + 3], rs = cnt[6 * (size_t)j + 5];
     /* Compact the rows' angles to the front, in row order. */
     memmove(angles + nn, angles + (size_t)j * G, (size_t)rn * sizeof *angles);
     nn += rn;
+    if (shading) memmove(shading + ns, shading + (size_t)j * G, (size_t)rs * sizeof *shading);
+    ns += rs;
   }
   out->samples = covered;
   out->band_samples = band;
@@ -571,6 +621,14 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
     if (rank < 0) rank = 0;
     out->normal_p95_deg = select_kth(angles, nn, rank);
   }
+  out->shading_samples = ns;
+  out->shading_mean_deg = ns > 0 ? ssum / (double)ns : NAN;
+  out->shading_p95_deg = NAN;
+  if (ns > 0) {
+    long rank = (long)ceil(0.95 * (double)ns) - 1;
+    out->shading_p95_deg = select_kth(shading, ns, rank < 0 ? 0 : rank);
+  }
+  free(shading);
   free(row);
   free(cnt);
   free(angles);

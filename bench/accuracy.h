@@ -65,6 +65,11 @@ typedef struct ch_accuracy {
   double edge_length;  /* e = sqrt(2 / triangles) */
   double max_abs_h;    /* max |h| over the samples */
   long counted;        /* samples the figures count (all, or the mask's) */
+  /* The same for the mesh's own normals (vn) interpolated across each
+   * triangle, as smooth shading shows them; NaN (and 0 samples) for a
+   * mesh without normals. */
+  double shading_mean_deg, shading_p95_deg;
+  long shading_samples;
 } ch_accuracy;
 
 /* Distances to walls and creases count when below this bound (UV); the
@@ -90,6 +95,7 @@ typedef struct ch_accuracy_reference {
   float *normal_map;         /* optional, likewise: the normal error in degrees
                                 on the samples the normal figures use, NaN
                                 elsewhere */
+  float *shading_map;        /* optional, likewise: the shading normals' error */
   const unsigned char *mask; /* optional, set by the caller: grid^2 bytes
                                 (row j major); samples with 0 are left out of
                                 every figure (what a camera does not see) */

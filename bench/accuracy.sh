@@ -67,8 +67,8 @@ for r in rows:
     table[key(r)] = r
 names = sorted({k[0] for k in table})
 sizes = sorted({k[1] for k in table})
-print("| curves | size | method | triangles | L1 | L1 / grid | band | normal mean | normal p95 | holes |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+print("| curves | size | method | triangles | L1 | L1 / grid | band | normal mean | normal p95 | shading p95 | holes |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
 for name in names:
     for n in sizes:
         grid = table.get((name, n, "grid"))
@@ -77,6 +77,9 @@ for name in names:
             if not r:
                 continue
             ratio = r["l1"] / grid["l1"] if grid and grid["l1"] > 0 else float("nan")
+            shading = r.get("shading_p95_deg")
+            shading = f"{shading:.2f}" if shading is not None else "-"
             print(f"| {name} | {n // 1000}k | {method} | {r['triangles']} | {r['l1']:.3g} | {ratio:.3f} | "
-                  f"{100 * r['band']:.2f}% | {r['normal_mean_deg']:.2f} | {r['normal_p95_deg']:.2f} | {r['holes']:.2g} |")
+                  f"{100 * r['band']:.2f}% | {r['normal_mean_deg']:.2f} | {r['normal_p95_deg']:.2f} | {shading} | "
+                  f"{r['holes']:.2g} |")
 EOF

@@ -21,11 +21,14 @@
 
 static const char usage[] =
     "usage: chisel-accuracy MESH.obj [MORE.obj ...] CURVES.svg [--grid G] [--dci-res R] [--json] [--verbose]\n"
-    "                       [--error-png PREFIX] [--normal-png PREFIX] [--camera E,A,FOV]\n"
+    "                       [--error-png PREFIX] [--normal-png PREFIX] [--shading-png PREFIX]\n"
+    "                       [--camera E,A,FOV]\n"
     "\n"
     "Rasterises each mesh's non-vertical triangles in xy on the cell centres of a\n"
     "G x G grid over the unit square (planar base: z should be h(x, y)) and prints\n"
-    "L1, band error, normal error near features (mean, p95) and holes.\n"
+    "L1, band error, normal error near features (mean, p95: the facets'; for an OBJ\n"
+    "with vn on every corner also the shading normals', vn interpolated across each\n"
+    "triangle as smooth shading does) and holes.\n"
     "  --grid G      sample grid, 16..16384 (default 2048)\n"
     "  --dci-res R   resolution of the step curves' DCI for the exact h (default 4096)\n"
     "  --json        one JSON object per mesh instead of a text line\n"
@@ -34,6 +37,7 @@ static const char usage[] =
     "                in false colour (blue below, red above), uncovered samples 0\n"
     "  --normal-png P writes P<k>.png: the normal error (degrees, 10 full blue) on\n"
     "                the samples the normal figures use\n"
+    "  --shading-png P likewise for the shading normals' error\n"
     "  --camera ex,ey,ez,ax,ay,az,fov  count only the samples this camera sees\n"
     "                (chisel displace --camera): (u, v, 0) inside its square frustum\n"
     "                and in front of it, from above the plane (bench/warp.sh)\n";
@@ -69,7 +73,7 @@ static double now(void) {
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* A plain OBJ reader for the positions and faces only: ch_mesh_read goes
+/* A plain OBJ reader for the positions, normals and faces only: ch_mesh_read goes
  * through OpenMesh, which takes about 7 s for a 2.1M-triangle OBJ; this
  * takes well under 1 s. Anything but .obj goes to ch_mesh_read. Keeps
  * coordinates in double (OpenMesh reads float). */
@@ -101,13 +105,14 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
     return ch_error_set(err, CH_ERR_IO, "%s: read error", path);
   }
   text[size] = '\0';
-  size_t np = 0, nf = 0, nc = 0, cap_p = 1024, cap_f = 1024, cap_c = 4096;
-  double *pos = malloc(3 * cap_p * sizeof *pos);
-  int *fs = malloc((cap_f + 1) * sizeof *fs), *cp = malloc(cap_c * sizeof *cp);
+  size_t np = 0, nf = 0, nc = 0, nn = 0, cap_p = 1024, cap_f = 1024, cap_c = 4096, cap_n = 1024;
+  double *pos = malloc(3 * cap_p * sizeof *pos), *nrm = malloc(3 * cap_n * sizeof *nrm);
+  int *fs = malloc((cap_f + 1) * sizeof *fs), *cp = malloc(cap_c * sizeof *cp), *cn = malloc(cap_c * sizeof *cn);
+  int every_corner_normal = 1; /* (normals are kept only if every corner names one) */
   ch_status st = CH_OK;
   long line = 0;
   char *p = text, *end = text + size;
-  while (p < end && !st && pos && fs && cp) {
+  while (p < end && !st && pos && fs && cp && nrm && cn) {
     line++;
     char *eol = memchr(p, '\n', (size_t)(end - p));
     if (!eol) eol = end;
@@ -127,6 +132,21 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
         q = next;
       }
       np++;
+    } else if (p[0] == 'v' && p[1] == 'n' && (p[2] == ' ' || p[2] == '\t')) {
+      if (nn == cap_n) {
+        double *g = realloc(nrm, 3 * (cap_n *= 2) * sizeof *nrm);
+        if (!g) break;
+        nrm = g;
+      }
+      char *q = p + 2;
+      for (int k = 0; k < 3; k++) {
+        char *next;
+        nrm[3 * nn + k] = strtod(q, &next);
+        if (next == q || !isfinite(nrm[3 * nn + k]))
+          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad normal", path, line);
+        q = next;
+      }
+      nn++;
     } else if (p[0] == 'f' && (p[1] == ' ' || p[1] == '\t')) {
       size_t first = nc;
       char *q = p + 1;
@@ -145,16 +165,28 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
           break;
         }
         if (nc == cap_c) {
-          int *g = realloc(cp, (cap_c *= 2) * sizeof *cp);
-          if (!g) {
+          int *g = realloc(cp, 2 * cap_c * sizeof *cp), *h = g ? realloc(cn, 2 * cap_c * sizeof *cn) : NULL;
+          if (g) cp = g;
+          if (h) cn = h;
+          if (!g || !h) {
             st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
             break;
           }
-          cp = g;
+          cap_c *= 2;
         }
-        cp[nc++] = (int)(idx - 1);
+        /* v/vt/vn or v//vn: the normal's index after the second slash */
+        long normal = 0;
         q = next;
-        while (*q && *q != ' ' && *q != '\t' && *q != '\r') q++; /* /vt/vn */
+        if (*q == '/') {
+          q++;
+          while (*q && *q != '/' && *q != ' ' && *q != '\t' && *q != '\r') q++;
+          if (*q == '/') normal = strtol(q + 1, &next, 10), q = next;
+        }
+        if (normal < 0) normal += (long)nn + 1;
+        if (normal < 1 || normal > (long)nn) every_corner_normal = 0;
+        cn[nc] = (int)(normal - 1);
+        cp[nc++] = (int)(idx - 1);
+        while (*q && *q != ' ' && *q != '\t' && *q != '\r') q++;
       }
       if (!st && nc - first < 3) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: face with fewer than 3 corners", path, line);
       if (!st) {
@@ -171,7 +203,15 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
     p = eol + 1;
   }
   free(text);
-  if (!st && (p < end || !pos || !fs || !cp)) st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+  if (!st && (p < end || !pos || !fs || !cp || !nrm || !cn))
+    st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+  if (st || !every_corner_normal || nn == 0) {
+    free(nrm);
+    free(cn);
+    nrm = NULL;
+    cn = NULL;
+    nn = 0;
+  }
   if (st) {
     free(pos);
     free(fs);
@@ -185,6 +225,9 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
   m->face_start = fs;
   m->num_corners = (int)nc;
   m->corner_position = cp;
+  m->num_normals = (int)nn;
+  m->normals = nrm;
+  m->corner_normal = cn;
   return CH_OK;
 }
 
@@ -228,7 +271,7 @@ static void json_string(const char *s) {
 int main(int argc, char **argv) {
   const char *paths[256];
   int npaths = 0, json = 0, verbose = 0;
-  const char *error_png = NULL, *normal_png = NULL;
+  const char *error_png = NULL, *normal_png = NULL, *shading_png = NULL;
   long grid = 2048, dci_res = 4096;
   const char *camera_text = NULL;
   for (int i = 1; i < argc; i++) {
@@ -245,6 +288,9 @@ int main(int argc, char **argv) {
     } else if (!strcmp(a, "--normal-png")) {
       if (i + 1 >= argc) return usage_error("missing the value of", a);
       normal_png = argv[++i];
+    } else if (!strcmp(a, "--shading-png")) {
+      if (i + 1 >= argc) return usage_error("missing the value of", a);
+      shading_png = argv[++i];
     } else if (!strcmp(a, "--error-png")) {
       if (i + 1 >= argc) return usage_error("missing the value of", a);
       error_png = argv[++i];
@@ -325,6 +371,10 @@ int main(int argc, char **argv) {
     fprintf(stderr, "chisel-accuracy: out of memory for the normal map\n");
     rc = 1;
   }
+  if (shading_png && !(ref.shading_map = malloc((size_t)grid * (size_t)grid * sizeof *ref.shading_map))) {
+    fprintf(stderr, "chisel-accuracy: out of memory for the shading map\n");
+    rc = 1;
+  }
   for (int m = 0; !rc && m + 1 < npaths; m++) {
     ch_mesh mesh;
     double t3 = now();
@@ -383,6 +433,10 @@ int main(int argc, char **argv) {
       rc = fail(&err);
       break;
     }
+    if (shading_png && (st = write_map_png(shading_png, m, ref.shading_map, (size_t)grid, -1.0f, 10.0f, &err))) {
+      rc = fail(&err);
+      break;
+    }
     if (error_png && (st = write_map_png(error_png, m, ref.error_map, (size_t)grid, 1.0f, 0.0f, &err))) {
       rc = fail(&err);
       break;
@@ -392,22 +446,32 @@ int main(int argc, char **argv) {
       json_string(paths[m]);
       printf(", \"curves\": ");
       json_string(svg);
-      printf(", \"grid\": %ld, \"dci_res\": %ld, \"triangles\": %ld, \"edge_length\": %.9g, "
-             "\"max_abs_h\": %.9g, \"l1\": %.9g, \"band\": %.9g, \"normal_mean_deg\": %.9g, "
-             "\"normal_p95_deg\": %.9g, \"holes\": %.9g, \"samples\": %ld, \"band_samples\": %ld, "
-             "\"normal_samples\": %ld, \"counted\": %ld}\n",
-             grid, dci_res, a.triangles, a.edge_length, a.max_abs_h, a.l1, a.band, a.normal_mean_deg,
-             a.normal_p95_deg, a.holes, a.samples, a.band_samples, a.normal_samples, a.counted);
+      printf(
+          ", \"grid\": %ld, \"dci_res\": %ld, \"triangles\": %ld, \"edge_length\": %.9g, "
+          "\"max_abs_h\": %.9g, \"l1\": %.9g, \"band\": %.9g, \"normal_mean_deg\": %.9g, "
+          "\"normal_p95_deg\": %.9g, \"holes\": %.9g, \"samples\": %ld, \"band_samples\": %ld, "
+          "\"normal_samples\": %ld, \"counted\": %ld, \"shading_samples\": %ld",
+          grid, dci_res, a.triangles, a.edge_length, a.max_abs_h, a.l1, a.band, a.normal_mean_deg, a.normal_p95_deg,
+          a.holes, a.samples, a.band_samples, a.normal_samples, a.counted, a.shading_samples);
+      /* (JSON has no NaN: null for a mesh without normals) */
+      if (a.shading_samples > 0)
+        printf(", \"shading_mean_deg\": %.9g, \"shading_p95_deg\": %.9g}\n", a.shading_mean_deg, a.shading_p95_deg);
+      else
+        printf(", \"shading_mean_deg\": null, \"shading_p95_deg\": null}\n");
     } else {
-      printf("%s: triangles %ld e %.4g L1 %.4g band %.4g (%ld samples) normal mean %.3g p95 %.3g deg (%ld "
-             "samples) holes %.4g max|h| %.4g\n",
-             paths[m], a.triangles, a.edge_length, a.l1, a.band, a.band_samples, a.normal_mean_deg,
-             a.normal_p95_deg, a.normal_samples, a.holes, a.max_abs_h);
+      printf(
+          "%s: triangles %ld e %.4g L1 %.4g band %.4g (%ld samples) normal mean %.3g p95 %.3g deg (%ld "
+          "samples)",
+          paths[m], a.triangles, a.edge_length, a.l1, a.band, a.band_samples, a.normal_mean_deg, a.normal_p95_deg,
+          a.normal_samples);
+      if (a.shading_samples > 0) printf(" shading mean %.3g p95 %.3g deg", a.shading_mean_deg, a.shading_p95_deg);
+      printf(" holes %.4g max|h| %.4g\n", a.holes, a.max_abs_h);
     }
     fflush(stdout);
   }
   free(ref.error_map);
   free(ref.normal_map);
+  free(ref.shading_map);
   free(mask);
   ch_accuracy_reference_free(&ref);
   ch_height_free(&height);
