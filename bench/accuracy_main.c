@@ -8,6 +8,7 @@
  * time goes for step curves (the DCI). Exit status: 0, 2 bad input or usage,
  * 1 internal failure. */
 #define _POSIX_C_SOURCE 200809L
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -180,7 +181,7 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
         if (*q == '/') {
           q++;
           while (*q && *q != '/' && *q != ' ' && *q != '\t' && *q != '\r') q++;
-          if (*q == '/') normal = strtol(q + 1, &next, 10), q = next;
+          if (*q == '/' && (isdigit((unsigned char)q[1]) || q[1] == '-')) normal = strtol(q + 1, &next, 10), q = next;
         }
         if (normal < 0) normal += (long)nn + 1;
         if (normal < 1 || normal > (long)nn) every_corner_normal = 0;

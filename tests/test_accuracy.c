@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "accuracy.h"
+#include "ch_math.h"
 #include "ch_test.h"
 
 #define PI_ 3.14159265358979323846
@@ -196,6 +197,51 @@ static void test_v_groove_exact(void) {
   CHECK(a.normal_samples == rows_n * G);
   CHECK(a.band_samples == rows_b * G);
   CHECK(rows_b < G);
+  CHECK(a.shading_samples == 0 && isnan(a.shading_p95_deg)); /* no vn */
+
+  /* Shading normals: one vn per vertex row, tilted theta[j] in the (v, z)
+   * plane, shared across the creases (the rims get half the slope, the
+   * bottom none), interpolated linearly in v within every triangle (the
+   * normals depend on the row only). Expected, row by row: the angle
+   * between that interpolation and the exact normal (0 on the flat, +-alpha
+   * on the sides, tan alpha = 0.01 / 0.0625). */
+  double alpha = atan(0.01 / 0.0625), theta[5] = {0.0, 0.5 * alpha, 0.0, -0.5 * alpha, 0.0};
+  m.num_normals = nr;
+  m.normals = malloc(3 * (size_t)nr * sizeof *m.normals);
+  m.corner_normal = malloc((size_t)m.num_corners * sizeof *m.corner_normal);
+  REQUIRE(m.normals && m.corner_normal);
+  for (int j = 0; j < nr; j++) {
+    m.normals[3 * j] = 0.0;
+    m.normals[3 * j + 1] = sin(theta[j]);
+    m.normals[3 * j + 2] = cos(theta[j]);
+  }
+  for (int c = 0; c < m.num_corners; c++) m.corner_normal[c] = m.corner_position[c] / nc;
+  REQUIRE(measure(&m, &s, G, &a) == CH_OK);
+  double *want = malloc((size_t)G * sizeof *want), sum = 0.0;
+  REQUIRE(want);
+  long nw = 0;
+  for (int j = 0; j < G; j++) {
+    double v = (j + 0.5) / G, d = INFINITY;
+    for (int k = 1; k <= 3; k++) d = fmin(d, fabs(v - rows[k]));
+    if (!(d >= 1e-3 && d <= 1e-2)) continue;
+    int k = 0;
+    while (v > rows[k + 1]) k++;
+    double t = (v - rows[k]) / (rows[k + 1] - rows[k]);
+    double phi =
+        atan2((1 - t) * sin(theta[k]) + t * sin(theta[k + 1]), (1 - t) * cos(theta[k]) + t * cos(theta[k + 1]));
+    double exact = v > rows[1] && v < rows[2] ? alpha : v > rows[2] && v < rows[3] ? -alpha : 0.0;
+    want[nw++] = fabs(phi - exact) * 180.0 / PI_;
+    sum += want[nw - 1];
+  }
+  qsort(want, (size_t)nw, sizeof *want, ch_cmp_double);
+  long rank = (long)ceil(0.95 * (double)nw * G) - 1; /* every row repeats G times */
+  printf("  v groove, shared vn: shading mean %.4f p95 %.4f deg (expected %.4f, %.4f)\n", a.shading_mean_deg,
+         a.shading_p95_deg, sum / nw, want[rank / G]);
+  CHECK(a.shading_samples == a.normal_samples);
+  CHECK_NEAR(a.shading_mean_deg, sum / nw, 1e-6);
+  CHECK_NEAR(a.shading_p95_deg, want[rank / G], 1e-6);
+  CHECK(a.shading_p95_deg > 1.0); /* (the case is not trivial) */
+  free(want);
   ch_mesh_free(&m);
   scene_free(&s);
 }
@@ -208,11 +254,6 @@ typedef struct expected {
   double l1, band, normal_mean, normal_p95;
   long band_samples, normal_samples;
 } expected;
-
-static int cmp_double(const void *a, const void *b) {
-  double x = *(const double *)a, y = *(const double *)b;
-  return (x > y) - (x < y);
-}
 
 static void expect_rows(const scene *s, int n, int G, const double *walls, int nwalls, expected *x) {
   double hmax = 0.0, l1 = 0.0, asum = 0.0;
@@ -248,7 +289,7 @@ static void expect_rows(const scene *s, int n, int G, const double *walls, int n
       list[nl++] = ang[j];
     }
   }
-  qsort(list, (size_t)nl, sizeof *list, cmp_double);
+  qsort(list, (size_t)nl, sizeof *list, ch_cmp_double);
   x->l1 = l1 / G / hmax;
   x->band = (double)wrong / (double)band;
   x->band_samples = band * G;
