@@ -78,6 +78,17 @@ static double now(void) {
  * through OpenMesh, which takes about 7 s for a 2.1M-triangle OBJ; this
  * takes well under 1 s. Anything but .obj goes to ch_mesh_read. Keeps
  * coordinates in double (OpenMesh reads float). */
+/* Three finite numbers from q into out; nonzero if there are not. */
+static int read_three(const char *q, double out[3]) {
+  for (int k = 0; k < 3; k++) {
+    char *next;
+    out[k] = strtod(q, &next);
+    if (next == q || !isfinite(out[k])) return -1;
+    q = next;
+  }
+  return 0;
+}
+
 static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   FILE *fp = fopen(path, "rb");
@@ -124,14 +135,7 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
         if (!g) break;
         pos = g;
       }
-      char *q = p + 1;
-      for (int k = 0; k < 3; k++) {
-        char *next;
-        pos[3 * np + k] = strtod(q, &next);
-        if (next == q || !isfinite(pos[3 * np + k]))
-          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad vertex", path, line);
-        q = next;
-      }
+      if (read_three(p + 1, &pos[3 * np])) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad vertex", path, line);
       np++;
     } else if (p[0] == 'v' && p[1] == 'n' && (p[2] == ' ' || p[2] == '\t')) {
       if (nn == cap_n) {
@@ -139,14 +143,7 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
         if (!g) break;
         nrm = g;
       }
-      char *q = p + 2;
-      for (int k = 0; k < 3; k++) {
-        char *next;
-        nrm[3 * nn + k] = strtod(q, &next);
-        if (next == q || !isfinite(nrm[3 * nn + k]))
-          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad normal", path, line);
-        q = next;
-      }
+      if (read_three(p + 2, &nrm[3 * nn])) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad normal", path, line);
       nn++;
     } else if (p[0] == 'f' && (p[1] == ' ' || p[1] == '\t')) {
       size_t first = nc;
