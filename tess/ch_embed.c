@@ -310,7 +310,9 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       int c = tm->face_start[t] + k, v = tm->corner_position[c];
       T->v[k] = v;
       memcpy(T->uv[k], &tm->uvs[2 * (size_t)tm->corner_uv[c]], sizeof T->uv[k]);
-      if (tess->vertex_face[v] == T->face) {
+      if (tess->corner_st) {
+        memcpy(T->st[k], &tess->corner_st[6 * (size_t)t + 2 * k], sizeof T->st[k]);
+      } else if (tess->vertex_face[v] == T->face) {
         memcpy(T->st[k], &tess->vertex_st[2 * (size_t)v], sizeof T->st[k]);
       } else if (ch_surface_locate(surface, T->face, T->uv[k], T->st[k])) {
         failed = 1;
@@ -339,11 +341,9 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   }
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < w.nverts; v++) {
-    ch_surface_point sp;
     w.verts[v].face = tess->vertex_face[v];
     memcpy(w.verts[v].st, &tess->vertex_st[2 * (size_t)v], sizeof w.verts[v].st);
-    ch_surface_eval(surface, w.verts[v].face, w.verts[v].st[0], w.verts[v].st[1], &sp);
-    memcpy(w.verts[v].uv, sp.uv, sizeof sp.uv);
+    ch_surface_eval_uv(surface, w.verts[v].face, w.verts[v].st[0], w.verts[v].st[1], w.verts[v].uv);
   }
   double mean_edge = sqrt(2.0 * uv_area / (w.ntris > 0 ? w.ntris : 1));
   double radius = desc && desc->step_radius > 0.0 ? desc->step_radius : 4.0 * mean_edge;
@@ -785,7 +785,7 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     memset(&r->best, 0, sizeof r->best);
     r->best_dropped = 1;
   }
-  ch_tess_desc td = {.target_triangles = rq->base, .warp = r->d.warp};
+  ch_tess_desc td = {.target_triangles = rq->base, .warp = r->d.warp, .corner_st = 1};
   if ((st = ch_tess_build(r->surface, &td, &r->cur_tess, r->err))) return st;
   if (!(r->pilot.reference_edge > 0.0)) {
     /* The mean UV edge at the target's density, from this run's area. */
@@ -822,6 +822,8 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   int over = 0;
   r->pilot.over_cap = &over;
   st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats, &r->kept, r->err);
+  free(r->cur_tess.corner_st); /* (read only where the working mesh starts) */
+  r->cur_tess.corner_st = NULL;
   r->pilot.over_cap = NULL;
   if (st && over) { /* the count model decides (its error keeps the message set here) */
     target_drop_current(r);

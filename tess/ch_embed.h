@@ -116,7 +116,9 @@ typedef struct ch_embed_stats {
 double ch_embed_angle_deg(double reference_edge);
 
 /* Embeds the features of height into tess (a ch_tess_build result over
- * surface) and writes the displaced mesh to out: triangles counter-clockwise
+ * surface; with corner_st, or each corner whose vertex another face
+ * evaluated is located in its own face by a search) and writes the
+ * displaced mesh to out: triangles counter-clockwise
  * as the base faces are, positions B + h N, face-varying UVs in the
  * original UV, per-corner normals. Parallel where it matters; the same bytes
  * for any number of threads. Errors: CH_ERR_NOMEM, CH_ERR_INTERNAL. out is

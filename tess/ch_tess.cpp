@@ -299,6 +299,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
   out->vertex_face = alloc_array<int>(npos);
   out->vertex_st = alloc_array<double>(2 * npos);
   out->triangle_face = alloc_array<int>(ntri);
+  if (desc->corner_st) out->corner_st = alloc_array<double>(6 * ntri);
   out->num_edges = ne;
   out->edge_rates = alloc_array<int>(ne);
   out->edge_vertices = alloc_array<int>(2 * (size_t)ne);
@@ -370,9 +371,10 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
 #pragma omp parallel
   {
     std::vector<int> r, bpos, buv, facets;
-    std::vector<double> coords;
+    std::vector<double> coords, bst;
     try {
       coords.resize(2 * (size_t)max_coords);
+      if (out->corner_st) bst.resize(2 * (size_t)max_coords);
       bpos.resize(max_coords);
       buv.resize(max_coords);
       facets.resize(3 * (size_t)max_facets);
@@ -395,14 +397,23 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
           int c = a + k;
           bpos[b] = S->vertex_out[S->corner_position[c]];
           buv[b] = S->corner_uv[c];
+          if (out->corner_st) param.GetVertexCoord(k, &bst[2 * (size_t)b]);
           b++;
           int e = S->face_edge[c], re = rates[e];
           bool fwd = S->face_edge_fwd[c];
           long ub = nuv0 + edge_uv[e] + (long)S->face_edge_group[c] * (re - 1);
+          /* (this face's coordinate of the edge's points: the fraction the
+           * lowest face on the edge placed them at, as for the UVs above) */
+          int i0 = S->edge_face_start[e], f0 = S->edge_face[i0], k0 = S->edge_corner[i0];
+          bool fwd0 = S->face_edge_fwd[S->face_start[f0] + k0];
           for (int j = 0; j < re - 1; j++, b++) {
             int jc = fwd ? j : re - 2 - j; /* canonical index */
             bpos[b] = (int)(nb + edge_pt[e] + jc);
             buv[b] = (int)(ub + jc);
+            if (out->corner_st) {
+              double xf = edge_place(f0, k0, fwd0 ? (double)(jc + 1) / re : (double)(re - 1 - jc) / re);
+              param.GetEdgeCoord(k, fwd == fwd0 ? xf : 1.0 - xf, &bst[2 * (size_t)b]);
+            }
           }
         }
         if (b != nbd) {
@@ -445,6 +456,11 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
             M.corner_position[3 * tri + c] = p;
             M.corner_normal[3 * tri + c] = p;
             M.corner_uv[3 * tri + c] = u;
+            if (out->corner_st) {
+              const double *q = i < nbd ? &bst[2 * (size_t)i] : &coords[2 * (size_t)(i - nbd)];
+              out->corner_st[6 * tri + 2 * c] = q[0];
+              out->corner_st[6 * tri + 2 * c + 1] = q[1];
+            }
           }
         }
       } catch (...) {
@@ -476,6 +492,7 @@ extern "C" void ch_tess_free(ch_tess_result *r) {
   std::free(r->vertex_face);
   std::free(r->vertex_st);
   std::free(r->triangle_face);
+  std::free(r->corner_st);
   std::free(r->edge_rates);
   std::free(r->edge_vertices);
   std::memset(r, 0, sizeof *r);

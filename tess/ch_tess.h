@@ -29,6 +29,7 @@ typedef struct ch_tess_desc {
    * affine and the focus 1 over the quad's UV rectangle). So the density
    * follows the warp where the camera looks, at the same count. */
   const struct ch_warp *warp;
+  int corner_st; /* also fill ch_tess_result.corner_st */
 } ch_tess_desc;
 
 /* Rates for target_triangles: the rate of a base edge is max(1, round(d *
@@ -61,6 +62,11 @@ typedef struct ch_tess_result {
   int *vertex_face;     /* mesh.num_positions */
   double *vertex_st;    /* 2 * mesh.num_positions */
   int *triangle_face;   /* mesh.num_faces: the base face of each triangle */
+  double *corner_st;    /* with ch_tess_desc.corner_st, else NULL: 6 *
+                           mesh.num_faces, each corner's (s,t) in its
+                           triangle's face (where vertex_face differs, the
+                           same point in this face's parameters: Bfr's
+                           coordinate of it, not a search for its UV) */
   int num_edges;        /* base edges */
   int *edge_rates;      /* num_edges */
   int *edge_vertices;   /* 2 * num_edges: base position indices */

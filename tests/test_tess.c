@@ -633,8 +633,8 @@ static void test_watertight(void) {
       make_fan(&m);
     }
     for (int sc = 0; sc < 2; sc++) {
-      for (int k = 0; k < 4; k++) tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){rates[k], 0, NULL});
-      tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){0, i < NUM_MODELS ? 30000 : 3000, NULL});
+      for (int k = 0; k < 4; k++) tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){rates[k], 0, NULL, 0});
+      tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){0, i < NUM_MODELS ? 30000 : 3000, NULL, 0});
     }
     ch_mesh_free(&m);
   }
@@ -653,7 +653,7 @@ static void test_targets(void) {
     for (int k = 0; k < ntargets; k++) {
       ch_tess_result r;
       ch_error err = {0};
-      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, targets[k], NULL}, &r, &err);
+      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, targets[k], NULL, 0}, &r, &err);
       CHECK_MSG(st == CH_OK, "%s", err.message);
       if (st != CH_OK) continue;
       double rel = (r.mesh.num_faces - (double)targets[k]) / targets[k];
@@ -686,7 +686,7 @@ static void test_target_between_steps(void) {
   ch_surface *S = surface_of(&m, CH_SCHEME_CATMARK);
   REQUIRE(S);
   ch_tess_result r;
-  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 80000, NULL}, &r, NULL) == CH_OK);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 80000, NULL, 0}, &r, NULL) == CH_OK);
   int n12 = 0, n13 = 0;
   for (int e = 0; e < r.num_edges; e++) {
     n12 += r.edge_rates[e] == 12;
@@ -700,6 +700,52 @@ static void test_target_between_steps(void) {
   ch_tess_free(&r);
   ch_surface_destroy(S);
   ch_mesh_free(&m);
+}
+
+/* ---- corners' parameters ---------------------------------------------------- */
+
+/* corner_st names, in each triangle's own face, the point its corner's
+ * vertex was evaluated at in another face: evaluated there it gives the
+ * vertex's position and the corner's UV (to rounding), and where the face
+ * is the vertex's own it is vertex_st exactly. */
+static void test_corner_st(void) {
+  for (int i = 0; i < NUM_MODELS; i++)
+    for (int sc = 0; sc < 2; sc++) {
+      ch_mesh m;
+      REQUIRE(load_model(models[i], &m));
+      ch_surface *S = surface_of(&m, (ch_scheme)sc);
+      REQUIRE(S);
+      ch_tess_result r;
+      REQUIRE(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 20000, .corner_st = 1}, &r, NULL) == CH_OK);
+      REQUIRE(r.corner_st);
+      double worst_p = 0.0, worst_uv = 0.0, size = 0.0;
+      long other = 0, own_differs = 0;
+      for (int v = 0; v < r.mesh.num_positions; v++)
+        for (int k = 0; k < 3; k++) size = fmax(size, fabs(r.mesh.positions[3 * (size_t)v + k]));
+      for (int t = 0; t < r.mesh.num_faces; t++)
+        for (int k = 0; k < 3; k++) {
+          int c = 3 * t + k, v = r.mesh.corner_position[c], f = r.triangle_face[t];
+          const double *st = &r.corner_st[2 * (size_t)c];
+          ch_surface_point sp;
+          REQUIRE(ch_surface_eval(S, f, st[0], st[1], &sp) == CH_OK);
+          const double *p = &r.mesh.positions[3 * (size_t)v], *uv = &r.mesh.uvs[2 * (size_t)r.mesh.corner_uv[c]];
+          for (int j = 0; j < 3; j++) worst_p = fmax(worst_p, fabs(sp.position[j] - p[j]));
+          for (int j = 0; j < 2; j++) worst_uv = fmax(worst_uv, fabs(sp.uv[j] - uv[j]));
+          if (r.vertex_face[v] != f)
+            other++;
+          else
+            own_differs += st[0] != r.vertex_st[2 * (size_t)v] || st[1] != r.vertex_st[2 * (size_t)v + 1];
+        }
+      fprintf(stderr, "  %s %s: %ld corners in another face than their vertex's; position off by %.2g (size %.3g), UV by %.2g\n",
+              models[i], sc ? "catmark" : "bilinear", other, worst_p, size, worst_uv);
+      CHECK(i == 0 || other > 0); /* (the plane is one face) */
+      CHECK(own_differs == 0);
+      CHECK_MSG(worst_p <= 1e-12 * size && worst_uv <= 1e-12, "%s: position off by %g, UV by %g", models[i], worst_p,
+                worst_uv);
+      ch_tess_free(&r);
+      ch_surface_destroy(S);
+      ch_mesh_free(&m);
+    }
 }
 
 /* ---- determinism with threads ---------------------------------------------- */
@@ -717,6 +763,8 @@ static int same_result(const ch_tess_result *a, const ch_tess_result *b) {
          !memcmp(a->vertex_face, b->vertex_face, sizeof(int) * x->num_positions) &&
          !memcmp(a->vertex_st, b->vertex_st, 2 * sizeof(double) * x->num_positions) &&
          !memcmp(a->triangle_face, b->triangle_face, sizeof(int) * x->num_faces) &&
+         (!a->corner_st) == (!b->corner_st) &&
+         (!a->corner_st || !memcmp(a->corner_st, b->corner_st, 6 * sizeof(double) * x->num_faces)) &&
          !memcmp(a->edge_rates, b->edge_rates, sizeof(int) * a->num_edges);
 }
 
@@ -730,7 +778,7 @@ static void test_threads(void) {
       ch_surface *S = surface_of(&m, (ch_scheme)sc);
       REQUIRE(S);
       ch_tess_result r1, r2;
-      ch_tess_desc d = {0, 130000, NULL};
+      ch_tess_desc d = {.target_triangles = 130000, .corner_st = 1};
       omp_set_num_threads(1);
       REQUIRE(ch_tess_build(S, &d, &r1, NULL) == CH_OK);
       omp_set_num_threads(2);
@@ -754,7 +802,7 @@ static void test_write_obj(void) {
   ch_surface *S = surface_of(&m, CH_SCHEME_CATMARK);
   REQUIRE(S);
   ch_tess_result r;
-  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 20000, NULL}, &r, NULL) == CH_OK);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 20000, NULL, 0}, &r, NULL) == CH_OK);
   const char *dir = getenv("TMPDIR");
   char path[1100];
   snprintf(path, sizeof path, "%s/tess_torus.obj", dir && *dir ? dir : "/tmp");
@@ -786,16 +834,16 @@ static void test_bad_input(void) {
   CHECK(ch_surface_create(&m, (ch_scheme)7, &S, &err) == CH_ERR_INPUT);
   REQUIRE(ch_surface_create(&m, CH_SCHEME_CATMARK, &S, &err) == CH_OK);
   ch_tess_result r;
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 0, NULL}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){2, 100, NULL}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){40000, 0, NULL}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){32767, 0, NULL}, &r, &err) == CH_ERR_INPUT); /* 1.3e10 */
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 0, NULL, 0}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){2, 100, NULL, 0}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){40000, 0, NULL, 0}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){32767, 0, NULL, 0}, &r, &err) == CH_ERR_INPUT); /* 1.3e10 */
   CHECK(strstr(err.message, "maximum") != NULL);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 3, NULL}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 3, NULL, 0}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
   CHECK(strstr(err.message, "below") != NULL);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 12, NULL}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 12, NULL, 0}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
   ch_tess_free(&r);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 1L << 40, NULL}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 1L << 40, NULL, 0}, &r, &err) == CH_ERR_INPUT);
   CHECK(r.mesh.positions == NULL && r.edge_rates == NULL);
   ch_surface_destroy(S);
   ch_surface_destroy(NULL);
@@ -812,7 +860,7 @@ static void test_bad_input(void) {
   make_mesh(&m, 9, pos9, 6, cube_sizes, cube_idx, uvs, 4, cuv4);
   for (int sc = 0; sc < 2; sc++) {
     REQUIRE(ch_surface_create(&m, (ch_scheme)sc, &S, &err) == CH_OK);
-    REQUIRE(ch_tess_build(S, &(ch_tess_desc){3, 0, NULL}, &r, &err) == CH_OK);
+    REQUIRE(ch_tess_build(S, &(ch_tess_desc){3, 0, NULL, 0}, &r, &err) == CH_OK);
     CHECK(r.mesh.num_positions == 8 + 12 * 2 + 6 * 4);
     CHECK(check_tess("cube with an unused position", &m, S, &r, 1) == 0);
     ch_tess_free(&r);
@@ -885,7 +933,7 @@ static void test_warped(void) {
       REQUIRE(warp_for(S, cam, &w, &set));
       ch_tess_result r, flat;
       ch_error err = {0};
-      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, 30000, &w}, &r, &err);
+      ch_status st = ch_tess_build(S, &(ch_tess_desc){.target_triangles = 30000, .warp = &w}, &r, &err);
       CHECK_MSG(st == CH_OK, "%s: %s", models[i], err.message);
       if (st == CH_OK) {
         char what[256];
@@ -943,7 +991,7 @@ static void test_warped(void) {
                 checked, worst);
         CHECK(worst < 1e-6 && checked > r.mesh.num_positions / 10);
         /* density: the quarter the camera looks at holds more triangles */
-        REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 30000, NULL}, &flat, &err) == CH_OK);
+        REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 30000, NULL, 0}, &flat, &err) == CH_OK);
         long near_w = 0, near_f = 0;
         for (int pass = 0; pass < 2; pass++) {
           const ch_mesh *M = pass ? &flat.mesh : &r.mesh;
@@ -1001,6 +1049,7 @@ int main(int argc, char **argv) {
   RUN_IF(test_watertight);
   RUN_IF(test_targets);
   RUN_IF(test_target_between_steps);
+  RUN_IF(test_corner_st);
   RUN_IF(test_threads);
   RUN_IF(test_write_obj);
   RUN_IF(test_bad_input);
