@@ -21,6 +21,7 @@
 #include "ch_embed_internal.h"
 #include "ch_height.h"
 #include "ch_math.h"
+#include "ch_refine_internal.h"
 
 /* The longest edge of a plain triangle: its two vertices as a key (smaller first)
  * and where it is (3 t + k: corner k to k + 1 of triangle t). */
@@ -211,6 +212,13 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       int c = o->tri[3 * tx + (size_t)(kx + 2) % 3], d = o->tri[3 * ty + (size_t)(ky + 2) % 3];
       o->face[m] = o->face[a];
       for (int j = 0; j < 2; j++) o->st[2 * m + j] = 0.5 * (o->st[2 * (size_t)a + j] + o->st[2 * (size_t)b + j]);
+      /* The middle in UV, located in the face: an N-gon's sub-faces tile
+       * its parameter plane, so the mean (s,t) of two corners in different
+       * sub-faces can be another point, or outside the face (the mean is
+       * the search's start and stays where it is not found). */
+      const double *pa = &o->uv[6 * tx + 2 * (size_t)kx], *pb = &o->uv[6 * tx + 2 * (size_t)((kx + 1) % 3)];
+      double mid[2] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])};
+      ch_refine_locate_st(surface, o->face[m], mid, &o->st[2 * m]);
       ch_surface_point sp;
       if (ch_surface_eval(surface, o->face[m], o->st[2 * m], o->st[2 * m + 1], &sp)) {
         failed = 1;

@@ -931,21 +931,22 @@ static int off_surface(const scene *s, const ch_cut_out *o, int v, double h) {
   return off;
 }
 
-static void test_densify(void) {
+static void densify_case(const char *model, int exact) {
   scene s;
-  REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
+  REQUIRE(scene_load(&s, model, seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
   ch_cut_out o;
   cut_out_of_tessellation(&s, &o);
   int npos0 = o.npos, ntri0 = o.ntri;
+  long open0 = cut_open_edges(&o); /* (the vase's rims) */
   /* more than one round gives (edges whose ends' (s,t) are in two base
    * faces are not split: about half of them at 52 triangles per face) */
   long want = ntri0 / 2 * 2 / 3 * 2;
   long added = ch_cut_densify(s.surface, &s.height, &o, want, 4);
-  printf("  %d triangles, %ld asked for, %ld added\n", ntri0, want, added);
-  CHECK_MSG(added == want, "%ld added of %ld", added, want);
+  printf("  %s: %d triangles, %ld asked for, %ld added\n", model, ntri0, want, added);
+  CHECK_MSG(exact ? added == want : added > want / 2, "%s: %ld added of %ld", model, added, want);
   CHECK(o.ntri == ntri0 + added && o.npos == npos0 + added / 2);
-  long open = cut_open_edges(&o); /* closed: every directed edge has its reverse */
-  CHECK_MSG(open == 0, "%ld open edges", open);
+  long open = cut_open_edges(&o); /* closed where it was: every directed edge has its reverse */
+  CHECK_MSG(open == open0, "%ld open edges, %ld before", open, open0);
   int off = 0, uv_off = 0;
   for (int v = npos0; v < o.npos; v++) {
     double uv[2];
@@ -968,6 +969,14 @@ static void test_densify(void) {
   CHECK_MSG(folded == 0, "%d triangles folded over in UV", folded);
   ch_cut_out_free(&o);
   scene_free(&s);
+}
+
+/* The torus's quads; the vase's triangles too, whose Catmull-Clark
+ * parameterization is three sub-faces (the middle of an edge between two
+ * of them is not the mean of its ends' (s,t)). */
+static void test_densify(void) {
+  densify_case("torus", 1);
+  densify_case("vase", 0);
 }
 
 /* ch_cut_coarsen on the same: every collapse takes two triangles and a
