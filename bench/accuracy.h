@@ -126,6 +126,15 @@ ch_status ch_accuracy_uniform_grid(const ch_height *height, int n, ch_mesh *out,
 /* The n whose 2 n^2 is closest to target_tris (the smaller n on ties). */
 int ch_accuracy_uniform_n(long target_tris);
 
+/* Parses OBJ text (size bytes, and one more writable byte after them: the
+ * parser ends lines with NULs in place) into m: v lines as positions (in
+ * double), vn as normals, f as polygons (v, v/vt, v//vn or v/vt/vn; negative
+ * indices count back). Normals are kept only where every corner names a
+ * valid one (m->normals NULL otherwise); everything else is skipped. path
+ * names the text in errors: CH_ERR_INPUT with the line for a bad number,
+ * index or face, CH_ERR_NOMEM. */
+ch_status ch_accuracy_parse_obj(char *text, size_t size, const char *path, ch_mesh *m, ch_error *err);
+
 /* Replaces each vertex's z by the bilinear reading, at its (x, y), of an
  * R x R raster of h at the pixel centres (edges clamped): a mesh displaced
  * by a height texture, as a Displace modifier does. */

@@ -8,7 +8,6 @@
  * time goes for step curves (the DCI). Exit status: 0, 2 bad input or usage,
  * 1 internal failure. */
 #define _POSIX_C_SOURCE 200809L
-#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -74,21 +73,9 @@ static double now(void) {
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* A plain OBJ reader for the positions, normals and faces only: ch_mesh_read goes
+/* A plain OBJ reader (ch_accuracy_parse_obj) for .obj: ch_mesh_read goes
  * through OpenMesh, which takes about 7 s for a 2.1M-triangle OBJ; this
- * takes well under 1 s. Anything but .obj goes to ch_mesh_read. Keeps
- * coordinates in double (OpenMesh reads float). */
-/* Three finite numbers from q into out; nonzero if there are not. */
-static int read_three(const char *q, double out[3]) {
-  for (int k = 0; k < 3; k++) {
-    char *next;
-    out[k] = strtod(q, &next);
-    if (next == q || !isfinite(out[k])) return -1;
-    q = next;
-  }
-  return 0;
-}
-
+ * takes well under 1 s. Anything but .obj goes to ch_mesh_read. */
 static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   FILE *fp = fopen(path, "rb");
@@ -117,116 +104,9 @@ static ch_status read_obj_fast(const char *path, ch_mesh *m, ch_error *err) {
     return ch_error_set(err, CH_ERR_IO, "%s: read error", path);
   }
   text[size] = '\0';
-  size_t np = 0, nf = 0, nc = 0, nn = 0, cap_p = 1024, cap_f = 1024, cap_c = 4096, cap_n = 1024;
-  double *pos = malloc(3 * cap_p * sizeof *pos), *nrm = malloc(3 * cap_n * sizeof *nrm);
-  int *fs = malloc((cap_f + 1) * sizeof *fs), *cp = malloc(cap_c * sizeof *cp), *cn = malloc(cap_c * sizeof *cn);
-  int every_corner_normal = 1; /* (normals are kept only if every corner names one) */
-  ch_status st = CH_OK;
-  long line = 0;
-  char *p = text, *end = text + size;
-  while (p < end && !st && pos && fs && cp && nrm && cn) {
-    line++;
-    char *eol = memchr(p, '\n', (size_t)(end - p));
-    if (!eol) eol = end;
-    *eol = '\0';
-    if (p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
-      if (np == cap_p) {
-        double *g = realloc(pos, 3 * (cap_p *= 2) * sizeof *pos);
-        if (!g) break;
-        pos = g;
-      }
-      if (read_three(p + 1, &pos[3 * np])) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad vertex", path, line);
-      np++;
-    } else if (p[0] == 'v' && p[1] == 'n' && (p[2] == ' ' || p[2] == '\t')) {
-      if (nn == cap_n) {
-        double *g = realloc(nrm, 3 * (cap_n *= 2) * sizeof *nrm);
-        if (!g) break;
-        nrm = g;
-      }
-      if (read_three(p + 2, &nrm[3 * nn])) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad normal", path, line);
-      nn++;
-    } else if (p[0] == 'f' && (p[1] == ' ' || p[1] == '\t')) {
-      size_t first = nc;
-      char *q = p + 1;
-      for (;;) {
-        while (*q == ' ' || *q == '\t' || *q == '\r') q++;
-        if (!*q) break;
-        char *next;
-        long idx = strtol(q, &next, 10);
-        if (next == q) {
-          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad face", path, line);
-          break;
-        }
-        if (idx < 0) idx += (long)np + 1;
-        if (idx < 1 || idx > (long)np) {
-          st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: vertex index out of range", path, line);
-          break;
-        }
-        if (nc == cap_c) {
-          int *g = realloc(cp, 2 * cap_c * sizeof *cp), *h = g ? realloc(cn, 2 * cap_c * sizeof *cn) : NULL;
-          if (g) cp = g;
-          if (h) cn = h;
-          if (!g || !h) {
-            st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
-            break;
-          }
-          cap_c *= 2;
-        }
-        /* v/vt/vn or v//vn: the normal's index after the second slash */
-        long normal = 0;
-        q = next;
-        if (*q == '/') {
-          q++;
-          while (*q && *q != '/' && *q != ' ' && *q != '\t' && *q != '\r') q++;
-          if (*q == '/' && (isdigit((unsigned char)q[1]) || q[1] == '-')) normal = strtol(q + 1, &next, 10), q = next;
-        }
-        if (normal < 0) normal += (long)nn + 1;
-        if (normal < 1 || normal > (long)nn) every_corner_normal = 0;
-        cn[nc] = (int)(normal - 1);
-        cp[nc++] = (int)(idx - 1);
-        while (*q && *q != ' ' && *q != '\t' && *q != '\r') q++;
-      }
-      if (!st && nc - first < 3) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: face with fewer than 3 corners", path, line);
-      if (!st) {
-        if (nf == cap_f) {
-          int *g = realloc(fs, ((cap_f *= 2) + 1) * sizeof *fs);
-          if (!g) break;
-          fs = g;
-        }
-        fs[nf++] = (int)first;
-      }
-    }
-    if (!st && (np > CH_MESH_MAX_ELEMENTS || nc > CH_MESH_MAX_ELEMENTS))
-      st = ch_error_set(err, CH_ERR_INPUT, "%s: too many elements", path);
-    p = eol + 1;
-  }
+  ch_status st = ch_accuracy_parse_obj(text, size, path, m, err);
   free(text);
-  if (!st && (p < end || !pos || !fs || !cp || !nrm || !cn))
-    st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
-  if (st || !every_corner_normal || nn == 0) {
-    free(nrm);
-    free(cn);
-    nrm = NULL;
-    cn = NULL;
-    nn = 0;
-  }
-  if (st) {
-    free(pos);
-    free(fs);
-    free(cp);
-    return st;
-  }
-  fs[nf] = (int)nc;
-  m->num_positions = (int)np;
-  m->positions = pos;
-  m->num_faces = (int)nf;
-  m->face_start = fs;
-  m->num_corners = (int)nc;
-  m->corner_position = cp;
-  m->num_normals = (int)nn;
-  m->normals = nrm;
-  m->corner_normal = cn;
-  return CH_OK;
+  return st;
 }
 
 static ch_status read_mesh(const char *path, ch_mesh *m, ch_error *err) {

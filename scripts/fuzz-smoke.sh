@@ -40,3 +40,6 @@ run fuzz_featmap tests/data/featmap
 # The study's scene file, from the test scenes.
 cmake --build build-fuzz -j"$(nproc)" --target fuzz_scene
 run fuzz_scene tests/data/study
+# chisel-accuracy's OBJ reader, from the test meshes.
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_accuracy_obj
+run fuzz_accuracy_obj "$(mesh_seeds obj)" $(( (seconds + 1) / 2 ))
