@@ -322,6 +322,10 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       longest_edge =
           fmax(longest_edge, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
   }
+  if (pilot->release_corner_st) {
+    free(*pilot->release_corner_st);
+    *pilot->release_corner_st = NULL;
+  }
   int sampled = pilot->count_only && !pilot->full && pilot->sampled;
   double sampled_area = 0.0;
   long sampled_base = 0;
@@ -821,9 +825,9 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
                      !thins(&r->d, r->pilot.reference_edge);
   int over = 0;
   r->pilot.over_cap = &over;
+  r->pilot.release_corner_st = &r->cur_tess.corner_st;
   st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats, &r->kept, r->err);
-  free(r->cur_tess.corner_st); /* (read only where the working mesh starts) */
-  r->cur_tess.corner_st = NULL;
+  r->pilot.release_corner_st = NULL;
   r->pilot.over_cap = NULL;
   if (st && over) { /* the count model decides (its error keeps the message set here) */
     target_drop_current(r);

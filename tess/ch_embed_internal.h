@@ -58,6 +58,10 @@ typedef struct ch_embed_pilot {
                             the UV area; no cut is kept. For runs with no
                             thinning (ch_embed_to_target sets it where the
                             target is large enough) */
+  double **release_corner_st; /* NULL, or the tessellation's corner_st
+                                 (ch_tess_result), freed and set to NULL
+                                 once the working mesh has read it, so
+                                 it is gone before the run's peak */
 } ch_embed_pilot;
 
 /* ch_embed_build with the pilot knobs (NULL: as ch_embed_build). Same
