@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_alloc.h"
 #include "ch_bezier.h"
 #include "ch_grid.h"
 #include "ch_groove.h"
@@ -749,38 +750,43 @@ static int read_three(const char *q, double out[3]) {
   return 0;
 }
 
+static ch_status out_of_memory(ch_error *err, const char *path) {
+  return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+}
+
 ch_status ch_accuracy_parse_obj(char *text, size_t size, const char *path, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
-  size_t np = 0, nf = 0, nc = 0, nn = 0, cap_p = 1024, cap_f = 1024, cap_c = 4096, cap_n = 1024;
-  double *pos = malloc(3 * cap_p * sizeof *pos), *nrm = malloc(3 * cap_n * sizeof *nrm);
-  int *fs = malloc((cap_f + 1) * sizeof *fs), *cp = malloc(cap_c * sizeof *cp), *cn = malloc(cap_c * sizeof *cn);
+  /* (counts stay below CH_MESH_MAX_ELEMENTS, checked every line: ints) */
+  int np = 0, nf = 0, nc = 0, nn = 0, cap_p = 0, cap_f = 0, cap_c = 0, cap_cn = 0, cap_n = 0;
+  double *pos = NULL, *nrm = NULL;
+  int *fs = NULL, *cp = NULL, *cn = NULL;
   int every_corner_normal = 1; /* (normals are kept only if every corner names one) */
   ch_status st = CH_OK;
   long line = 0;
   char *p = text, *end = text + size;
-  while (p < end && !st && pos && fs && cp && nrm && cn) {
+  while (p < end && !st) {
     line++;
     char *eol = memchr(p, '\n', (size_t)(end - p));
     if (!eol) eol = end;
     *eol = '\0';
     if (p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
-      if (np == cap_p) {
-        double *g = realloc(pos, 3 * (cap_p *= 2) * sizeof *pos);
-        if (!g) break;
-        pos = g;
+      if (ch_alloc_grow((void **)&pos, &cap_p, np + 1, 3 * sizeof *pos, 1024)) {
+        st = out_of_memory(err, path);
+        break;
       }
-      if (read_three(p + 1, &pos[3 * np])) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad vertex", path, line);
+      if (read_three(p + 1, &pos[3 * (size_t)np]))
+        st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad vertex", path, line);
       np++;
     } else if (p[0] == 'v' && p[1] == 'n' && (p[2] == ' ' || p[2] == '\t')) {
-      if (nn == cap_n) {
-        double *g = realloc(nrm, 3 * (cap_n *= 2) * sizeof *nrm);
-        if (!g) break;
-        nrm = g;
+      if (ch_alloc_grow((void **)&nrm, &cap_n, nn + 1, 3 * sizeof *nrm, 1024)) {
+        st = out_of_memory(err, path);
+        break;
       }
-      if (read_three(p + 2, &nrm[3 * nn])) st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad normal", path, line);
+      if (read_three(p + 2, &nrm[3 * (size_t)nn]))
+        st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: bad normal", path, line);
       nn++;
     } else if (p[0] == 'f' && (p[1] == ' ' || p[1] == '\t')) {
-      size_t first = nc;
+      int first = nc;
       char *q = p + 1;
       for (;;) {
         while (*q == ' ' || *q == '\t' || *q == '\r') q++;
@@ -796,15 +802,10 @@ ch_status ch_accuracy_parse_obj(char *text, size_t size, const char *path, ch_me
           st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: vertex index out of range", path, line);
           break;
         }
-        if (nc == cap_c) {
-          int *g = realloc(cp, 2 * cap_c * sizeof *cp), *h = g ? realloc(cn, 2 * cap_c * sizeof *cn) : NULL;
-          if (g) cp = g;
-          if (h) cn = h;
-          if (!g || !h) {
-            st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
-            break;
-          }
-          cap_c *= 2;
+        if (ch_alloc_grow((void **)&cp, &cap_c, nc + 1, sizeof *cp, 4096) ||
+            ch_alloc_grow((void **)&cn, &cap_cn, nc + 1, sizeof *cn, 4096)) {
+          st = out_of_memory(err, path);
+          break;
         }
         /* v/vt/vn or v//vn: the normal's index after the second slash */
         long normal = 0;
@@ -823,20 +824,18 @@ ch_status ch_accuracy_parse_obj(char *text, size_t size, const char *path, ch_me
       if (!st && nc - first < 3)
         st = ch_error_set(err, CH_ERR_INPUT, "%s: line %ld: face with fewer than 3 corners", path, line);
       if (!st) {
-        if (nf == cap_f) {
-          int *g = realloc(fs, ((cap_f *= 2) + 1) * sizeof *fs);
-          if (!g) break;
-          fs = g;
-        }
-        fs[nf++] = (int)first;
+        if (ch_alloc_grow((void **)&fs, &cap_f, nf + 1, sizeof *fs, 1024))
+          st = out_of_memory(err, path);
+        else
+          fs[nf++] = first;
       }
     }
-    if (!st && (np > CH_MESH_MAX_ELEMENTS || nc > CH_MESH_MAX_ELEMENTS))
+    if (!st && (np > CH_MESH_MAX_ELEMENTS || nc > CH_MESH_MAX_ELEMENTS || nn > CH_MESH_MAX_ELEMENTS))
       st = ch_error_set(err, CH_ERR_INPUT, "%s: too many elements", path);
     p = eol + 1;
   }
-  if (!st && (p < end || !pos || !fs || !cp || !nrm || !cn))
-    st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
+  if (!st && ch_alloc_grow((void **)&fs, &cap_f, nf + 1, sizeof *fs, 1)) /* (the end of the last face) */
+    st = out_of_memory(err, path);
   if (st || !every_corner_normal || nn == 0) {
     free(nrm);
     free(cn);
@@ -850,14 +849,14 @@ ch_status ch_accuracy_parse_obj(char *text, size_t size, const char *path, ch_me
     free(cp);
     return st;
   }
-  fs[nf] = (int)nc;
-  m->num_positions = (int)np;
+  fs[nf] = nc;
+  m->num_positions = np;
   m->positions = pos;
-  m->num_faces = (int)nf;
+  m->num_faces = nf;
   m->face_start = fs;
-  m->num_corners = (int)nc;
+  m->num_corners = nc;
   m->corner_position = cp;
-  m->num_normals = (int)nn;
+  m->num_normals = nn;
   m->normals = nrm;
   m->corner_normal = cn;
   return CH_OK;

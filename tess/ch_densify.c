@@ -210,14 +210,18 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       int kx = (int)(s[i].at0 % 3), ky = (int)(s[i].at1 % 3);
       int a = o->tri[3 * tx + (size_t)kx], b = o->tri[3 * tx + (size_t)(kx + 1) % 3];
       int c = o->tri[3 * tx + (size_t)(kx + 2) % 3], d = o->tri[3 * ty + (size_t)(ky + 2) % 3];
+      double ua[2], ub[2], uc[2], ud[2];
+      memcpy(ua, &o->uv[6 * tx + 2 * (size_t)kx], sizeof ua);
+      memcpy(ub, &o->uv[6 * tx + 2 * (size_t)((kx + 1) % 3)], sizeof ub);
+      memcpy(uc, &o->uv[6 * tx + 2 * (size_t)((kx + 2) % 3)], sizeof uc);
+      memcpy(ud, &o->uv[6 * ty + 2 * (size_t)((ky + 2) % 3)], sizeof ud);
       o->face[m] = o->face[a];
       for (int j = 0; j < 2; j++) o->st[2 * m + j] = 0.5 * (o->st[2 * (size_t)a + j] + o->st[2 * (size_t)b + j]);
       /* The middle in UV, located in the face: an N-gon's sub-faces tile
        * its parameter plane, so the mean (s,t) of two corners in different
        * sub-faces can be another point, or outside the face (the mean is
        * the search's start and stays where it is not found). */
-      const double *pa = &o->uv[6 * tx + 2 * (size_t)kx], *pb = &o->uv[6 * tx + 2 * (size_t)((kx + 1) % 3)];
-      double mid[2] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])};
+      double mid[2] = {0.5 * (ua[0] + ub[0]), 0.5 * (ua[1] + ub[1])};
       ch_refine_locate_st(surface, o->face[m], mid, &o->st[2 * m]);
       ch_surface_point sp;
       if (ch_surface_eval(surface, o->face[m], o->st[2 * m], o->st[2 * m + 1], &sp)) {
@@ -226,11 +230,6 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       }
       o->h[m] = ch_height_eval(height, sp.uv[0], sp.uv[1]);
       for (int j = 0; j < 3; j++) o->pos[3 * m + j] = sp.position[j] + o->h[m] * sp.normal[j];
-      double ua[2], ub[2], uc[2], ud[2];
-      memcpy(ua, &o->uv[6 * tx + 2 * (size_t)kx], sizeof ua);
-      memcpy(ub, &o->uv[6 * tx + 2 * (size_t)((kx + 1) % 3)], sizeof ub);
-      memcpy(uc, &o->uv[6 * tx + 2 * (size_t)((kx + 2) % 3)], sizeof uc);
-      memcpy(ud, &o->uv[6 * ty + 2 * (size_t)((ky + 2) % 3)], sizeof ud);
       size_t n1 = (size_t)o->ntri + 2 * (size_t)i, n2 = n1 + 1;
       int *T = o->tri;
       double *U = o->uv;
