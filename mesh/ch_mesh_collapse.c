@@ -302,29 +302,47 @@ static int reversed(const int *a, const int *b) {
   return r < 3 && b[(r + 1) % 3] == a[2] && b[(r + 2) % 3] == a[1];
 }
 
+/* The lowest of a face's three corners. */
+static int lowest_corner(const int *c) {
+  return c[0] < c[1] ? (c[0] < c[2] ? c[0] : c[2]) : (c[1] < c[2] ? c[1] : c[2]);
+}
+
 int ch_mesh_remove_pillows(ch_mesh *m) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
   int nf = m->num_faces, np = m->num_positions;
   const int *cp = m->corner_position;
   /* Faces by their lowest corner (a counting sort): the two faces of a
-   * pillow share it, and few faces do, so pairs are found in linear time. */
-  int *start = calloc((size_t)np + 2, sizeof *start), *order = malloc((size_t)nf * sizeof *order);
+   * pillow share it, and few faces do, so pairs are found in linear time.
+   * In parallel: which pairs are found does not depend on the order of the
+   * faces within a bucket, and whether one is removed not on the others'
+   * order. */
+  int *start = calloc((size_t)np + 1, sizeof *start), *order = malloc((size_t)nf * sizeof *order);
+  int *fill = malloc(((size_t)np + 1) * sizeof *fill), *partner = malloc((size_t)nf * sizeof *partner);
   int(*pairs)[2] = NULL;
-  size_t npairs = 0, cap_pairs = 0;
+  size_t npairs = 0;
   uint64_t *keys = NULL;
   long *uses = NULL;
   unsigned char *drop = NULL;
   int removed = -1;
-  if (!start || !order) goto done;
+  if (!start || !order || !fill || !partner) goto done;
+#pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; f++) {
-    const int *c = &cp[3 * (size_t)f];
-    start[(c[0] < c[1] ? (c[0] < c[2] ? c[0] : c[2]) : (c[1] < c[2] ? c[1] : c[2])) + 2]++;
+    int v = lowest_corner(&cp[3 * (size_t)f]);
+#pragma omp atomic
+    start[v + 1]++;
   }
-  for (int v = 0; v < np; v++) start[v + 2] += start[v + 1];
-  for (int f = 0; f < nf; f++) { /* faces in order within a bucket */
-    const int *c = &cp[3 * (size_t)f];
-    order[start[(c[0] < c[1] ? (c[0] < c[2] ? c[0] : c[2]) : (c[1] < c[2] ? c[1] : c[2])) + 1]++] = f;
+  for (int v = 0; v < np; v++) start[v + 1] += start[v];
+  memcpy(fill, start, ((size_t)np + 1) * sizeof *fill);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; f++) {
+    int v = lowest_corner(&cp[3 * (size_t)f]), slot;
+#pragma omp atomic capture
+    slot = fill[v]++;
+    order[slot] = f;
   }
+  /* partner[f]: g > f where f and g are a pillow (exactly two faces on the
+   * same corners, opposite), else -1 */
+#pragma omp parallel for schedule(dynamic, 4096)
   for (int v = 0; v < np; v++)
     for (int i = start[v]; i < start[v + 1]; i++) {
       int f = order[i], twins = 0, g = -1;
@@ -333,21 +351,21 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
           twins++;
           g = order[j];
         }
-      /* exactly two faces on the same corners, opposite: a pillow (each pair once) */
-      if (twins != 1 || g < f || !reversed(&cp[3 * (size_t)f], &cp[3 * (size_t)g])) continue;
-      if (npairs == cap_pairs) {
-        size_t c = cap_pairs ? 2 * cap_pairs : 64;
-        void *p = realloc(pairs, c * sizeof *pairs);
-        if (!p) goto done;
-        pairs = p;
-        cap_pairs = c;
-      }
-      pairs[npairs][0] = f;
-      pairs[npairs][1] = g;
-      npairs++;
+      partner[f] = twins == 1 && g > f && reversed(&cp[3 * (size_t)f], &cp[3 * (size_t)g]) ? g : -1;
     }
+  for (int f = 0; f < nf; f++) npairs += partner[f] >= 0;
   removed = 0;
   if (!npairs) goto done;
+  removed = -1;
+  pairs = malloc(npairs * sizeof *pairs);
+  if (!pairs) goto done;
+  npairs = 0;
+  for (int f = 0; f < nf; f++)
+    if (partner[f] >= 0) {
+      pairs[npairs][0] = f;
+      pairs[npairs][1] = partner[f];
+      npairs++;
+    }
   /* Removing a pair takes two uses from each of its edges: only if none is
    * left with one (a hole). Count the uses of just those edges. */
   removed = -1;
@@ -362,9 +380,13 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
       keys[3 * i + e] = edge_key(a[e], a[(e + 1) % 3]);
     }
   qsort(keys, nk, sizeof *keys, cmp_u64);
+#pragma omp parallel for schedule(static)
   for (size_t c = 0; c < 3 * (size_t)nf; c++) {
     long at = find_key(keys, nk, edge_key(cp[c], cp[c / 3 * 3 + (c % 3 + 1) % 3]));
-    if (at >= 0) uses[at]++;
+    if (at >= 0) {
+#pragma omp atomic
+      uses[at]++;
+    }
   }
   removed = 0;
   for (size_t i = 0; i < npairs; i++) {
@@ -382,6 +404,8 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
 done:
   free(start);
   free(order);
+  free(fill);
+  free(partner);
   free(pairs);
   free(keys);
   free(uses);
