@@ -393,13 +393,38 @@ done:
   return st;
 }
 
-/* The open ends coarse_at_cap looks at, bucketed like the step corners. */
+/* Whether the cap at end `end` of segment s lies wholly under other
+ * grooves: at none of 65 points over its disk (the end point, and rings
+ * at half and 0.98 of the half width) does its groove decide h (it is no
+ * deeper there than another: docs/spec.md §3's CSG). Brick joints ending
+ * inside the mortar beds are such ends; refining around their caps spent
+ * a quarter of bricks' triangles at 2.1M on nothing the mesh shows. */
+static int cap_hidden(const ch_label_ctx *lb, int s, int end) {
+  const ch_segment *sg = &lb->set->segments[s];
+  const double *q = sg->p[end == 0 ? 0 : 2], half = 0.5 * lb->set->curves[sg->curve].width;
+  enum { DIRECTIONS = 32 };
+  for (int k = 0; k < 1 + 2 * DIRECTIONS; k++) {
+    double r = k == 0 ? 0.0 : k <= DIRECTIONS ? 0.5 * half : 0.98 * half, a = 2.0 * CH_PI * (double)k / DIRECTIONS;
+    ch_groove_sample gs;
+    ch_groove_field_eval(&lb->height->grooves, q[0] + r * cos(a), q[1] + r * sin(a), &gs);
+    if (gs.active == sg->curve) return 0;
+  }
+  return 1;
+}
+
+/* The open ends coarse_at_cap looks at (those not hidden), bucketed like
+ * the step corners. */
 static ch_status find_open_ends(ch_label_ctx *lb, ch_error *err) {
   const ch_curve_set *set = lb->set;
+  unsigned char *hidden = calloc(2 * (size_t)(set->num_segments > 0 ? set->num_segments : 1), 1);
+  if (!hidden) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the grooves' ends");
+  for (int s = 0; s < set->num_segments; s++)
+    for (int end = 0; end < 2; end++)
+      hidden[2 * (size_t)s + end] = (unsigned char)(ch_label_capped_end(set, s, end) && cap_hidden(lb, s, end));
   int n = 0;
   for (int s = 0; s < set->num_segments; s++)
     for (int end = 0; end < 2; end++)
-      if (ch_label_capped_end(set, s, end)) {
+      if (ch_label_capped_end(set, s, end) && !hidden[2 * (size_t)s + end]) {
         n++;
         lb->end_reach = fmax(lb->end_reach, 0.5 * set->curves[set->segments[s].curve].width);
       }
@@ -410,6 +435,7 @@ static ch_status find_open_ends(ch_label_ctx *lb, ch_error *err) {
   int *fill = malloc((size_t)res * res * sizeof *fill);
   if (!lb->end_item || !lb->end_start || !fill) {
     free(fill);
+    free(hidden);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the grooves' ends");
   }
   for (int pass = 0; pass < 2; pass++) {
@@ -419,7 +445,7 @@ static ch_status find_open_ends(ch_label_ctx *lb, ch_error *err) {
     }
     for (int s = 0; s < set->num_segments; s++)
       for (int end = 0; end < 2; end++) {
-        if (!ch_label_capped_end(set, s, end)) continue;
+        if (!ch_label_capped_end(set, s, end) || hidden[2 * (size_t)s + end]) continue;
         const double *q = set->segments[s].p[end == 0 ? 0 : 2];
         int cell = ch_label_corner_cell(res, q[1]) * res + ch_label_corner_cell(res, q[0]);
         if (pass == 0)
@@ -429,6 +455,7 @@ static ch_status find_open_ends(ch_label_ctx *lb, ch_error *err) {
       }
   }
   free(fill);
+  free(hidden);
   return CH_OK;
 }
 

@@ -197,9 +197,45 @@ static void test_nested_loops(void) {
   scene_close(&sc);
 }
 
+/* Caps under other grooves (docs/spec.md §3's CSG: the deeper carve
+ * decides h, the first of equals): a box joint ending on a bed's centre
+ * line has its cap wholly inside the bed, no deeper than it, so the
+ * refinement leaves that end out of the open ends it sizes caps at; the
+ * joint's other end (in the open), one ending half a unit outside the
+ * bed's rim (part of its cap shows), one deeper than the bed (its cap
+ * decides h) and the bed's own two ends stay. */
+static void test_hidden_caps(void) {
+  static const char bricks[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<g data-profile='box' data-width='6' data-depth='0.01'>"
+      "<path d='M 5 50 L 95 50'/>"
+      "<path d='M 30 20 L 30 50'/>"
+      "<path d='M 70 20 L 70 46.5'/>"
+      "</g>"
+      "<path d='M 50 20 L 50 50' data-profile='box' data-width='6' data-depth='0.02'/>"
+      "</svg>";
+  label_scene sc;
+  REQUIRE(scene_open(&sc, bricks, "bricks.svg", 0.05, 0.01));
+  REQUIRE(sc.set.num_segments == 4);
+  int listed[4][2] = {{0}};
+  int n = sc.lb.end_start[sc.lb.end_res * sc.lb.end_res];
+  for (int k = 0; k < n; k++) {
+    int s = sc.lb.end_item[k] / 2, end = sc.lb.end_item[k] % 2;
+    CHECK(sc.set.segments[s].curve == s);
+    listed[s][end]++;
+  }
+  CHECK_MSG(n == 7, "%d open ends listed", n);
+  for (int s = 0; s < 4; s++)
+    for (int end = 0; end < 2; end++)
+      CHECK_MSG(listed[s][end] == (s == 1 && end == 1 ? 0 : 1), "curve %d end %d listed %d times", s, end,
+                listed[s][end]);
+  scene_close(&sc);
+}
+
 int main(void) {
   RUN(test_labels);
   RUN(test_crossing_loops);
   RUN(test_nested_loops);
+  RUN(test_hidden_caps);
   TEST_MAIN_END();
 }
