@@ -368,7 +368,6 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
     }
   /* Removing a pair takes two uses from each of its edges: only if none is
    * left with one (a hole). Count the uses of just those edges. */
-  removed = -1;
   size_t nk = 3 * npairs;
   keys = malloc(nk * sizeof *keys);
   uses = calloc(nk, sizeof *uses);
