@@ -474,16 +474,29 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
   return CH_OK;
 }
 
-/* Corner k of triangle t's share of its vertex's normal, from the face's
- * normal and its length (fn: 4 per triangle): the normal weighted by the
- * corner's angle (Thurmer and Wuthrich), not by area: a vertex between
- * slices of unequal width gets the mean of its two sides, not the wider
- * one's normal. */
-static void corner_weight(const ch_cut_out *o, const double *fn, size_t t, int k, double out[3]) {
+/* Corner k of triangle t's share of its vertex's normal: the face's
+ * normal weighted by the corner's angle (Thurmer and Wuthrich), not by
+ * area: a vertex between slices of unequal width gets the mean of its two
+ * sides, not the wider one's normal. The face's normal is worked out here,
+ * from the corners the angle reads anyway, rather than kept per face (32
+ * bytes a triangle at the embedding's peak, first touched there). */
+static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, double out[3]) {
   const int *v = &o->tri[3 * t];
-  const double *f = &fn[4 * t], fl = f[3];
+  const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
+  double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+  double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
+  double e3[3] = {p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2]};
+  double f[3];
+  ch_cross3(e1, e2, f);
+  double fl = sqrt(ch_dot3(f, f));
+  /* A sliver (a boundary point within rounding of a vertex, before the
+   * cleanup collapses it) has a corner near 180 degrees, so the largest
+   * weight of its vertex's, and a normal that rounding decides: it would
+   * tilt that vertex's normal by tens of degrees for the real triangles
+   * around it. */
+  double longest = sqrt(fmax(ch_dot3(e1, e1), fmax(ch_dot3(e2, e2), ch_dot3(e3, e3))));
   double corner_angle = 0.0;
-  if (fl > 0.0) {
+  if (fl >= thin * longest && fl > 0.0) {
     const double *a = &o->pos[3 * (size_t)v[k]], *b = &o->pos[3 * (size_t)v[(k + 1) % 3]];
     const double *c = &o->pos[3 * (size_t)v[(k + 2) % 3]];
     double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
@@ -502,10 +515,10 @@ static void corner_weight(const ch_cut_out *o, const double *fn, size_t t, int k
  * counting sort) and marks the corner where each of its UVs and normals is
  * born; the born corners' ranks (a prefix sum) are the indices; then each
  * vertex sums its normals in that order straight into the mesh's. The
- * corners' weights are worked out where they are summed, from each face's
- * normal and length (32 bytes a triangle): kept per corner, they were the
- * largest array at the embedding's peak (72 bytes a triangle). */
-ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_error *err) {
+ * corners' weights are worked out where they are summed: kept per corner,
+ * they were the largest array at the embedding's peak (72 bytes a
+ * triangle). */
+ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   size_t nc = 3 * (size_t)o->ntri, np = (size_t)(o->npos > 0 ? o->npos : 1);
   m->num_positions = o->npos;
@@ -513,36 +526,14 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_err
   m->num_faces = o->ntri;
   m->num_corners = (int)nc;
   m->face_start = ch_alloc_large((size_t)o->ntri + 1, sizeof *m->face_start, 0);
-  m->corner_position = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_position, 0);
   m->corner_uv = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_uv, 0);
   m->corner_normal = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_normal, 0);
   int *start = ch_alloc_large(np + 1, sizeof *start, 0); /* a vertex's corners in order */
   int *order = ch_alloc_large(nc ? nc : 1, sizeof *order, 0);
   int *born = ch_alloc_large(nc ? nc : 1, sizeof *born, 0); /* per corner: a normal is born here */
-  double *fn = ch_alloc_large(4 * (size_t)(o->ntri > 0 ? o->ntri : 1), sizeof *fn, 0); /* per face: normal, length */
-  if (!m->face_start || !m->corner_position || !m->corner_uv || !m->corner_normal || !start || !order || !born ||
-      !fn)
-    goto nomem;
+  if (!m->face_start || !m->corner_uv || !m->corner_normal || !start || !order || !born) goto nomem;
 #pragma omp parallel for schedule(static)
-  for (int t = 0; t < o->ntri; t++) {
-    m->face_start[t] = 3 * t;
-    const int *v = &o->tri[3 * (size_t)t];
-    const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
-    double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-    double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-    double e3[3] = {p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2]};
-    double *f = &fn[4 * (size_t)t];
-    ch_cross3(e1, e2, f);
-    f[3] = sqrt(ch_dot3(f, f));
-    /* A sliver (a boundary point within rounding of a vertex, before the
-     * cleanup collapses it) has a corner near 180 degrees, so the largest
-     * weight of its vertex's, and a normal that rounding decides: it would
-     * tilt that vertex's normal by tens of degrees for the real triangles
-     * around it. */
-    double longest = sqrt(fmax(ch_dot3(e1, e1), fmax(ch_dot3(e2, e2), ch_dot3(e3, e3))));
-    if (!(f[3] >= thin * longest)) f[3] = 0.0;
-    for (int k = 0; k < 3; k++) m->corner_position[3 * (size_t)t + k] = v[k];
-  }
+  for (int t = 0; t < o->ntri; t++) m->face_start[t] = 3 * t;
   m->face_start[o->ntri] = (int)nc;
   /* Corners by vertex, in corner order (a counting sort). */
   memset(start, 0, (np + 1) * sizeof *start);
@@ -597,12 +588,10 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_err
     for (int i = start[p]; i < start[p + 1]; i++) {
       int c = order[i], s = m->corner_normal[c];
       double wc[3], *sum = &m->normals[3 * (size_t)born[s]];
-      corner_weight(o, fn, (size_t)c / 3, c % 3, wc);
+      corner_weight(o, thin, (size_t)c / 3, c % 3, wc);
       for (int k = 0; k < 3; k++) sum[k] = s == c ? wc[k] + 0.0 : sum[k] + wc[k];
     }
   }
-  free(fn);
-  fn = NULL;
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < nslot; i++) {
     double *n = &m->normals[3 * (size_t)i], len = sqrt(ch_dot3(n, n));
@@ -630,12 +619,14 @@ ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_err
   free(start);
   free(order);
   free(born);
+  /* The triangles' corners are the mesh's corners, in the same order. */
+  m->corner_position = o->tri;
+  o->tri = NULL;
   return CH_OK;
 nomem:
   free(start);
   free(order);
   free(born);
-  free(fn);
   m->positions = NULL; /* still o's */
   ch_mesh_free(m);
   return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");

@@ -51,8 +51,10 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
  * vertex among the triangles of the same group (piece, or wall), so they
  * are smooth inside a piece and split at its boundary. Triangles thinner
  * than `thin` (twice their area over their longest edge) count for
- * nothing: their normal is rounding noise. */
-ch_status ch_cut_build_mesh(const ch_cut_out *o, double thin, ch_mesh *m, ch_error *err);
+ * nothing: their normal is rounding noise. On success m takes o's
+ * positions and triangles (o->tri is then NULL; the caller sets o->pos
+ * to NULL). */
+ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *err);
 
 /* Cuts triangle t into its pieces, with walls where h jumps, into o (fans
  * it where it cannot be cut, counted in stats->unresolved); tol: how close
