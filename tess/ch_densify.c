@@ -254,23 +254,58 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
 
 /* ---- the other way: fewer triangles where h is smooth -------------------- */
 
-/* Vertex -> triangles, in triangle order: vertex v's are tri[start[v]]
- * .. tri[start[v] + count[v] - 1]. Built once; a collapse rewrites the
- * fans it changes (one that grows moves to the end of tri). */
-typedef struct vertex_fans {
-  int *start, *count; /* npos each */
+/* The coarsening runs on COARSEN_REGIONS slabs of space at once, each its
+ * own greedy order: a vertex collapses only where its whole fan is in its
+ * slab, so a collapse reads and writes only its slab's vertices, fans and
+ * triangles (a triangle with a corner in another slab is in no such fan),
+ * and the result does not depend on the threads. Then, if it must, again
+ * on slabs shifted by half a slab, where the first slabs' borders were. */
+enum { COARSEN_REGIONS = 16 };
+
+/* Fans a collapse rewrote, for the vertices of one slab. */
+typedef struct fan_store {
   int *tri;
   size_t len, cap;
+} fan_store;
+
+/* Vertex -> triangles, in triangle order: vertex v's are fan(f, v)[0 ..
+ * count[v] - 1]. Built once; a collapse rewrites the fans it changes (one
+ * that grows moves to the store of the slab that collapses). */
+typedef struct vertex_fans {
+  int *start, *count; /* npos each; start >= len: in store[v] */
+  int *tri;           /* the fans as built */
+  size_t len;
+  unsigned char *region, *store;       /* per vertex: its slab; where its fan is */
+  fan_store more[2 * COARSEN_REGIONS]; /* by the phase's parity: each slab writes only its own */
+  int phase;
+  int axis; /* the slabs: along this axis, lo + (i + shift) / scale */
+  double lo, scale;
 } vertex_fans;
+
+static int *fan(const vertex_fans *f, int v) {
+  size_t s = (size_t)f->start[v];
+  return s < f->len ? &f->tri[s] : &f->more[f->store[v]].tri[s - f->len];
+}
+
+/* Each vertex's slab: equal parts of the positions' box along its longest
+ * side, starting `shift` of a part before it. */
+static void assign_slabs(const ch_cut_out *o, vertex_fans *f, double shift) {
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < o->npos; v++) {
+    double x = (o->pos[3 * (size_t)v + f->axis] - f->lo) * f->scale + shift;
+    f->region[v] = (unsigned char)(x > 0.0 ? (x < COARSEN_REGIONS - 1 ? (int)x : COARSEN_REGIONS - 1) : 0);
+  }
+}
 
 static int fans_build(const ch_cut_out *o, vertex_fans *f) {
   size_t n = 3 * (size_t)o->ntri;
   f->start = calloc((size_t)o->npos + 1, sizeof *f->start);
   f->count = calloc((size_t)o->npos + 1, sizeof *f->count);
-  f->cap = n + n / 8 + 1024;
-  f->tri = ch_alloc_large(f->cap, sizeof *f->tri, 0);
-  if (!f->start || !f->count || !f->tri) return -1;
-  /* Counted and filled in parallel, then each fan sorted: the same fans in
+  f->tri = ch_alloc_large(n ? n : 1, sizeof *f->tri, 0);
+  f->region = malloc((size_t)o->npos + 1);
+  f->store = malloc((size_t)o->npos + 1);
+  if (!f->start || !f->count || !f->tri || !f->region || !f->store) return -1;
+    /* Counted and filled in parallel, then each fan sorted: the same fans in
    * triangle order as one serial pass (which took 0.1 s at 2.1M). */
 #pragma omp parallel for schedule(static)
   for (size_t c = 0; c < n; c++) {
@@ -302,6 +337,18 @@ static int fans_build(const ch_cut_out *o, vertex_fans *f) {
       }
   }
   f->len = n;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (int v = 0; v < o->npos; v++)
+    for (int k = 0; k < 3; k++) {
+      lo[k] = fmin(lo[k], o->pos[3 * (size_t)v + k]);
+      hi[k] = fmax(hi[k], o->pos[3 * (size_t)v + k]);
+    }
+  int axis = 0;
+  for (int k = 1; k < 3; k++)
+    if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+  f->axis = axis;
+  f->lo = lo[axis];
+  f->scale = hi[axis] > lo[axis] ? COARSEN_REGIONS / (hi[axis] - lo[axis]) : 0.0;
   return 0;
 }
 
@@ -309,6 +356,9 @@ static void fans_free(vertex_fans *f) {
   free(f->start);
   free(f->count);
   free(f->tri);
+  free(f->region);
+  free(f->store);
+  for (int r = 0; r < 2 * COARSEN_REGIONS; r++) free(f->more[r].tri);
 }
 
 static int corner_of(const ch_cut_out *o, int t, int v) {
@@ -332,7 +382,7 @@ static double uv_area_with(const ch_cut_out *o, int t, int k, const double uv[2]
  * its normal by under 20 degrees. */
 static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
   int nv = f->count[v], nu = f->count[u], shared = 0;
-  const int *tv = &f->tri[f->start[v]], *tu = &f->tri[f->start[u]];
+  const int *tv = fan(f, v), *tu = fan(f, u);
   /* v's neighbours (its fan is closed: each is one triangle's next
    * corner), and how many of them u's triangles hold */
   for (int i = 0; i < nv; i++) {
@@ -368,11 +418,12 @@ static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) 
 /* Vertex v's shortest edge squared as a collapse candidate, INFINITY
  * where v is not inside a plain piece: one piece, off UV seams (one UV in
  * every triangle), its triangles one closed fan (each next corner is
- * another's previous once). */
-static double candidate(const ch_cut_out *o, const vertex_fans *f, int v) {
+ * another's previous once), its neighbours in its slab (unless
+ * !slabbed). */
+static double candidate(const ch_cut_out *o, const vertex_fans *f, int v, int slabbed) {
   int n = f->count[v];
   if (n < 3 || n > 32) return INFINITY;
-  const int *ts = &f->tri[f->start[v]];
+  const int *ts = fan(f, v);
   uint64_t group = o->group[ts[0]];
   if (!plain(group)) return INFINITY;
   const double *uv0 = &o->uv[6 * (size_t)ts[0] + 2 * (size_t)corner_of(o, ts[0], v)], *pv = &o->pos[3 * (size_t)v];
@@ -385,6 +436,7 @@ static double candidate(const ch_cut_out *o, const vertex_fans *f, int v) {
     if (uv[0] != uv0[0] || uv[1] != uv0[1]) return INFINITY;
     next[i] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
     prev[i] = o->tri[3 * (size_t)t + (size_t)(k + 2) % 3];
+    if (slabbed && f->region[next[i]] != f->region[v]) return INFINITY;
     double d = dist2(pv, &o->pos[3 * (size_t)next[i]]);
     shortest = d < shortest ? d : shortest;
   }
@@ -398,7 +450,7 @@ static double candidate(const ch_cut_out *o, const vertex_fans *f, int v) {
 
 /* Drops triangle t from vertex w's fan (keeping its order). */
 static void fan_drop(vertex_fans *f, int w, int t) {
-  int *ts = &f->tri[f->start[w]], n = f->count[w], j = 0;
+  int *ts = fan(f, w), n = f->count[w], j = 0;
   for (int i = 0; i < n; i++)
     if (ts[i] != t) ts[j++] = ts[i];
   f->count[w] = j;
@@ -409,19 +461,30 @@ static void fan_drop(vertex_fans *f, int w, int t) {
  * too). */
 static size_t collapse_appends(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
   int on_edge = 0;
-  for (int j = 0; j < f->count[v]; j++) on_edge += corner_of(o, f->tri[f->start[v] + j], u) >= 0;
+  const int *tv = fan(f, v);
+  for (int j = 0; j < f->count[v]; j++) on_edge += corner_of(o, tv[j], u) >= 0;
   return (size_t)(f->count[u] - on_edge) + (size_t)(f->count[v] - on_edge);
 }
 
 /* Collapses v into u: the two triangles on edge u-v go (first corner -1,
  * out of their corners' fans), v's others take u (and its UV in this
- * chart) in v's place and join u's fan, in triangle order at tri[at..]
- * (collapse_appends entries). Returns the triangles removed. Touches only
- * v's fan, its triangles and its neighbours' fans: collapses whose fans
- * share no vertex run in parallel. */
-static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u, size_t at) {
+ * chart) in v's place and join u's fan, in triangle order, in u's slab's
+ * store. Returns the triangles removed, -1 when out of memory. Touches
+ * only v's fan, its triangles and its neighbours' fans. */
+static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
+  int in = (f->phase & 1) * COARSEN_REGIONS + f->region[u];
+  fan_store *store = &f->more[in];
+  size_t need = collapse_appends(o, f, v, u), at = store->len;
+  if (at + need > store->cap) { /* (before any pointer into the store is taken) */
+    size_t cap = (at + need) + (at + need) / 2 + 1024;
+    if (f->len + cap >= INT32_MAX) return -1;
+    int *p = realloc(store->tri, cap * sizeof *p);
+    if (!p) return -1;
+    store->tri = p;
+    store->cap = cap;
+  }
   int nv = f->count[v], removed = 0;
-  const int *tv = &f->tri[f->start[v]];
+  const int *tv = fan(f, v);
   const double *uvu = NULL;
   for (int j = 0; j < nv && !uvu; j++) {
     int k = corner_of(o, tv[j], u);
@@ -446,10 +509,12 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u, size_t at
     kept[nk++] = t;
   }
   /* u's fan and v's kept triangles, merged in triangle order */
-  const int *tu = &f->tri[f->start[u]];
-  int nu = f->count[u], i = 0, j = 0, *out = &f->tri[at];
+  const int *tu = fan(f, u);
+  int nu = f->count[u], i = 0, j = 0, *out = &store->tri[at];
   for (int m = 0; m < nu + nk; m++) out[m] = j >= nk || (i < nu && tu[i] < kept[j]) ? tu[i++] : kept[j++];
-  f->start[u] = (int)at;
+  store->len += need;
+  f->start[u] = (int)(f->len + at);
+  f->store[u] = (unsigned char)in;
   f->count[u] = nu + nk;
   f->count[v] = 0;
   return removed;
@@ -524,42 +589,48 @@ static void heap_set(cand_heap *h, int v, double length2) {
   }
 }
 
-long ch_cut_coarsen(ch_cut_out *o, long fewer) {
+/* The k-th smallest of x[0 .. n-1] (0-based; x is reordered): Hoare's
+ * selection. */
+static double select_kth(double *x, long n, long k) {
+  long lo = 0, hi = n - 1;
+  while (lo < hi) {
+    double pivot = x[lo + (hi - lo) / 2];
+    long i = lo, j = hi;
+    while (i <= j) {
+      while (x[i] < pivot) i++;
+      while (x[j] > pivot) j--;
+      if (i <= j) {
+        double t = x[i];
+        x[i++] = x[j];
+        x[j--] = t;
+      }
+    }
+    if (k <= j)
+      hi = j;
+    else if (k >= i)
+      lo = i;
+    else
+      return x[k];
+  }
+  return x[k];
+}
+
+/* Slab r's greedy order until it has removed `budget` triangles (less
+ * one) or has no candidate left: the vertex with the shortest edge
+ * collapses along its shortest allowed edge, and its neighbours, whose
+ * fans and edges changed, are weighed again. Returns the triangles
+ * removed, -1 when out of memory. */
+static long coarsen_region(ch_cut_out *o, vertex_fans *f, cand_heap *heap, int *remap, long budget) {
   long removed = 0;
-  size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
-  vertex_fans f = {0};
-  cand_heap heap = {.length2 = malloc(np * sizeof *heap.length2),
-                    .at = malloc(np * sizeof *heap.at),
-                    .v = malloc(np * sizeof *heap.v)};
-  int *remap = malloc(np * sizeof *remap);
-  if (!heap.length2 || !heap.at || !heap.v || !remap || fans_build(o, &f)) {
-    removed = -1;
-    goto done;
-  }
-  /* Every vertex inside a plain piece by its shortest edge (in parallel),
-   * then shortest first, one at a time (the greedy order of Garland and
-   * Heckbert 1997, with edge length for the cost): a vertex collapses
-   * along its shortest allowed edge, and its neighbours, whose fans and
-   * edges that changed, are weighed again. (Collapsing in rounds of
-   * collapses that share no fan, in parallel, rescanned every candidate
-   * each round for the one in nine a round could take.) */
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < o->npos; v++) {
-    heap.length2[v] = candidate(o, &f, v);
-    heap.at[v] = -1;
-    remap[v] = v;
-  }
-  for (int v = 0; v < o->npos; v++)
-    if (heap.length2[v] < INFINITY) heap_place(&heap, heap.n++, v);
-  for (int i = heap.n / 2; i-- > 0;) heap_down(&heap, i);
-  while (removed + 1 < fewer && heap.n > 0) {
-    int v = heap.v[0];
-    heap_remove(&heap, v);
+  while (removed + 1 < budget && heap->n > 0) {
+    int v = heap->v[0];
+    heap_remove(heap, v);
     /* its edges shortest first (ties: the lower vertex), the first allowed */
-    int n = f.count[v], us[32], u = -1;
+    int n = f->count[v], us[32], u = -1;
     double ls[32];
+    const int *tv = fan(f, v);
     for (int a = 0; a < n; a++) {
-      int t = f.tri[f.start[v] + a], k = corner_of(o, t, v);
+      int t = tv[a], k = corner_of(o, t, v);
       us[a] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
       ls[a] = dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)us[a]]);
     }
@@ -571,22 +642,112 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
         ls[b - 1] = tl, us[b - 1] = tu;
       }
     for (int a = 0; a < n && u < 0; a++)
-      if (collapse_ok(o, &f, v, us[a])) u = us[a];
+      if (collapse_ok(o, f, v, us[a])) u = us[a];
     if (u < 0) continue; /* (weighed again if its fan changes) */
-    size_t need = collapse_appends(o, &f, v, u);
-    if (f.len + need > f.cap) {
-      size_t cap = f.len + need + (f.len + need) / 4;
-      if (ch_alloc_resize((void **)&f.tri, f.cap, cap, sizeof *f.tri)) {
+    int gone = collapse_apply(o, f, v, u);
+    if (gone < 0) return -1;
+    removed += gone;
+    remap[v] = -1;
+    /* v's neighbours (u among them): their fans or edges changed */
+    for (int a = 0; a < n; a++) heap_set(heap, us[a], candidate(o, f, us[a], 1));
+  }
+  return removed;
+}
+
+long ch_cut_coarsen(ch_cut_out *o, long fewer) {
+  long removed = 0;
+  size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
+  vertex_fans f = {0};
+  double *length2 = malloc(np * sizeof *length2);
+  int *at = malloc(np * sizeof *at), *heap_v = malloc(np * sizeof *heap_v);
+  int *remap = malloc(np * sizeof *remap);
+  double *lengths = malloc(np * sizeof *lengths);
+  if (!length2 || !at || !heap_v || !remap || !lengths || fans_build(o, &f)) {
+    removed = -1;
+    goto done;
+  }
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < o->npos; v++) remap[v] = v;
+  /* Every vertex inside a plain piece by its shortest edge (in parallel),
+   * then in each slab shortest first, one at a time (the greedy order of
+   * Garland and Heckbert 1997, with edge length for the cost), the slabs
+   * side by side. (Collapsing in rounds of collapses that share no fan, in
+   * parallel, rescanned every candidate each round for the one in nine a
+   * round could take; one greedy order over the whole mesh ran alone on
+   * one core, about 1.5 us a collapse.) */
+  for (int phase = 0; phase < 4 && removed + 1 < fewer; phase++) {
+    f.phase = phase;
+    assign_slabs(o, &f, phase & 1 ? 0.5 : 0.0);
+    long blocked = 0; /* candidates but for their slab */
+#pragma omp parallel for schedule(static) reduction(+ : blocked)
+    for (int v = 0; v < o->npos; v++) {
+      length2[v] = candidate(o, &f, v, 1);
+      at[v] = -1;
+      if (phase == 0 && !(length2[v] < INFINITY)) blocked += candidate(o, &f, v, 0) < INFINITY;
+    }
+    /* Each slab's heap in its own part of heap_v. */
+    cand_heap heap[COARSEN_REGIONS];
+    long in_region[COARSEN_REGIONS] = {0}, candidates = 0;
+    for (int v = 0; v < o->npos; v++) in_region[f.region[v]]++;
+    for (int r = 0, first = 0; r < COARSEN_REGIONS; r++) {
+      heap[r] = (cand_heap){.length2 = length2, .at = at, .v = heap_v + first, .n = 0};
+      first += (int)in_region[r];
+    }
+    for (int v = 0; v < o->npos; v++)
+      if (length2[v] < INFINITY) heap_place(&heap[f.region[v]], heap[f.region[v]].n++, v);
+    for (int r = 0; r < COARSEN_REGIONS; r++) {
+      for (int i = heap[r].n / 2; i-- > 0;) heap_down(&heap[r], i);
+      candidates += heap[r].n;
+    }
+    /* The first slabs leave the share of the vertices on their borders to
+     * the shifted ones (where the shortest edges are then theirs, as in one
+     * greedy order over all). The slabs take shares of what is to go by
+     * their candidates, and what one could not take goes to the others'
+     * (three times at most); what the shares' rounding left is then taken
+     * slab after slab. */
+    long goal = phase == 0 && candidates + blocked > 0
+                    ? (long)((double)fewer * (double)candidates / (double)(candidates + blocked))
+                    : fewer;
+    for (int pass = 0; pass < 3 && removed + 1 < goal && candidates > 0; pass++) {
+      long share[COARSEN_REGIONS], got[COARSEN_REGIONS], left = goal - removed, given = 0;
+      int oom = 0;
+      /* The shares: each slab's of the shortest edges one greedy order
+       * over all would collapse first (a collapse takes two triangles). */
+      long k = left / 2 < candidates ? left / 2 : candidates;
+      for (long i = 0, r = 0; r < COARSEN_REGIONS; r++)
+        for (int j = 0; j < heap[r].n; j++) lengths[i++] = length2[heap[r].v[j]];
+      double cut = k > 0 ? select_kth(lengths, candidates, k - 1) : -INFINITY;
+      for (int r = 0; r < COARSEN_REGIONS; r++) {
+        long below = 0;
+        for (int j = 0; j < heap[r].n; j++) below += length2[heap[r].v[j]] <= cut;
+        share[r] = 2 * below;
+        given += share[r];
+      }
+      if (given > left) /* (ties at the cut) */
+        for (int r = 0; r < COARSEN_REGIONS; r++) share[r] = (long)((double)share[r] * (double)left / (double)given);
+#pragma omp parallel for schedule(dynamic, 1) reduction(| : oom)
+      for (int r = 0; r < COARSEN_REGIONS; r++) {
+        got[r] = coarsen_region(o, &f, &heap[r], remap, share[r]);
+        oom |= got[r] < 0;
+      }
+      if (oom) {
         removed = -1;
         goto done;
       }
-      f.cap = cap;
+      candidates = 0;
+      for (int r = 0; r < COARSEN_REGIONS; r++) {
+        removed += got[r];
+        candidates += heap[r].n;
+      }
     }
-    removed += collapse_apply(o, &f, v, u, f.len);
-    f.len += need;
-    remap[v] = -1;
-    /* v's neighbours (u among them): their fans or edges changed */
-    for (int a = 0; a < n; a++) heap_set(&heap, us[a], candidate(o, &f, us[a]));
+    for (int r = 0; r < COARSEN_REGIONS && removed + 1 < goal; r++) {
+      long got = coarsen_region(o, &f, &heap[r], remap, goal - removed);
+      if (got < 0) {
+        removed = -1;
+        goto done;
+      }
+      removed += got;
+    }
   }
   {
     /* Compact: vertices in order, triangles in order. */
@@ -616,7 +777,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
     o->ntri = nt;
   }
 done:
-  free(heap.length2), free(heap.at), free(heap.v), free(remap);
+  free(length2), free(at), free(heap_v), free(remap), free(lengths);
   fans_free(&f);
   return removed;
 }

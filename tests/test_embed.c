@@ -981,18 +981,29 @@ static void test_densify(void) {
 
 /* ch_cut_coarsen on the same: every collapse takes two triangles and a
  * vertex, the mesh stays closed and unfolded, every vertex left is used
- * and still where it was (at its (face, st), displaced by its h), and no
- * triangle's normal turns over. */
+ * and still where it was (at its (face, st), displaced by its h), no
+ * triangle's normal turns over, and one thread makes the same mesh as
+ * two (its slabs are collapsed side by side). */
 static void test_coarsen(void) {
   scene s;
   REQUIRE(scene_load(&s, "torus", seam_svg, NULL, CH_SCHEME_CATMARK, 60000));
-  ch_cut_out o;
+  ch_cut_out o, one;
   cut_out_of_tessellation(&s, &o);
+  cut_out_of_tessellation(&s, &one);
   int npos0 = o.npos, ntri0 = o.ntri;
   long want = ntri0 / 4 * 2; /* half of them: many collapses in each place */
+  int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  long removed_one = ch_cut_coarsen(&one, want);
+  omp_set_num_threads(threads > 1 ? threads : 2);
   long removed = ch_cut_coarsen(&o, want);
+  omp_set_num_threads(threads);
   printf("  %d triangles, %ld fewer asked for, %ld removed\n", ntri0, want, removed);
   CHECK_MSG(removed == want, "%ld removed of %ld", removed, want);
+  CHECK(removed_one == removed && one.ntri == o.ntri && one.npos == o.npos &&
+        !memcmp(one.tri, o.tri, 3 * sizeof *o.tri * (size_t)o.ntri) &&
+        !memcmp(one.uv, o.uv, 6 * sizeof *o.uv * (size_t)o.ntri));
+  ch_cut_out_free(&one);
   CHECK(o.ntri == ntri0 - removed && o.npos == npos0 - removed / 2);
   long open = cut_open_edges(&o);
   CHECK_MSG(open == 0, "%ld open edges", open);
