@@ -10,8 +10,8 @@ extern "C" {
 #endif
 
 /* Allocates count * size bytes (NULL on overflow or failure), zero-filled
- * if zero is set; release with free(). Arrays of several megabytes are
- * aligned to 2 MiB and offered to the kernel for transparent huge pages:
+ * if zero is set; release with free(). The 2 MiB pages inside arrays of
+ * several megabytes are offered to the kernel for transparent huge pages:
  * first-touch page faults otherwise cost as much as a pass over the data. */
 void *ch_alloc_large(size_t count, size_t size, int zero);
 
