@@ -701,10 +701,11 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
     }
     /* The first slabs leave the share of the vertices on their borders to
      * the shifted ones (where the shortest edges are then theirs, as in one
-     * greedy order over all). The slabs take shares of what is to go by
-     * their candidates, and what one could not take goes to the others'
-     * (three times at most); what the shares' rounding left is then taken
-     * slab after slab. */
+     * greedy order over all); the phases alternate (four at most) while
+     * collapses are left to do and allowed. Within a phase the slabs take
+     * their shares, and what one could not take goes to the others' (three
+     * times at most); what the shares' rounding left is then taken slab
+     * after slab. */
     long goal = phase == 0 && candidates + blocked > 0
                     ? (long)((double)fewer * (double)candidates / (double)(candidates + blocked))
                     : fewer;
