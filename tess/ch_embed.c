@@ -284,6 +284,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   ch_refine_mesh w = {.surface = surface};
   unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
   unsigned char *edge_sampled = NULL; /* a sampled pilot's: the edges of its tiles' triangles */
+  int *split_edges = NULL, cap_split = 0; /* a round's: the edges given midpoints */
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
   ch_status st = CH_OK;
@@ -463,11 +464,12 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         int i = w.tri_edge[3 * (size_t)t + k];
         if (w.edges[i].mid >= 0 || ch_refine_edge_length(&w, &w.edges[i]) < MIN_SPLIT_LENGTH) continue;
         stats.splits_at_level[edge_level(&w, &w.edges[i], tm->num_positions, mean_edge)]++;
-        if (ch_refine_add_midpoint(&w, i)) {
+        if (ch_refine_add_midpoint(&w, i) ||
+            ch_alloc_grow((void **)&split_edges, &cap_split, split + 1, sizeof *split_edges, 1024)) {
           free(refine);
           goto nomem;
         }
-        split++;
+        split_edges[split++] = i;
       }
     free(refine);
     ch_refine_locate_new(&w, first_new);
@@ -478,7 +480,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     }
     stats.refine_rounds = round + 1;
     stats.refined_edges += split;
-    if ((st = ch_refine_split(&w, &fresh, err))) goto done;
+    if ((st = ch_refine_split(&w, split_edges, split, &fresh, err))) goto done;
     stats.seconds_split += omp_get_wtime() - te;
   }
   double t1 = omp_get_wtime();
@@ -701,6 +703,7 @@ nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
 done:
   free(edge_sampled);
+  free(split_edges);
   ch_cut_out_free(&o);
   ch_label_free(&lb);
   free_working_mesh(&w);

@@ -737,40 +737,69 @@ static void set_tri(ch_refine_tri *t, int face, const corner_ref *a, const corne
   }
 }
 
-/* Which edges of t have a midpoint (bit k: edge k). */
-static int split_mask(const ch_refine_mesh *w, int t) {
+/* Which of triangle t's edges are split (bit k: edge k), from a flag per edge. */
+static int split_mask(const ch_refine_mesh *w, const unsigned char *edge_split, int t) {
   int mask = 0;
   for (int k = 0; k < 3; k++)
-    if (w->edges[w->tri_edge[3 * (size_t)t + k]].mid >= 0) mask |= 1 << k;
+    if (edge_split[w->tri_edge[3 * (size_t)t + k]]) mask |= 1 << k;
   return mask;
 }
 
-/* Splits every triangle with midpoints on its edges (red: 4 children,
- * green: 2 or 3), in parallel: the first child takes the parent's slot,
- * the others are appended, and the edges are updated in place (a split
- * edge gives way to its halves, each parent gets as many new inner edges
- * as it has split edges), so a round costs what it changes, not the size
- * of the mesh. The result does not depend on the thread count. fresh[t]
- * (resized with the triangles) tells the children from the untouched. */
-ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *err) {
-  int n0 = w->ntris, e0 = w->nedges;
-  int *first = ch_alloc_large((size_t)n0 + 1, sizeof *first, 0); /* per parent: its first appended child and inner edge */
-  if (!first) return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
-  /* Children beyond the first (inner edges alike) per parent, then their
-   * offsets: the masks in parallel (a serial scan of every triangle each
-   * round took seconds at 20M triangles), the prefix sum after. */
-#pragma omp parallel for schedule(static)
-  for (int t = 0; t < n0; t++) {
-    int mask = split_mask(w, t);
-    first[t] = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+enum { SPLIT_CHUNK = 1 << 16 };
+
+ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit, unsigned char **fresh, ch_error *err) {
+  int n0 = w->ntris, e0 = w->nedges, nchunks = (n0 + SPLIT_CHUNK - 1) / SPLIT_CHUNK;
+  /* The parents, in triangle order: a byte a split edge and a sweep of the
+   * triangles' edge indices finds them (reading each triangle's edges
+   * themselves, three scattered 40-byte records, took 25-33 ms a round at
+   * 1M triangles, for a few thousand parents); the parents' numbering is
+   * then what one serial pass over all triangles would give. */
+  unsigned char *edge_split = calloc((size_t)(e0 > 0 ? e0 : 1), 1);
+  int *chunk_first = calloc((size_t)nchunks + 1, sizeof *chunk_first);
+  if (!edge_split || !chunk_first) {
+    free(edge_split);
+    free(chunk_first);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
   }
+  for (int i = 0; i < nsplit; i++) edge_split[split_edges[i]] = 1;
+#pragma omp parallel for schedule(static)
+  for (int c = 0; c < nchunks; c++) {
+    int t1 = (c + 1) * SPLIT_CHUNK < n0 ? (c + 1) * SPLIT_CHUNK : n0, n = 0;
+    for (int t = c * SPLIT_CHUNK; t < t1; t++) n += split_mask(w, edge_split, t) != 0;
+    chunk_first[c + 1] = n;
+  }
+  for (int c = 0; c < nchunks; c++) chunk_first[c + 1] += chunk_first[c];
+  int nparents = chunk_first[nchunks];
+  int *parent = malloc((size_t)(nparents > 0 ? nparents : 1) * sizeof *parent);
+  int *first = malloc(((size_t)nparents + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
+  if (!parent || !first) {
+    free(edge_split);
+    free(chunk_first);
+    free(parent);
+    free(first);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  }
+#pragma omp parallel for schedule(static)
+  for (int c = 0; c < nchunks; c++) {
+    int t1 = (c + 1) * SPLIT_CHUNK < n0 ? (c + 1) * SPLIT_CHUNK : n0, at = chunk_first[c];
+    for (int t = c * SPLIT_CHUNK; t < t1; t++) {
+      int mask = split_mask(w, edge_split, t);
+      if (!mask) continue;
+      parent[at] = t;
+      first[at++] = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
+    }
+  }
+  free(chunk_first);
+  /* Children beyond the first (inner edges alike) per parent: their offsets. */
   long added = 0;
-  for (int t = 0; t < n0; t++) {
-    int c = first[t];
-    first[t] = (int)added;
+  for (int i = 0; i < nparents; i++) {
+    int c = first[i];
+    first[i] = (int)added;
     added += c;
   }
   if (n0 + added >= INT32_MAX / 3 || e0 + added >= INT32_MAX / 3) {
+    free(edge_split);
+    free(parent);
     free(first);
     return ch_error_set(err, CH_ERR_NOMEM, "refinement would make too many triangles");
   }
@@ -780,15 +809,16 @@ ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *er
   if (!fr || grow((void **)&w->tris, &w->cap_tris, n, sizeof *w->tris) ||
       grow((void **)&w->edges, &w->cap_edges, e0 + (int)added, sizeof *w->edges) ||
       grow((void **)&w->tri_edge, &cap_edge_index, 3 * n, sizeof *w->tri_edge)) {
+    free(edge_split);
+    free(parent);
     free(first);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
   }
   w->cap_tri_edge = cap_edge_index;
   memset(fr, 0, (size_t)n);
-#pragma omp parallel for schedule(dynamic, 1024)
-  for (int t = 0; t < n0; t++) {
-    int mask = split_mask(w, t);
-    if (!mask) continue;
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int pi = 0; pi < nparents; pi++) {
+    int t = parent[pi], mask = split_mask(w, edge_split, t), child0 = first[pi];
     const ch_refine_tri T = w->tris[t];
     int pe[3]; /* the parent's edges */
     memcpy(pe, &w->tri_edge[3 * (size_t)t], sizeof pe);
@@ -807,7 +837,7 @@ ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *er
     }
     int slot[4], f = T.face, cnt = (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1);
     slot[0] = t;
-    for (int i = 1; i <= cnt; i++) slot[i] = n0 + first[t] + i - 1;
+    for (int i = 1; i <= cnt; i++) slot[i] = n0 + child0 + i - 1;
     const corner_ref *kids[4][3];
     if (cnt == 3) {
       const corner_ref *r[4][3] = {
@@ -842,7 +872,7 @@ ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *er
         } else { /* between the midpoints or a midpoint and the opposite corner */
           int lo = p < q ? p : q, hi = p < q ? q : p, x = 0;
           while (x < ninner && !(inner_tags[x][0] == lo && inner_tags[x][1] == hi)) x++;
-          edge = e0 + first[t] + x;
+          edge = e0 + child0 + x;
           if (x == ninner) {
             inner_tags[ninner][0] = lo;
             inner_tags[ninner][1] = hi;
@@ -886,13 +916,15 @@ ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *er
   }
   /* The split edges are gone from the mesh. */
 #pragma omp parallel for schedule(static)
-  for (int i = 0; i < e0; i++) {
-    ch_refine_edge *e = &w->edges[i];
-    if (e->mid < 0 || !e->cross) continue;
+  for (int i = 0; i < nsplit; i++) {
+    ch_refine_edge *e = &w->edges[split_edges[i]];
+    if (!e->cross) continue;
     free(e->cross);
     e->cross = NULL;
     e->ncross = 0;
   }
+  free(edge_split);
+  free(parent);
   free(first);
   w->ntris = n;
   w->nedges = e0 + (int)added;

@@ -147,9 +147,10 @@ void ch_refine_locate_new(ch_refine_mesh *w, int from);
  * the others are appended, and the edges are updated in place (a split
  * edge gives way to its halves, each parent gets as many new inner edges
  * as it has split edges), so a round costs what it changes, not the size
- * of the mesh. The result does not depend on the thread count. fresh[t]
+ * of the mesh. split_edges: the nsplit edges given midpoints since the
+ * last split. The result does not depend on the thread count. fresh[t]
  * (resized with the triangles) tells the children from the untouched. */
-ch_status ch_refine_split(ch_refine_mesh *w, unsigned char **fresh, ch_error *err);
+ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit, unsigned char **fresh, ch_error *err);
 
 /* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
 void ch_refine_edge_point(const ch_refine_mesh *w, const ch_refine_edge *e, double x, double uv[2], double st[2]);
