@@ -408,7 +408,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
                                                : MAX_REFINED_PER_BASE * (double)tm->num_faces + MAX_REFINED_EXTRA;
   /* Local refinement until every triangle's crossings pair into chords. */
-  int labelled = 0;
+  int labelled = 0, crossed = 0;
   for (int round = 0;; round++) {
     double ta = omp_get_wtime();
     report(desc, pilot, round, "labels", -1.0);
@@ -433,9 +433,12 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
             es[w.tri_edge[3 * (size_t)t + k]] = 1;
           }
     }
-    /* (in blocks, so a long search reports how far it is) */
-    for (int i0 = 0, block = w.nedges / 32 > 4096 ? w.nedges / 32 : 4096; i0 < w.nedges && !oom; i0 += block) {
-      report(desc, pilot, round, "crossings", (double)i0 / w.nedges);
+    /* (in blocks, so a long search reports how far it is). Without tiles
+     * every edge before `crossed` has its crossings: a split appends its
+     * new edges, so a round looks at those alone. */
+    int from = edge_sampled ? 0 : crossed, todo = w.nedges - from;
+    for (int i0 = from, block = todo / 32 > 4096 ? todo / 32 : 4096; i0 < w.nedges && !oom; i0 += block) {
+      report(desc, pilot, round, "crossings", (double)(i0 - from) / todo);
       int i1 = i0 + block < w.nedges ? i0 + block : w.nedges;
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : oom)
       for (int i = i0; i < i1; i++) {
@@ -444,6 +447,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       }
     }
     if (oom) goto nomem;
+    crossed = w.nedges;
     double td = omp_get_wtime();
     stats.seconds_crossings += td - tc;
     if (round >= max_rounds) break;
