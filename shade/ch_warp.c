@@ -441,12 +441,8 @@ ch_status ch_warp_build(const ch_camera *cam, const ch_warp_cage *cage, const ch
   }
   if (have_curves && (st = ch_grid_build(&curve_grid, set->num_segments, (const double(*)[4])curve_boxes, err)))
     goto done;
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t i = 0; i < (size_t)nt * 3; i++)
-    for (int k = 0; k < 3; k++) {
-      lo[k] = fmin(lo[k], cage->position[3 * i + k]);
-      hi[k] = fmax(hi[k], cage->position[3 * i + k]);
-    }
+  double lo[3], hi[3];
+  ch_box3(cage->position, (size_t)nt * 3, lo, hi);
   double diag = nt > 0 ? sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                               (hi[2] - lo[2]) * (hi[2] - lo[2]))
                        : 0.0;

@@ -337,12 +337,9 @@ static int fans_build(const ch_cut_out *o, vertex_fans *f) {
       }
   }
   f->len = n;
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (int v = 0; v < o->npos; v++)
-    for (int k = 0; k < 3; k++) {
-      lo[k] = fmin(lo[k], o->pos[3 * (size_t)v + k]);
-      hi[k] = fmax(hi[k], o->pos[3 * (size_t)v + k]);
-    }
+  /* The slabs: along the longest side of the positions' box. */
+  double lo[3], hi[3];
+  ch_box3(o->pos, (size_t)(o->npos > 0 ? o->npos : 0), lo, hi);
   int axis = 0;
   for (int k = 1; k < 3; k++)
     if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;

@@ -108,12 +108,8 @@ typedef struct embed_kept {
 /* How short an edge the cleanup collapses: 1e-8 of the diagonal of the
  * positions' box (see embed_finish). */
 static double collapse_length(const double *pos, int n) {
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (int v = 0; v < n; v++)
-    for (int k = 0; k < 3; k++) {
-      lo[k] = fmin(lo[k], pos[3 * (size_t)v + k]);
-      hi[k] = fmax(hi[k], pos[3 * (size_t)v + k]);
-    }
+  double lo[3], hi[3];
+  ch_box3(pos, (size_t)(n > 0 ? n : 0), lo, hi);
   double span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
   return n ? 1e-8 * sqrt(ch_dot3(span, span)) : 0.0;
 }

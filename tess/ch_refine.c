@@ -755,12 +755,8 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
    * 1M triangles, for a few thousand parents); the parents' numbering is
    * then what one serial pass over all triangles would give. */
   unsigned char *edge_split = calloc((size_t)(e0 > 0 ? e0 : 1), 1);
-  int *chunk_first = calloc((size_t)nchunks + 1, sizeof *chunk_first);
-  if (!edge_split || !chunk_first) {
-    free(edge_split);
-    free(chunk_first);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
-  }
+  int *chunk_first = calloc((size_t)nchunks + 1, sizeof *chunk_first), *parent = NULL, *first = NULL;
+  if (!edge_split || !chunk_first) goto nomem;
   for (int i = 0; i < nsplit; i++) edge_split[split_edges[i]] = 1;
 #pragma omp parallel for schedule(static)
   for (int c = 0; c < nchunks; c++) {
@@ -770,15 +766,9 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
   }
   for (int c = 0; c < nchunks; c++) chunk_first[c + 1] += chunk_first[c];
   int nparents = chunk_first[nchunks];
-  int *parent = malloc((size_t)(nparents > 0 ? nparents : 1) * sizeof *parent);
-  int *first = malloc(((size_t)nparents + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
-  if (!parent || !first) {
-    free(edge_split);
-    free(chunk_first);
-    free(parent);
-    free(first);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
-  }
+  parent = malloc((size_t)(nparents > 0 ? nparents : 1) * sizeof *parent);
+  first = malloc(((size_t)nparents + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
+  if (!parent || !first) goto nomem;
 #pragma omp parallel for schedule(static)
   for (int c = 0; c < nchunks; c++) {
     int t1 = (c + 1) * SPLIT_CHUNK < n0 ? (c + 1) * SPLIT_CHUNK : n0, at = chunk_first[c];
@@ -790,6 +780,7 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
     }
   }
   free(chunk_first);
+  chunk_first = NULL;
   /* Children beyond the first (inner edges alike) per parent: their offsets. */
   long added = 0;
   for (int i = 0; i < nparents; i++) {
@@ -808,12 +799,8 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
   if (fr) *fresh = fr;
   if (!fr || grow((void **)&w->tris, &w->cap_tris, n, sizeof *w->tris) ||
       grow((void **)&w->edges, &w->cap_edges, e0 + (int)added, sizeof *w->edges) ||
-      grow((void **)&w->tri_edge, &cap_edge_index, 3 * n, sizeof *w->tri_edge)) {
-    free(edge_split);
-    free(parent);
-    free(first);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
-  }
+      grow((void **)&w->tri_edge, &cap_edge_index, 3 * n, sizeof *w->tri_edge))
+    goto nomem;
   w->cap_tri_edge = cap_edge_index;
   memset(fr, 0, (size_t)n);
 #pragma omp parallel for schedule(dynamic, 64)
@@ -929,6 +916,12 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
   w->ntris = n;
   w->nedges = e0 + (int)added;
   return CH_OK;
+nomem:
+  free(edge_split);
+  free(chunk_first);
+  free(parent);
+  free(first);
+  return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
 }
 
 /* ---- a triangle's boundary -------------------------------------------------

@@ -1,10 +1,12 @@
 /* ch_math: small inline helpers shared by every module (2D/3D vectors as
- * double arrays, clamping, min/max of three, a qsort comparator), and pi,
+ * double arrays, clamping, min/max of three, the box of a point array, a
+ * qsort comparator), and pi,
  * which strict C11 does not define. Plain C, usable from C++ shims too. */
 #ifndef CH_MATH_H
 #define CH_MATH_H
 
 #include <math.h>
+#include <stddef.h>
 
 #define CH_PI 3.14159265358979323846
 
@@ -56,6 +58,19 @@ static inline int ch_normalize3(double v[3]) {
 }
 /* qsort comparator for doubles in ascending order (NaNs compare equal to
  * everything: keep them out). */
+/* The box of n points (3 doubles each); lo = +inf, hi = -inf when n = 0. */
+static inline void ch_box3(const double *p, size_t n, double lo[3], double hi[3]) {
+  for (int k = 0; k < 3; k++) {
+    lo[k] = INFINITY;
+    hi[k] = -INFINITY;
+  }
+  for (size_t i = 0; i < n; i++)
+    for (int k = 0; k < 3; k++) {
+      lo[k] = fmin(lo[k], p[3 * i + k]);
+      hi[k] = fmax(hi[k], p[3 * i + k]);
+    }
+}
+
 static inline int ch_cmp_double(const void *a, const void *b) {
   double x = *(const double *)a, y = *(const double *)b;
   return (x > y) - (x < y);
