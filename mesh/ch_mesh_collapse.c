@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "ch_mesh.h"
+#include "ch_sort.h"
 
 typedef struct vlist {
   int *f; /* incident faces (may hold dead ones) */
@@ -311,36 +312,21 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
   int nf = m->num_faces, np = m->num_positions;
   const int *cp = m->corner_position;
-  /* Faces by their lowest corner (a counting sort): the two faces of a
-   * pillow share it, and few faces do, so pairs are found in linear time.
-   * In parallel: which pairs are found does not depend on the order of the
-   * faces within a bucket, and whether one is removed not on the others'
-   * order. */
-  int *start = calloc((size_t)np + 1, sizeof *start), *order = malloc((size_t)nf * sizeof *order);
-  int *fill = malloc(((size_t)np + 1) * sizeof *fill), *partner = malloc((size_t)nf * sizeof *partner);
+  /* Faces by their lowest corner: the two faces of a pillow share it, and
+   * few faces do, so pairs are found in linear time. */
+  int *start = malloc(((size_t)np + 1) * sizeof *start), *order = malloc((size_t)nf * sizeof *order);
+  int *low = malloc((size_t)nf * sizeof *low), *partner = malloc((size_t)nf * sizeof *partner);
   int(*pairs)[2] = NULL;
   size_t npairs = 0;
   uint64_t *keys = NULL;
   long *uses = NULL;
   unsigned char *drop = NULL;
   int removed = -1;
-  if (!start || !order || !fill || !partner) goto done;
+  if (!start || !order || !low || !partner) goto done;
 #pragma omp parallel for schedule(static)
-  for (int f = 0; f < nf; f++) {
-    int v = lowest_corner(&cp[3 * (size_t)f]);
-#pragma omp atomic
-    start[v + 1]++;
-  }
-  for (int v = 0; v < np; v++) start[v + 1] += start[v];
-  memcpy(fill, start, ((size_t)np + 1) * sizeof *fill);
-#pragma omp parallel for schedule(static)
-  for (int f = 0; f < nf; f++) {
-    int v = lowest_corner(&cp[3 * (size_t)f]), slot;
-#pragma omp atomic capture
-    slot = fill[v]++;
-    order[slot] = f;
-  }
-  /* partner[f]: g > f where f and g are a pillow (exactly two faces on the
+  for (int f = 0; f < nf; f++) low[f] = lowest_corner(&cp[3 * (size_t)f]);
+  if (ch_sort_buckets(low, (size_t)nf, np, start, order)) goto done;
+    /* partner[f]: g > f where f and g are a pillow (exactly two faces on the
    * same corners, opposite), else -1 */
 #pragma omp parallel for schedule(dynamic, 4096)
   for (int v = 0; v < np; v++)
@@ -403,7 +389,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
 done:
   free(start);
   free(order);
-  free(fill);
+  free(low);
   free(partner);
   free(pairs);
   free(keys);

@@ -11,6 +11,7 @@
 #include "ch_version.h"
 #include "ch_error.h"
 #include "ch_alloc.h"
+#include "ch_sort.h"
 #include "ch_file.h"
 #include "ch_progress.h"
 #include "ch_image.h"

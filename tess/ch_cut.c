@@ -15,6 +15,7 @@
 #include "ch_math.h"
 #include "ch_samples.h"
 #include "ch_segtree.h"
+#include "ch_sort.h"
 #include "ch_thin.h"
 #include "ch_warp.h"
 
@@ -535,15 +536,8 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
 #pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++) m->face_start[t] = 3 * t;
   m->face_start[o->ntri] = (int)nc;
-  /* Corners by vertex, in corner order (a counting sort). */
-  memset(start, 0, (np + 1) * sizeof *start);
-  for (size_t c = 0; c < nc; c++) start[o->tri[c] + 1]++;
-  for (size_t p = 0; p < np; p++) start[p + 1] += start[p];
-  {
-    int *fill = m->corner_uv; /* scratch until the UVs are numbered */
-    memcpy(fill, start, np * sizeof *fill);
-    for (size_t c = 0; c < nc; c++) order[fill[o->tri[c]]++] = (int)c;
-  }
+  /* Corners by vertex, in corner order. */
+  if (ch_sort_buckets(o->tri, nc, o->npos, start, order)) goto nomem;
   /* Per vertex: where its UVs and normals are born (a UV is new unless it
    * equals the vertex's first; a normal is new for each group).
    * corner_uv and corner_normal hold the born corner for now. */

@@ -1,8 +1,9 @@
-# Core tests: image I/O (ch_exr, ch_png). Included from tests/CMakeLists.txt.
+# Core tests: image I/O (ch_exr, ch_png), files, the camera, the small helpers.
+# Included from tests/CMakeLists.txt.
 ch_add_test(NAME test_image SOURCES test_image.c LIBS chisel_core)
 ch_add_test(NAME test_file SOURCES test_file.c LIBS chisel_core)
 ch_add_test(NAME test_camera SOURCES test_camera.c LIBS chisel_core)
-ch_add_test(NAME test_math SOURCES test_math.c LIBS chisel_core)
+ch_add_test(NAME test_math SOURCES test_math.c LIBS chisel_core OpenMP::OpenMP_C)
 
 # Sample EXRs written by test_image, checked by tools that share no code with
 # our writer: a pure-Python reader, and OpenEXR's own tools when installed

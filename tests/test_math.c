@@ -1,14 +1,18 @@
 /* core's small shared helpers: ch_math.h (checked against hand-worked
- * values and against qsort's contract), ch_alloc_grow and the clock of
- * ch_progress. */
+ * values and against qsort's contract), ch_alloc_grow, the counting sort
+ * of ch_sort (against a serial stable sort, on 1 to 3 threads) and the
+ * clock of ch_progress. */
 #define _POSIX_C_SOURCE 200809L /* nanosleep */
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include <omp.h>
+
 #include "ch_alloc.h"
 #include "ch_math.h"
 #include "ch_progress.h"
+#include "ch_sort.h"
 #include "ch_test.h"
 
 static void test_math(void) {
@@ -87,6 +91,35 @@ static void test_resize(void) {
 
 /* The clock runs forward with wall time: a 30 ms sleep reads as 30 ms or
  * more (and, even on a loaded machine, well under 10 s). */
+/* ch_sort_buckets against the serial stable counting sort: every bucket's
+ * items in increasing order, whatever the thread count, with keys that
+ * repeat, buckets left empty, and item counts below and above what one
+ * thread takes alone. */
+static void test_sort(void) {
+  const size_t sizes[] = {0, 1, 1000, 300001};
+  for (int si = 0; si < 4; si++) {
+    size_t n = sizes[si];
+    int nkeys = n > 1000 ? 50000 : 37;
+    int *key = malloc((n ? n : 1) * sizeof *key), *ref_start = calloc((size_t)nkeys + 1, sizeof *ref_start);
+    int *ref = malloc((n ? n : 1) * sizeof *ref), *fill = malloc((size_t)nkeys * sizeof *fill);
+    int *start = malloc(((size_t)nkeys + 1) * sizeof *start), *order = malloc((n ? n : 1) * sizeof *order);
+    REQUIRE(key && ref_start && ref && fill && start && order);
+    for (size_t i = 0; i < n; i++) key[i] = (int)(ch_test_rnd() * (nkeys / 2)) * 2; /* odd keys: empty */
+    for (size_t i = 0; i < n; i++) ref_start[key[i] + 1]++;
+    for (int k = 0; k < nkeys; k++) ref_start[k + 1] += ref_start[k];
+    memcpy(fill, ref_start, (size_t)nkeys * sizeof *fill);
+    for (size_t i = 0; i < n; i++) ref[fill[key[i]]++] = (int)i;
+    for (int threads = 1; threads <= 3; threads++) {
+      omp_set_num_threads(threads);
+      memset(order, 0xff, (n ? n : 1) * sizeof *order);
+      CHECK(ch_sort_buckets(key, n, nkeys, start, order) == 0);
+      CHECK(memcmp(start, ref_start, ((size_t)nkeys + 1) * sizeof *start) == 0);
+      CHECK(n == 0 || memcmp(order, ref, n * sizeof *order) == 0);
+    }
+    free(key), free(ref_start), free(ref), free(fill), free(start), free(order);
+  }
+}
+
 static void test_clock(void) {
   double t0 = ch_progress_seconds();
   struct timespec ts = {0, 30 * 1000 * 1000};
@@ -99,6 +132,7 @@ int main(void) {
   RUN(test_math);
   RUN(test_grow);
   RUN(test_resize);
+  RUN(test_sort);
   RUN(test_clock);
   TEST_MAIN_END();
 }
