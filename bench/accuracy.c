@@ -12,6 +12,7 @@
 #include "ch_bezier.h"
 #include "ch_grid.h"
 #include "ch_groove.h"
+#include "ch_sort.h"
 
 #define PI_ 3.14159265358979323846
 
@@ -470,38 +471,6 @@ static ch_status rasterise(const ch_mesh *mesh, int G, raster *r, ch_error *err)
 
 /* ---- the figures ------------------------------------------------------------------ */
 
-static void swap_d(double *a, double *b) {
-  double t = *a;
-  *a = *b;
-  *b = t;
-}
-
-/* The k-th smallest (0-based) of a[0..n-1], reordering a; deterministic. */
-static double select_kth(double *a, long n, long k) {
-  long lo = 0, hi = n - 1;
-  while (hi > lo) {
-    long mid = lo + (hi - lo) / 2;
-    if (a[mid] < a[lo]) swap_d(&a[mid], &a[lo]);
-    if (a[hi] < a[lo]) swap_d(&a[hi], &a[lo]);
-    if (a[hi] < a[mid]) swap_d(&a[hi], &a[mid]);
-    double pivot = a[mid];
-    long i = lo, j = hi;
-    while (i <= j) {
-      while (a[i] < pivot) i++;
-      while (a[j] > pivot) j--;
-      if (i <= j) {
-        swap_d(&a[i], &a[j]);
-        i++;
-        j--;
-      }
-    }
-    if (k <= j) hi = j;
-    else if (k >= i) lo = i;
-    else return a[k];
-  }
-  return a[k];
-}
-
 ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mesh *mesh, ch_accuracy *out,
                                         ch_error *err) {
   memset(out, 0, sizeof *out);
@@ -621,14 +590,14 @@ ch_status ch_accuracy_measure_reference(ch_accuracy_reference *ref, const ch_mes
   if (nn > 0) {
     long rank = (long)ceil(0.95 * (double)nn) - 1;
     if (rank < 0) rank = 0;
-    out->normal_p95_deg = select_kth(angles, nn, rank);
+    out->normal_p95_deg = ch_sort_select(angles, nn, rank);
   }
   out->shading_samples = ns;
   out->shading_mean_deg = ns > 0 ? ssum / (double)ns : NAN;
   out->shading_p95_deg = NAN;
   if (ns > 0) {
     long rank = (long)ceil(0.95 * (double)ns) - 1;
-    out->shading_p95_deg = select_kth(shading, ns, rank < 0 ? 0 : rank);
+    out->shading_p95_deg = ch_sort_select(shading, ns, rank < 0 ? 0 : rank);
   }
   free(shading);
   free(row);

@@ -562,32 +562,6 @@ static void heap_set(cand_heap *h, int v, double length2) {
   }
 }
 
-/* The k-th smallest of x[0 .. n-1] (0-based; x is reordered): Hoare's
- * selection. */
-static double select_kth(double *x, long n, long k) {
-  long lo = 0, hi = n - 1;
-  while (lo < hi) {
-    double pivot = x[lo + (hi - lo) / 2];
-    long i = lo, j = hi;
-    while (i <= j) {
-      while (x[i] < pivot) i++;
-      while (x[j] > pivot) j--;
-      if (i <= j) {
-        double t = x[i];
-        x[i++] = x[j];
-        x[j--] = t;
-      }
-    }
-    if (k <= j)
-      hi = j;
-    else if (k >= i)
-      lo = i;
-    else
-      return x[k];
-  }
-  return x[k];
-}
-
 /* Slab r's greedy order until it has removed `budget` triangles (less
  * one) or has no candidate left: the vertex with the shortest edge
  * collapses along its shortest allowed edge, and its neighbours, whose
@@ -690,7 +664,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
       long k = left / 2 < candidates ? left / 2 : candidates;
       for (long i = 0, r = 0; r < COARSEN_REGIONS; r++)
         for (int j = 0; j < heap[r].n; j++) lengths[i++] = length2[heap[r].v[j]];
-      double cut = k > 0 ? select_kth(lengths, candidates, k - 1) : -INFINITY;
+      double cut = k > 0 ? ch_sort_select(lengths, candidates, k - 1) : -INFINITY;
       for (int r = 0; r < COARSEN_REGIONS; r++) {
         long below = 0;
         for (int j = 0; j < heap[r].n; j++) below += length2[heap[r].v[j]] <= cut;

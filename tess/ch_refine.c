@@ -756,7 +756,8 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
    * then what one serial pass over all triangles would give. */
   unsigned char *edge_split = calloc((size_t)(e0 > 0 ? e0 : 1), 1);
   int *chunk_first = calloc((size_t)nchunks + 1, sizeof *chunk_first), *parent = NULL, *first = NULL;
-  if (!edge_split || !chunk_first) goto nomem;
+  const char *why = "out of memory refining the mesh";
+  if (!edge_split || !chunk_first) goto fail;
   for (int i = 0; i < nsplit; i++) edge_split[split_edges[i]] = 1;
 #pragma omp parallel for schedule(static)
   for (int c = 0; c < nchunks; c++) {
@@ -768,7 +769,7 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
   int nparents = chunk_first[nchunks];
   parent = malloc((size_t)(nparents > 0 ? nparents : 1) * sizeof *parent);
   first = malloc(((size_t)nparents + 1) * sizeof *first); /* per parent: its first appended child and inner edge */
-  if (!parent || !first) goto nomem;
+  if (!parent || !first) goto fail;
 #pragma omp parallel for schedule(static)
   for (int c = 0; c < nchunks; c++) {
     int t1 = (c + 1) * SPLIT_CHUNK < n0 ? (c + 1) * SPLIT_CHUNK : n0, at = chunk_first[c];
@@ -789,10 +790,8 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
     added += c;
   }
   if (n0 + added >= INT32_MAX / 3 || e0 + added >= INT32_MAX / 3) {
-    free(edge_split);
-    free(parent);
-    free(first);
-    return ch_error_set(err, CH_ERR_NOMEM, "refinement would make too many triangles");
+    why = "refinement would make too many triangles";
+    goto fail;
   }
   int n = n0 + (int)added, cap_edge_index = w->cap_tri_edge;
   unsigned char *fr = realloc(*fresh, (size_t)(n > 0 ? n : 1));
@@ -800,7 +799,7 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
   if (!fr || grow((void **)&w->tris, &w->cap_tris, n, sizeof *w->tris) ||
       grow((void **)&w->edges, &w->cap_edges, e0 + (int)added, sizeof *w->edges) ||
       grow((void **)&w->tri_edge, &cap_edge_index, 3 * n, sizeof *w->tri_edge))
-    goto nomem;
+    goto fail;
   w->cap_tri_edge = cap_edge_index;
   memset(fr, 0, (size_t)n);
 #pragma omp parallel for schedule(dynamic, 64)
@@ -916,12 +915,12 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
   w->ntris = n;
   w->nedges = e0 + (int)added;
   return CH_OK;
-nomem:
+fail:
   free(edge_split);
   free(chunk_first);
   free(parent);
   free(first);
-  return ch_error_set(err, CH_ERR_NOMEM, "out of memory refining the mesh");
+  return ch_error_set(err, CH_ERR_NOMEM, "%s", why);
 }
 
 /* ---- a triangle's boundary -------------------------------------------------

@@ -1,7 +1,7 @@
 /* core's small shared helpers: ch_math.h (checked against hand-worked
  * values and against qsort's contract), ch_alloc_grow, the counting sort
- * of ch_sort (against a serial stable sort, on 1 to 3 threads) and the
- * clock of ch_progress. */
+ * of ch_sort (against a serial stable sort, on 1 to 3 threads), its
+ * selection (against qsort) and the clock of ch_progress. */
 #define _POSIX_C_SOURCE 200809L /* nanosleep */
 #include <stdlib.h>
 #include <string.h>
@@ -120,6 +120,27 @@ static void test_sort(void) {
   }
 }
 
+/* ch_sort_select against qsort: every rank of arrays with repeats,
+ * sorted, reversed and random. */
+static void test_select(void) {
+  enum { N = 257 };
+  double x[N], sorted[N], work[N];
+  for (int shape = 0; shape < 3; shape++) {
+    for (int i = 0; i < N; i++)
+      x[i] = shape == 0 ? floor(ch_test_rnd() * 40.0) : shape == 1 ? (double)i : (double)(N - i);
+    memcpy(sorted, x, sizeof x);
+    qsort(sorted, N, sizeof *sorted, ch_cmp_double);
+    int ok = 1;
+    for (long k = 0; k < N; k++) {
+      memcpy(work, x, sizeof x);
+      ok &= ch_sort_select(work, N, k) == sorted[k];
+    }
+    CHECK(ok);
+  }
+  double one = 3.5;
+  CHECK(ch_sort_select(&one, 1, 0) == 3.5);
+}
+
 static void test_clock(void) {
   double t0 = ch_progress_seconds();
   struct timespec ts = {0, 30 * 1000 * 1000};
@@ -133,6 +154,7 @@ int main(void) {
   RUN(test_grow);
   RUN(test_resize);
   RUN(test_sort);
+  RUN(test_select);
   RUN(test_clock);
   TEST_MAIN_END();
 }

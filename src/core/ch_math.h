@@ -56,8 +56,7 @@ static inline int ch_normalize3(double v[3]) {
   v[2] /= len;
   return 1;
 }
-/* qsort comparator for doubles in ascending order (NaNs compare equal to
- * everything: keep them out). */
+
 /* The box of n points (3 doubles each); lo = +inf, hi = -inf when n = 0. */
 static inline void ch_box3(const double *p, size_t n, double lo[3], double hi[3]) {
   for (int k = 0; k < 3; k++) {
@@ -71,6 +70,8 @@ static inline void ch_box3(const double *p, size_t n, double lo[3], double hi[3]
     }
 }
 
+/* qsort comparator for doubles in ascending order (NaNs compare equal to
+ * everything: keep them out). */
 static inline int ch_cmp_double(const void *a, const void *b) {
   double x = *(const double *)a, y = *(const double *)b;
   return (x > y) - (x < y);

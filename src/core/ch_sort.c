@@ -40,3 +40,33 @@ int ch_sort_buckets(const int *key, size_t n, int nkeys, int *start, int *order)
   free(count);
   return 0;
 }
+
+static void swap_double(double *a, double *b) {
+  double t = *a;
+  *a = *b;
+  *b = t;
+}
+
+double ch_sort_select(double *x, long n, long k) {
+  long lo = 0, hi = n - 1;
+  while (hi > lo) {
+    long mid = lo + (hi - lo) / 2;
+    if (x[mid] < x[lo]) swap_double(&x[mid], &x[lo]);
+    if (x[hi] < x[lo]) swap_double(&x[hi], &x[lo]);
+    if (x[hi] < x[mid]) swap_double(&x[hi], &x[mid]);
+    double pivot = x[mid];
+    long i = lo, j = hi;
+    while (i <= j) {
+      while (x[i] < pivot) i++;
+      while (x[j] > pivot) j--;
+      if (i <= j) swap_double(&x[i++], &x[j--]);
+    }
+    if (k <= j)
+      hi = j;
+    else if (k >= i)
+      lo = i;
+    else
+      return x[k];
+  }
+  return x[k];
+}
