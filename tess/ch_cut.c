@@ -19,7 +19,7 @@
 #include "ch_thin.h"
 #include "ch_warp.h"
 
-int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h) {
+int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], const double uv[2], double h) {
   if (o->count_only) return o->npos++;
   int i = o->npos - o->first_pos;
   if (i + 1 > o->cap_pos) {
@@ -30,14 +30,42 @@ int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h) {
     if (s) o->st = s;
     double *hh = realloc(o->h, (size_t)cap * sizeof *hh);
     if (hh) o->h = hh;
-    if (!f || !s || !hh) return -1;
+    double *u = o->shared_uv ? realloc(o->vertex_uv, (size_t)cap * 2 * sizeof *u) : NULL;
+    if (u) o->vertex_uv = u;
+    if (!f || !s || !hh || (o->shared_uv && !u)) return -1;
     o->cap_pos = cap;
   }
   o->face[i] = face;
   o->st[2 * (size_t)i] = st[0];
   o->st[2 * (size_t)i + 1] = st[1];
   o->h[i] = h;
+  if (o->shared_uv) memcpy(&o->vertex_uv[2 * (size_t)i], uv, 2 * sizeof *uv);
   return o->npos++;
+}
+
+/* The UV vertex v of part o has (ch_cut_out.shared_uv). */
+static const double *part_vertex_uv(const ch_cut_out *o, int v) {
+  return v < o->first_pos ? &o->shared_uv[2 * (size_t)v] : &o->vertex_uv[2 * (size_t)(v - o->first_pos)];
+}
+
+/* Lists corner c of part o with UV uv where that is not its vertex's. */
+static int part_corner_uv(ch_cut_out *o, int c, int v, const double *uv) {
+  const double *vu = part_vertex_uv(o, v);
+  if (vu[0] == uv[0] && vu[1] == uv[1]) return 0;
+  if (ch_alloc_grow((void **)&o->other_uv, &o->cap_other, o->nother + 1, sizeof *o->other_uv, 256)) return -1;
+  ch_cut_corner_uv *x = &o->other_uv[o->nother++];
+  x->corner = c;
+  memcpy(x->uv, uv, sizeof x->uv);
+  return 0;
+}
+
+void ch_cut_out_corner_uvs(const ch_cut_out *o, int t, double *uv, const ch_cut_corner_uv **other) {
+  for (int k = 0; k < 3; k++) {
+    int c = 3 * t + k;
+    const double *u =
+        *other < o->other_uv + o->nother && (*other)->corner == c ? (*other)++->uv : part_vertex_uv(o, o->tri[c]);
+    memcpy(&uv[2 * k], u, 2 * sizeof *uv);
+  }
 }
 
 int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
@@ -53,15 +81,21 @@ int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const d
     if (t) o->tri = t;
     uint64_t *g = realloc(o->group, (size_t)cap * sizeof *g);
     if (g) o->group = g;
-    double *u = realloc(o->uv, (size_t)cap * 6 * sizeof *u);
+    double *u = o->shared_uv ? NULL : realloc(o->uv, (size_t)cap * 6 * sizeof *u);
     if (u) o->uv = u;
-    if (!t || !g || !u) return -1;
+    if (!t || !g || (!o->shared_uv && !u)) return -1;
     o->cap_tri = cap;
   }
   int *t = &o->tri[3 * (size_t)o->ntri];
   t[0] = a;
   t[1] = b;
   t[2] = c;
+  if (o->shared_uv) {
+    int c0 = 3 * o->ntri;
+    if (part_corner_uv(o, c0, a, ua) || part_corner_uv(o, c0 + 1, b, ub) || part_corner_uv(o, c0 + 2, c, uc)) return -1;
+    o->group[o->ntri++] = group;
+    return 0;
+  }
   double *u = &o->uv[6 * (size_t)o->ntri];
   memcpy(u, ua, 2 * sizeof *u);
   memcpy(u + 2, ub, 2 * sizeof *u);
@@ -88,6 +122,7 @@ void ch_cut_out_shrink(ch_cut_out *o) {
     shrink_to((void **)&o->face, nv, sizeof *o->face);
     shrink_to((void **)&o->st, 2 * nv, sizeof *o->st);
     shrink_to((void **)&o->h, nv, sizeof *o->h);
+    shrink_to((void **)&o->vertex_uv, 2 * nv, sizeof *o->vertex_uv);
     o->cap_pos = (int)nv;
   }
   if ((size_t)o->cap_tri > nt) {
@@ -95,6 +130,10 @@ void ch_cut_out_shrink(ch_cut_out *o) {
     shrink_to((void **)&o->group, nt, sizeof *o->group);
     shrink_to((void **)&o->uv, 6 * nt, sizeof *o->uv);
     o->cap_tri = (int)nt;
+  }
+  if (o->cap_other > o->nother) {
+    shrink_to((void **)&o->other_uv, (size_t)o->nother, sizeof *o->other_uv);
+    o->cap_other = o->nother;
   }
 }
 
@@ -106,6 +145,8 @@ void ch_cut_out_free(ch_cut_out *o) {
   free(o->tri);
   free(o->group);
   free(o->uv);
+  free(o->vertex_uv);
+  free(o->other_uv);
   memset(o, 0, sizeof *o);
 }
 
@@ -298,7 +339,7 @@ static int emit_junction(const cut_context *cx, const ch_refine_node *nodes, con
         sum += hj[i];
         count++;
       }
-    if ((j[k] = ch_cut_out_vertex(cx->o, cx->T->face, jst, sum / count)) < 0) return -1;
+    if ((j[k] = ch_cut_out_vertex(cx->o, cx->T->face, jst, juv, sum / count)) < 0) return -1;
   }
   for (int k = 0; k < n; k++) j[k] = j[group[k]];
   cx->stats->junctions++;
@@ -443,7 +484,7 @@ static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const c
     }
   uint64_t piece = ch_label_at(lb, cuv);
   ch_refine_locate_st(w->surface, T->face, cuv, cst);
-  int c = ch_cut_out_vertex(o, T->face, cst, ch_height_eval(lb->height, cuv[0], cuv[1]));
+  int c = ch_cut_out_vertex(o, T->face, cst, cuv, ch_height_eval(lb->height, cuv[0], cuv[1]));
   if (c < 0) return -1;
   /* Around the boundary, a crossing on a wall contributes both copies,
    * so the fan stays closed (a sliver from the centre spans the wall). */

@@ -20,6 +20,12 @@
 extern "C" {
 #endif
 
+/* A corner whose UV is not its vertex's (ch_cut_out's parts). */
+typedef struct ch_cut_corner_uv {
+  int corner; /* 3 * triangle + k */
+  double uv[2];
+} ch_cut_corner_uv;
+
 /* The cut's output before evaluation: vertices as (face, st, h), triangles
  * with their corner UVs and group (owns its arrays: ch_cut_out_free). A
  * part of the cut (one thread's chunk) is one of these too. */
@@ -35,6 +41,16 @@ typedef struct ch_cut_out {
   uint64_t *group; /* per triangle: piece label or WALL_GROUP */
   double *uv;      /* 6 per triangle: corner UVs */
   int ntri, cap_tri;
+  /* A part of the cut (shared_uv set) keeps no per-corner UVs: a corner's
+   * UV is its vertex's (shared_uv below first_pos, vertex_uv from there)
+   * except the corners listed in other_uv, by increasing corner: across a
+   * UV seam, or where the corner's UV was interpolated in another order.
+   * Per corner, the UVs were the largest array at the embedding's peak
+   * (48 bytes a triangle, with the working mesh still alive). */
+  const double *shared_uv;
+  double *vertex_uv; /* 2 per vertex from first_pos */
+  ch_cut_corner_uv *other_uv;
+  int nother, cap_other;
   int count_only; /* vertices and triangles are numbered and counted, not
                      stored (a sampled pilot's count: the cut's own) */
 } ch_cut_out;
@@ -67,8 +83,13 @@ int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, doub
  * valid if a reallocation fails). */
 void ch_cut_out_shrink(ch_cut_out *o);
 
-/* Appends a vertex; its index, or -1 when out of memory. */
-int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], double h);
+/* Appends a vertex at uv (face's chart); its index, or -1 when out of
+ * memory. */
+int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], const double uv[2], double h);
+
+/* The UVs of triangle t's corners (6) in part o (shared_uv set); *other
+ * walks o's other_uv: from o->other_uv, with t = 0, 1, 2, ... in turn. */
+void ch_cut_out_corner_uvs(const ch_cut_out *o, int t, double *uv, const ch_cut_corner_uv **other);
 
 /* Appends a triangle (none if two corners are equal: a wall of zero
  * height); 0, or -1 when out of memory. */

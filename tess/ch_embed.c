@@ -298,6 +298,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   ch_refine_mesh w = {.surface = surface};
   unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
   unsigned char *edge_sampled = NULL; /* a sampled pilot's: the edges of its tiles' triangles */
+  double *shared_uv = NULL;           /* the cut's shared vertices' UVs (ch_cut_out.shared_uv) */
   int *split_edges = NULL, cap_split = 0; /* a round's: the edges given midpoints */
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
@@ -552,11 +553,17 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       free(first);
       goto nomem;
     }
+    shared_uv = ch_alloc_large(2 * (size_t)(n > 0 ? n : 1), sizeof *shared_uv, 0);
+    if (!shared_uv) {
+      free(first);
+      goto nomem;
+    }
     o.npos = o.cap_pos = n;
 #pragma omp parallel for schedule(static)
     for (int v = 0; v < w.nverts; v++) {
       o.face[v] = w.verts[v].face;
       memcpy(&o.st[2 * (size_t)v], w.verts[v].st, sizeof w.verts[v].st);
+      memcpy(&shared_uv[2 * (size_t)v], w.verts[v].uv, sizeof w.verts[v].uv);
       o.h[v] = w.verts[v].h;
     }
     long crossings = 0, walls = 0;
@@ -575,6 +582,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
         for (int j = 0; j <= wall; j++) {
           o.face[k + j] = face;
           memcpy(&o.st[2 * (size_t)(k + j)], pst, sizeof pst);
+          memcpy(&shared_uv[2 * (size_t)(k + j)], puv, sizeof puv);
           o.h[k + j] = wall ? (j ? x->hb : x->ha) : 0.5 * (x->ha + x->hb);
         }
         x->copy_a = k;
@@ -603,6 +611,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 #pragma omp parallel for schedule(dynamic, 1) reduction(| : oom)
     for (int c = 0; c < nchunks; c++) {
       part[c].npos = part[c].first_pos = shared;
+      part[c].shared_uv = shared_uv;
       int t1 = (c + 1) * CUT_CHUNK < w.ntris ? (c + 1) * CUT_CHUNK : w.ntris;
       for (int t = c * CUT_CHUNK; t < t1 && !oom; t++)
         oom |= ch_cut_triangle(&lb, &w, t, tol, &part[c], &pstats[c]) != 0;
@@ -656,10 +665,9 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
             int x = q->tri[3 * t + k];
             o.tri[3 * (t0 + t) + k] = x >= shared ? x + delta : x;
           }
-        if (q->ntri) {
-          memcpy(&o.group[t0], q->group, (size_t)q->ntri * sizeof *o.group);
-          memcpy(&o.uv[6 * t0], q->uv, 6 * (size_t)q->ntri * sizeof *o.uv);
-        }
+        if (q->ntri) memcpy(&o.group[t0], q->group, (size_t)q->ntri * sizeof *o.group);
+        const ch_cut_corner_uv *other = q->other_uv;
+        for (int t = 0; t < q->ntri; t++) ch_cut_out_corner_uvs(q, t, &o.uv[6 * (t0 + (size_t)t)], &other);
         ch_cut_out_free(&part[c]); /* (not both copies at once) */
       }
       o.npos = o.cap_pos = (int)vbase[nchunks];
@@ -684,6 +692,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     }
     free(vbase);
     free(tbase);
+    free(shared_uv);
+    shared_uv = NULL;
     for (int c = 0; c < nchunks; c++) ch_cut_out_free(&part[c]);
     free(part);
     free(pstats);
@@ -721,6 +731,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
 done:
+  free(shared_uv);
   free(edge_sampled);
   free(split_edges);
   ch_cut_out_free(&o);
