@@ -161,13 +161,16 @@ static char *put_g9(char *o, double x) {
 typedef struct obj_lines {
   const ch_mesh *m;
   long nv, nt, nn, nf;
+  int index_digits; /* of the largest index a face line prints */
 } obj_lines;
 
 /* Blocks of lines formatted by one thread, and the bytes a v, vt or vn
  * line may take: 2 + 3 x 18 + 1 (put_g9 writes 16 characters at most,
  * snprintf's terminator one more). The buffers (two rounds of two blocks
- * per thread) took a fixed 20-30 MB at a bound of 256 bytes a line. */
-enum { OBJ_BLOCK = 1 << 14, OBJ_MAX_LINE = 80 };
+ * per thread) took a fixed 20-30 MB at a bound of 256 bytes a line, and
+ * 15 MB at 16384 lines a block with room for 10-digit indices: at 130k
+ * triangles that was a quarter of the run's peak memory. */
+enum { OBJ_BLOCK = 1 << 13, OBJ_MAX_LINE = 80 };
 
 /* Formats line i into o; returns the end. Faces longer than fit in
  * OBJ_MAX_LINE bytes are formatted by the caller. */
@@ -215,16 +218,15 @@ static char *obj_line(const obj_lines *L, long i, char *o) {
   return o;
 }
 
-/* Bytes a face line can take: 3 indices of up to 10 digits per corner. */
-static size_t face_line_bytes(const ch_mesh *m, long f) {
-  return 4 + (size_t)(m->face_start[f + 1] - m->face_start[f]) * 36;
+/* Bytes a face line can take: per corner a space, 3 indices and 2 slashes. */
+static size_t face_line_bytes(const obj_lines *L, long f) {
+  return 4 + (size_t)(L->m->face_start[f + 1] - L->m->face_start[f]) * (3 + 3 * (size_t)L->index_digits);
 }
 
 /* Formats blocks b0 .. b0 + n - 1 into bufs (one each; len 0 past the end);
  * called by every thread of a team, shares the blocks dynamically. */
 static void format_round(const obj_lines *L, long total, long b0, int n, char **buf, size_t *cap, size_t *len,
                          int *failed) {
-  const ch_mesh *m = L->m;
 #pragma omp for schedule(dynamic, 1)
   for (int j = 0; j < n; j++) {
     long i0 = (b0 + j) * OBJ_BLOCK, i1 = i0 + OBJ_BLOCK < total ? i0 + OBJ_BLOCK : total;
@@ -232,7 +234,7 @@ static void format_round(const obj_lines *L, long total, long b0, int n, char **
     if (i0 >= total) continue;
     size_t need = 0;
     for (long i = i0; i < i1; i++)
-      need += i >= L->nv + L->nt + L->nn ? face_line_bytes(m, i - L->nv - L->nt - L->nn) : OBJ_MAX_LINE;
+      need += i >= L->nv + L->nt + L->nn ? face_line_bytes(L, i - L->nv - L->nt - L->nn) : OBJ_MAX_LINE;
     if (need > cap[j]) {
       char *nb = realloc(buf[j], need);
       if (!nb) {
@@ -251,8 +253,11 @@ static void format_round(const obj_lines *L, long total, long b0, int n, char **
 
 static int write_obj_body(FILE *fp, const ch_mesh *m) {
   fputs("# chisel\n", fp);
-  obj_lines L = {m, m->num_positions, m->corner_uv ? m->num_uvs : 0, m->corner_normal ? m->num_normals : 0,
-                 m->num_faces};
+  obj_lines L = {
+      m, m->num_positions, m->corner_uv ? m->num_uvs : 0, m->corner_normal ? m->num_normals : 0, m->num_faces, 1};
+  for (long largest = L.nv > L.nt ? (L.nv > L.nn ? L.nv : L.nn) : (L.nt > L.nn ? L.nt : L.nn); largest >= 10;
+       largest /= 10)
+    L.index_digits++;
   long total = L.nv + L.nt + L.nn + L.nf;
   long nblocks = (total + OBJ_BLOCK - 1) / OBJ_BLOCK;
   /* Rounds of blocks in two buffer sets: while the team formats round r
