@@ -608,8 +608,33 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
       m->corner_normal[c] = s;
     }
   }
+  /* The groups are spent, and so are the per-corner UVs once numbered in
+   * corner order where they are born (corner_uv then holds the numbers: a
+   * corner's first is before it, and already numbered): both go before
+   * the normals' arrays are made (56 bytes a triangle at the mesh's
+   * peak). */
+  free(o->group);
+  o->group = NULL;
+  int nuv = 0;
+#pragma omp parallel for schedule(static) reduction(+ : nuv)
+  for (size_t c = 0; c < nc; c++) nuv += m->corner_uv[c] == (int)c;
+  m->uvs = ch_alloc_large(2 * (size_t)(nuv > 0 ? nuv : 1), sizeof *m->uvs, 0);
+  if (!m->uvs) goto nomem;
+  m->num_uvs = nuv;
+  nuv = 0;
+  for (size_t c = 0; c < nc; c++) {
+    int first = m->corner_uv[c];
+    if (first == (int)c) {
+      memcpy(&m->uvs[2 * (size_t)nuv], &o->uv[2 * c], 2 * sizeof *m->uvs);
+      m->corner_uv[c] = nuv++;
+    } else {
+      m->corner_uv[c] = m->corner_uv[first];
+    }
+  }
+  free(o->uv);
+  o->uv = NULL;
   /* Ranks of the born normals (born then holds them, -1 where none is
-   * born; a UV is born where corner_uv points to its own corner). */
+   * born). */
   int nslot = 0;
   for (size_t c = 0; c < nc; c++) born[c] = born[c] ? nslot++ : -1;
   m->normals = ch_alloc_large(3 * (size_t)(nslot > 0 ? nslot : 1), sizeof *m->normals, 0);
@@ -637,20 +662,8 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
       n[2] = 1.0; /* only zero-area triangles here: any unit vector */
     }
   }
-  /* Ranks of the born UVs (order then holds them, -1 where none is born). */
-  int nuv = 0;
-  for (size_t c = 0; c < nc; c++) order[c] = m->corner_uv[c] == (int)c ? nuv++ : -1;
-  m->uvs = ch_alloc_large(2 * (size_t)(nuv > 0 ? nuv : 1), sizeof *m->uvs, 0);
-  if (!m->uvs) goto nomem;
-  m->num_uvs = nuv;
 #pragma omp parallel for schedule(static)
-  for (size_t c = 0; c < nc; c++)
-    if (order[c] >= 0) memcpy(&m->uvs[2 * (size_t)order[c]], &o->uv[2 * c], 2 * sizeof *m->uvs);
-#pragma omp parallel for schedule(static)
-  for (size_t c = 0; c < nc; c++) {
-    m->corner_uv[c] = order[m->corner_uv[c]];
-    m->corner_normal[c] = born[m->corner_normal[c]];
-  }
+  for (size_t c = 0; c < nc; c++) m->corner_normal[c] = born[m->corner_normal[c]];
   free(start);
   free(order);
   free(born);
