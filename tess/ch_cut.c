@@ -681,21 +681,12 @@ nomem:
 }
 
 /* ---- thinning the grooves' layers ---------------------------------------- */
-/* The longest edge a thinning may make around uv, on a coarse grid: half
- * the mean longest edge of the tessellation's triangles centred in the
- * cell or its neighbours (before any refinement), about the spacing of
- * the points where its edges cross a line. So thinning undoes what the
- * refinement spent along the grooves beyond the tessellation's own
- * density (isotropic halvings for the lines' chords, junctions and caps),
- * the base surface is followed along them as finely as elsewhere, and a
- * dense tessellation is left nearly as it is (at 2.1M triangles longer
- * edges took a third more time for little). */
-enum { EDGE_GRID = 64 };
+enum { EDGE_GRID = CH_CUT_EDGE_GRID };
 
 typedef struct thin_context {
   const ch_label_ctx *lb;
   const ch_cut_out *o;
-  float edge_grid[EDGE_GRID * EDGE_GRID];
+  const float *edge_grid; /* ch_cut_edge_grid's */
   double (*gradient)[3]; /* per output vertex: its distance's gradient, and t */
   unsigned char *known;  /* once computed: 1, or 2 where it has none (a rim) */
   double *distance;      /* per output vertex: its signed distance to distance_curve's */
@@ -711,7 +702,7 @@ static double vertex_distance(thin_context *x, int c, int v, const double uv[2])
   return x->distance[v];
 }
 
-static int edge_grid_build(thin_context *x, const ch_tess_result *tess, double fallback) {
+int ch_cut_edge_grid(const ch_tess_result *tess, double fallback, float *grid) {
   double *sum = calloc(2 * EDGE_GRID * EDGE_GRID, sizeof *sum); /* longest edges, triangles */
   if (!sum) return -1;
   const ch_mesh *m = &tess->mesh;
@@ -737,7 +728,7 @@ static int edge_grid_build(thin_context *x, const ch_tess_result *tess, double f
           l += sum[2 * (yy * EDGE_GRID + xx)];
           n += sum[2 * (yy * EDGE_GRID + xx) + 1];
         }
-      x->edge_grid[y * EDGE_GRID + x0] = (float)(0.5 * (n > 0.0 ? l / n : fallback));
+      grid[y * EDGE_GRID + x0] = (float)(0.5 * (n > 0.0 ? l / n : fallback));
     }
   free(sum);
   return 0;
@@ -860,7 +851,7 @@ static int thin_triangle_ok(void *ctx, int family, int layer, const int v[3], co
 
 /* Thins o's groove layers (ch_thin.h) and drops the vertices it frees;
  * returns how many, -1 when out of memory. */
-int ch_cut_thin(const ch_label_ctx *lb, const ch_tess_result *tess, double longest_edge, ch_cut_out *o) {
+int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
   thin_context *x = malloc(sizeof *x);
   unsigned char *removed = calloc((size_t)(o->npos > 0 ? o->npos : 1), 1);
   int *map = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *map);
@@ -872,13 +863,14 @@ int ch_cut_thin(const ch_label_ctx *lb, const ch_tess_result *tess, double longe
   }
   x->lb = lb;
   x->o = o;
+  x->edge_grid = edge_grid;
   x->gradient = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->gradient);
   x->known = calloc((size_t)(o->npos > 0 ? o->npos : 1), 1);
   x->distance = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->distance);
   x->distance_curve = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->distance_curve);
   if (x->distance_curve)
     for (int v = 0; v < o->npos; v++) x->distance_curve[v] = -1;
-  if (!x->gradient || !x->known || !x->distance || !x->distance_curve || edge_grid_build(x, tess, longest_edge)) {
+  if (!x->gradient || !x->known || !x->distance || !x->distance_curve) {
     free(x->distance);
     free(x->distance_curve);
     free(x->gradient);

@@ -114,9 +114,24 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
  * when out of memory. */
 long ch_cut_coarsen(ch_cut_out *o, long fewer);
 
-/* Thins o's groove layers (ch_thin.h) and drops the vertices it frees;
- * returns how many, -1 when out of memory. */
-int ch_cut_thin(const ch_label_ctx *lb, const ch_tess_result *tess, double longest_edge, ch_cut_out *o);
+/* The longest edge a thinning may make around uv, on a coarse grid of
+ * CH_CUT_EDGE_GRID^2 cells over the UV square: half the mean longest edge
+ * of the tessellation's triangles centred in the cell or its neighbours
+ * (before any refinement; fallback where none is), about the spacing of
+ * the points where its edges cross a line. So thinning undoes what the
+ * refinement spent along the grooves beyond the tessellation's own
+ * density (isotropic halvings for the lines' chords, junctions and caps),
+ * the base surface is followed along them as finely as elsewhere, and a
+ * dense tessellation is left nearly as it is (at 2.1M triangles longer
+ * edges took a third more time for little). Made from the tessellation
+ * before the embedding lets it go; 0, or -1 when out of memory. */
+enum { CH_CUT_EDGE_GRID = 64 };
+int ch_cut_edge_grid(const ch_tess_result *tess, double fallback, float *grid);
+
+/* Thins o's groove layers (ch_thin.h) with the longest edges of
+ * edge_grid (ch_cut_edge_grid's) and drops the vertices it frees; returns
+ * how many, -1 when out of memory. */
+int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o);
 
 #ifdef __cplusplus
 }

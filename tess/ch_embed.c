@@ -292,13 +292,16 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
                            const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
                            ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {
   memset(out, 0, sizeof *out);
-  ch_embed_stats stats = {0};
+  ch_embed_stats stats = {.base_triangles = tess->mesh.num_faces};
   const ch_mesh *tm = &tess->mesh;
+  /* (the tessellation may be let go below: its counts are kept) */
+  const int base_faces = tm->num_faces, base_positions = tm->num_positions;
   double t0 = omp_get_wtime();
   ch_refine_mesh w = {.surface = surface};
   unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
   unsigned char *edge_sampled = NULL; /* a sampled pilot's: the edges of its tiles' triangles */
   double *shared_uv = NULL;           /* the cut's shared vertices' UVs (ch_cut_out.shared_uv) */
+  float *edge_grid = NULL;            /* with thinning: ch_cut_edge_grid's */
   int *split_edges = NULL, cap_split = 0; /* a round's: the edges given midpoints */
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
@@ -337,10 +340,6 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     for (int k = 0; k < 3; k++)
       longest_edge =
           fmax(longest_edge, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
-  }
-  if (pilot->release_corner_st) {
-    free(*pilot->release_corner_st);
-    *pilot->release_corner_st = NULL;
   }
   int sampled = pilot->count_only && !pilot->full && pilot->sampled;
   int quarter = sampled && w.ntris >= SAMPLE_QUARTER_BASE; /* (see sample_tile) */
@@ -397,6 +396,20 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     area3 += 0.5 * sqrt(ch_dot3(n, n));
   }
   double object_scale = uv_area > 0.0 && area3 > 0.0 ? sqrt(area3 / uv_area) : 1.0;
+  if (thins(desc, reference_edge)) {
+    edge_grid = malloc(CH_CUT_EDGE_GRID * CH_CUT_EDGE_GRID * sizeof *edge_grid);
+    if (!edge_grid || ch_cut_edge_grid(tess, longest_edge, edge_grid)) goto nomem;
+  }
+  /* What the run reads of the tessellation is read: it may go before the
+   * run's peak (ch_embed_to_target's, where its caller does not keep it). */
+  if (pilot->release_tess) {
+    ch_tess_free(pilot->release_tess);
+    tess = NULL;
+    tm = NULL;
+  } else if (pilot->release_corner_st) {
+    free(*pilot->release_corner_st);
+    *pilot->release_corner_st = NULL;
+  }
   if ((st = ch_label_init(&lb, height, desc ? desc->warp : NULL, radius, curve_tolerance, angle, object_scale,
                          reference_edge, longest_edge, err)))
     goto done;
@@ -422,7 +435,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * crossing. Curves that need more than the cap would take memory and time
    * without end: the refinement and the cut stop there with an error. */
   double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
-                                               : MAX_REFINED_PER_BASE * (double)tm->num_faces + MAX_REFINED_EXTRA;
+                                               : MAX_REFINED_PER_BASE * (double)base_faces + MAX_REFINED_EXTRA;
   /* Local refinement until every triangle's crossings pair into chords. */
   int labelled = 0, crossed = 0;
   for (int round = 0;; round++) {
@@ -483,7 +496,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       for (int k = 0; k < 3 && refine[t]; k++) {
         int i = w.tri_edge[3 * (size_t)t + k];
         if (w.edges[i].mid >= 0 || ch_refine_edge_length(&w, &w.edges[i]) < MIN_SPLIT_LENGTH) continue;
-        stats.splits_at_level[edge_level(&w, &w.edges[i], tm->num_positions, mean_edge)]++;
+        stats.splits_at_level[edge_level(&w, &w.edges[i], base_positions, mean_edge)]++;
         if (ch_refine_add_midpoint(&w, i) ||
             ch_alloc_grow((void **)&split_edges, &cap_split, split + 1, sizeof *split_edges, 1024)) {
           free(refine);
@@ -495,7 +508,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     ch_refine_locate_new(&w, first_new);
     if (!split) break;
     if ((double)w.ntris + 2.0 * split > cap) {
-      st = over_cap(err, pilot, cap, "refinement round", round + 1, tm->num_faces);
+      st = over_cap(err, pilot, cap, "refinement round", round + 1, base_faces);
       goto done;
     }
     stats.refine_rounds = round + 1;
@@ -517,7 +530,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     for (int i = 0; i < w.nedges; i++) {
       first[i] = (int)total;
       const ch_refine_edge *e = &w.edges[i];
-      if (e->ncross > 0) stats.crossings_at_level[edge_level(&w, e, tm->num_positions, mean_edge)] += e->ncross;
+      if (e->ncross > 0) stats.crossings_at_level[edge_level(&w, e, base_positions, mean_edge)] += e->ncross;
       for (int c = 0; c < e->ncross; c++) total += fabs(e->cross[c].ha - e->cross[c].hb) <= tol ? 1 : 2;
       if (total >= INT32_MAX / 3) {
         free(first);
@@ -530,13 +543,13 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       long tris = count_sampled_cut(&lb, &w, first, tol, quarter);
       free(first);
       double scale = sampled_area > 0.0 ? uv_area / sampled_area : 1.0;
-      stats.triangles = tm->num_faces + llround(scale * (double)(tris - sampled_base));
+      stats.triangles = base_faces + llround(scale * (double)(tris - sampled_base));
       for (int d = 0; d < CH_EMBED_LEVELS; d++) {
         stats.crossings_at_level[d] = (int)lround(scale * stats.crossings_at_level[d]);
         stats.splits_at_level[d] = (int)lround(scale * stats.splits_at_level[d]);
       }
       if ((double)stats.triangles > cap) {
-        st = over_cap(err, pilot, cap, "the cut after round", stats.refine_rounds, tm->num_faces);
+        st = over_cap(err, pilot, cap, "the cut after round", stats.refine_rounds, base_faces);
         goto done;
       }
       stats.angle_deg = angle_deg;
@@ -698,7 +711,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     free(part);
     free(pstats);
     if (over) {
-      st = over_cap(err, pilot, cap, "the cut after round", stats.refine_rounds, tm->num_faces);
+      st = over_cap(err, pilot, cap, "the cut after round", stats.refine_rounds, base_faces);
       goto done;
     }
     if (oom) goto nomem;
@@ -706,7 +719,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   if (thins(desc, reference_edge)) {
     double tt = omp_get_wtime();
     report(desc, pilot, stats.refine_rounds, "thinning", -1.0);
-    int thinned = ch_cut_thin(&lb, tess, longest_edge, &o);
+    int thinned = ch_cut_thin(&lb, edge_grid, &o);
     if (thinned < 0) goto nomem;
     ch_cut_out_shrink(&o); /* what thinning removed, back before the mesh is built */
     stats.thinned = thinned;
@@ -732,6 +745,7 @@ nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
 done:
   free(shared_uv);
+  free(edge_grid);
   free(edge_sampled);
   free(split_edges);
   ch_cut_out_free(&o);
@@ -768,6 +782,7 @@ typedef struct target_runs {
   ch_mesh cur, best;
   ch_embed_stats cur_stats, best_stats;
   embed_kept kept; /* the last pilot's cut */
+  int keep_tess;   /* the caller asked for the kept run's tessellation */
   long finish_target; /* > 0: the count a CH_COUNT_FINISH may add or
                          remove triangles towards where h is smooth */
   /* The closest run is dropped when another starts (two meshes at once
@@ -859,8 +874,10 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
   int over = 0;
   r->pilot.over_cap = &over;
   r->pilot.release_corner_st = &r->cur_tess.corner_st;
+  r->pilot.release_tess = r->keep_tess ? NULL : &r->cur_tess;
   st = embed_run(r->surface, &r->cur_tess, r->height, &r->d, &r->pilot, &r->cur, &r->cur_stats, &r->kept, r->err);
   r->pilot.release_corner_st = NULL;
+  r->pilot.release_tess = NULL;
   r->pilot.over_cap = NULL;
   if (st && over) { /* the count model decides (its error keeps the message set here) */
     target_drop_current(r);
@@ -868,7 +885,7 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     return CH_OK;
   }
   if (st) return st;
-  rp->base = r->cur_tess.mesh.num_faces;
+  rp->base = r->cur_stats.base_triangles;
   rp->count = (double)r->cur_stats.triangles;
   rp->estimated = r->pilot.sampled;
   for (int d = 0; d < CH_EMBED_LEVELS; d++) /* (two triangles for each) */
@@ -889,10 +906,15 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats, int *passes,
                              ch_error *err) {
-  memset(tess, 0, sizeof *tess);
+  if (tess) memset(tess, 0, sizeof *tess);
   memset(out, 0, sizeof *out);
   ch_embed_desc none = {0};
-  target_runs r = {.surface = surface, .height = height, .desc = desc ? desc : &none, .target = target, .err = err};
+  target_runs r = {.surface = surface,
+                   .height = height,
+                   .desc = desc ? desc : &none,
+                   .target = target,
+                   .keep_tess = !!tess,
+                   .err = err};
   r.d = *r.desc;
   r.default_angle = r.d.normal_tolerance_deg;
   ch_status st;
@@ -943,7 +965,10 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     ch_mesh_free(&r.best);
     return st;
   }
-  *tess = r.best_tess;
+  if (tess)
+    *tess = r.best_tess;
+  else
+    ch_tess_free(&r.best_tess);
   *out = r.best;
   if (stats) *stats = r.best_stats;
   return CH_OK;

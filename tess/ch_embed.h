@@ -97,6 +97,7 @@ typedef struct ch_embed_stats {
                               where h is smooth, to reach its target
                               (negative: removed there) */
   double angle_deg;        /* the angle step of the u lines the run used */
+  int base_triangles;      /* of the tessellation the run embedded into */
   long triangles;          /* output triangles (a pilot of ch_embed_to_target
                               counts before the cleanup, which removes a
                               fraction of a percent) */
@@ -136,8 +137,10 @@ ch_status ch_embed_build(const ch_surface *surface, const ch_tess_result *tess, 
  * lands is finished from its cut (not run again); a full run within 15%
  * adds or removes triangles where h is smooth. The run closest to the
  * target is kept: tess receives its tessellation (free it with
- * ch_tess_free), out its embedded mesh; passes the number of embedding
- * runs, pilots and reruns after a coarsening included. */
+ * ch_tess_free; NULL: each run lets its tessellation go as soon as it has
+ * read it, before the run's peak), out its embedded mesh; passes the
+ * number of embedding runs, pilots and reruns after a coarsening
+ * included. */
 ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height, const ch_embed_desc *desc,
                              long target_triangles, ch_tess_result *tess, ch_mesh *out, ch_embed_stats *stats,
                              int *passes, ch_error *err);

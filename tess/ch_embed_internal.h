@@ -52,8 +52,8 @@ typedef struct ch_embed_pilot {
   int full;              /* with count_only: a full run whose cut the caller
                             finishes (progress does not call it a pilot) */
   int sampled;           /* with count_only and not full: only the triangles
-                            in every other UV tile (a 16 x 16 checkerboard)
-                            are refined and their cut counted, and the
+                            in a sample of the UV tiles (sample_tile in
+                            ch_embed.c) are refined and their cut counted, and the
                             count and the levels are scaled up from them by
                             the UV area; no cut is kept. For runs with no
                             thinning (ch_embed_to_target sets it where the
@@ -62,6 +62,10 @@ typedef struct ch_embed_pilot {
                                  (ch_tess_result), freed and set to NULL
                                  once the working mesh has read it, so
                                  it is gone before the run's peak */
+  ch_tess_result *release_tess; /* NULL, or the tessellation itself (the
+                                   run's): freed (ch_tess_free) once the
+                                   run has read it, release_corner_st
+                                   then unused */
 } ch_embed_pilot;
 
 /* ch_embed_build with the pilot knobs (NULL: as ch_embed_build). Same

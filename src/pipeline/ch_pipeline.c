@@ -272,7 +272,7 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
       long cap = desc->max_triangles > 0 ? desc->max_triangles
                                          : CH_DISPLACE_DEFAULT_CAP_PER_TARGET * target + CH_DISPLACE_DEFAULT_CAP_EXTRA;
       ch_embed_desc ed = {.warp = warp, .max_triangles = cap, .progress = progress};
-      st = ch_embed_to_target(surface, &height, &ed, target, &tess, &out->mesh, &out->embed, &out->passes, err);
+      st = ch_embed_to_target(surface, &height, &ed, target, NULL, &out->mesh, &out->embed, &out->passes, err);
       if (st == CH_ERR_INPUT && err) { /* the curves' fault (over the cap): name their file */
         char why[CH_ERROR_MESSAGE_MAX];
         snprintf(why, sizeof why, "%s", err->message);
@@ -282,7 +282,7 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
       out->min_h = out->embed.min_h;
       out->max_h = out->embed.max_h;
       out->seconds.displace = out->embed.seconds_refine + out->embed.seconds_cut + out->embed.seconds_normals;
-      out->base_triangles = tess.mesh.num_faces;
+      out->base_triangles = out->embed.base_triangles;
     }
   }
   if (!st && desc->no_snap) out->base_triangles = out->mesh.num_faces;
