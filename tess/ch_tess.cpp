@@ -23,6 +23,7 @@
 
 #include <opensubdiv/bfr/tessellation.h>
 
+#include "ch_alloc.h"
 #include "ch_surface_internal.h"
 #include "ch_warp.h"
 
@@ -201,9 +202,12 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const doub
                       target, best);
 }
 
+/* Zeroed, in huge pages where large (ch_alloc_large): the tessellation's
+ * arrays are first touched here, and 4 KiB page faults cost as much as
+ * filling them. */
 template <typename T>
 T *alloc_array(size_t n) {
-  T *p = (T *)std::calloc(n ? n : 1, sizeof(T));
+  T *p = (T *)ch_alloc_large(n ? n : 1, sizeof(T), 1);
   if (!p) throw std::bad_alloc();
   return p;
 }
