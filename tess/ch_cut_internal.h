@@ -69,8 +69,8 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
  * than `thin` (twice their area over their longest edge) count for
  * nothing: their normal is rounding noise. On success m takes o's
  * positions and triangles (o->tri is then NULL; the caller sets o->pos
- * to NULL); o's groups and UVs are spent (freed and NULL, also on
- * failure). */
+ * to NULL); o's groups and UVs are spent there (freed and set to NULL;
+ * after a failure ch_cut_out_free frees whatever is left). */
 ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *err);
 
 /* Cuts triangle t into its pieces, with walls where h jumps, into o (fans

@@ -292,10 +292,11 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
                            const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
                            ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {
   memset(out, 0, sizeof *out);
-  ch_embed_stats stats = {.base_triangles = tess->mesh.num_faces};
+  ch_embed_stats stats = {0};
   const ch_mesh *tm = &tess->mesh;
   /* (the tessellation may be let go below: its counts are kept) */
   const int base_faces = tm->num_faces, base_positions = tm->num_positions;
+  stats.base_triangles = base_faces;
   double t0 = omp_get_wtime();
   ch_refine_mesh w = {.surface = surface};
   unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
@@ -400,8 +401,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     edge_grid = malloc(CH_CUT_EDGE_GRID * CH_CUT_EDGE_GRID * sizeof *edge_grid);
     if (!edge_grid || ch_cut_edge_grid(tess, longest_edge, edge_grid)) goto nomem;
   }
-  /* What the run reads of the tessellation is read: it may go before the
-   * run's peak (ch_embed_to_target's, where its caller does not keep it). */
+  /* All the run needs of the tessellation is read: where the caller does
+   * not keep it (ch_embed_to_target's), it goes before the run's peak. */
   if (pilot->release_tess) {
     ch_tess_free(pilot->release_tess);
     tess = NULL;
