@@ -326,7 +326,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
 #pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; f++) low[f] = lowest_corner(&cp[3 * (size_t)f]);
   if (ch_sort_buckets(low, (size_t)nf, np, start, order)) goto done;
-    /* partner[f]: g > f where f and g are a pillow (exactly two faces on the
+  /* partner[f]: g > f where f and g are a pillow (exactly two faces on the
    * same corners, opposite), else -1 */
 #pragma omp parallel for schedule(dynamic, 4096)
   for (int v = 0; v < np; v++)

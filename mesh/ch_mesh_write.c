@@ -253,11 +253,9 @@ static void format_round(const obj_lines *L, long total, long b0, int n, char **
 
 static int write_obj_body(FILE *fp, const ch_mesh *m) {
   fputs("# chisel\n", fp);
-  obj_lines L = {
-      m, m->num_positions, m->corner_uv ? m->num_uvs : 0, m->corner_normal ? m->num_normals : 0, m->num_faces, 1};
-  for (long largest = L.nv > L.nt ? (L.nv > L.nn ? L.nv : L.nn) : (L.nt > L.nn ? L.nt : L.nn); largest >= 10;
-       largest /= 10)
-    L.index_digits++;
+  long nv = m->num_positions, nt = m->corner_uv ? m->num_uvs : 0, nn = m->corner_normal ? m->num_normals : 0;
+  long largest = nv > nt ? (nv > nn ? nv : nn) : (nt > nn ? nt : nn); /* (the indices are 1-based) */
+  obj_lines L = {m, nv, nt, nn, m->num_faces, decimal_digits((unsigned long)largest)};
   long total = L.nv + L.nt + L.nn + L.nf;
   long nblocks = (total + OBJ_BLOCK - 1) / OBJ_BLOCK;
   /* Rounds of blocks in two buffer sets: while the team formats round r
