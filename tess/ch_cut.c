@@ -59,15 +59,6 @@ static int part_corner_uv(ch_cut_out *o, int c, int v, const double *uv) {
   return 0;
 }
 
-void ch_cut_out_corner_uvs(const ch_cut_out *o, int t, double *uv, const ch_cut_corner_uv **other) {
-  for (int k = 0; k < 3; k++) {
-    int c = 3 * t + k;
-    const double *u =
-        *other < o->other_uv + o->nother && (*other)->corner == c ? (*other)++->uv : part_vertex_uv(o, o->tri[c]);
-    memcpy(&uv[2 * k], u, 2 * sizeof *uv);
-  }
-}
-
 int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
                    uint64_t group) {
   if (a == b || b == c || c == a) return 0; /* collapsed: a wall of zero height */
@@ -81,27 +72,23 @@ int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const d
     if (t) o->tri = t;
     uint64_t *g = realloc(o->group, (size_t)cap * sizeof *g);
     if (g) o->group = g;
-    double *u = o->shared_uv ? NULL : realloc(o->uv, (size_t)cap * 6 * sizeof *u);
-    if (u) o->uv = u;
-    if (!t || !g || (!o->shared_uv && !u)) return -1;
+    if (!t || !g) return -1;
     o->cap_tri = cap;
   }
   int *t = &o->tri[3 * (size_t)o->ntri];
   t[0] = a;
   t[1] = b;
   t[2] = c;
-  if (o->shared_uv) {
-    int c0 = 3 * o->ntri;
-    if (part_corner_uv(o, c0, a, ua) || part_corner_uv(o, c0 + 1, b, ub) || part_corner_uv(o, c0 + 2, c, uc)) return -1;
-    o->group[o->ntri++] = group;
-    return 0;
-  }
-  double *u = &o->uv[6 * (size_t)o->ntri];
-  memcpy(u, ua, 2 * sizeof *u);
-  memcpy(u + 2, ub, 2 * sizeof *u);
-  memcpy(u + 4, uc, 2 * sizeof *u);
+  int c0 = 3 * o->ntri;
+  if (part_corner_uv(o, c0, a, ua) || part_corner_uv(o, c0 + 1, b, ub) || part_corner_uv(o, c0 + 2, c, uc)) return -1;
   o->group[o->ntri++] = group;
   return 0;
+}
+
+int ch_cut_out_extra_uv(ch_cut_out *o, const double uv[2]) {
+  if (ch_alloc_grow((void **)&o->extra_uv, &o->cap_extra, 2 * (o->nextra + 1), sizeof *o->extra_uv, 512)) return -1;
+  memcpy(&o->extra_uv[2 * (size_t)o->nextra], uv, 2 * sizeof *uv);
+  return o->nextra++;
 }
 
 static int out_quad(ch_cut_out *o, const int v[4], const double *uv[4], uint64_t group) {
@@ -128,7 +115,7 @@ void ch_cut_out_shrink(ch_cut_out *o) {
   if ((size_t)o->cap_tri > nt) {
     shrink_to((void **)&o->tri, 3 * nt, sizeof *o->tri);
     shrink_to((void **)&o->group, nt, sizeof *o->group);
-    shrink_to((void **)&o->uv, 6 * nt, sizeof *o->uv);
+    shrink_to((void **)&o->corner_uv, 3 * nt, sizeof *o->corner_uv);
     o->cap_tri = (int)nt;
   }
   if (o->cap_other > o->nother) {
@@ -144,7 +131,8 @@ void ch_cut_out_free(ch_cut_out *o) {
   free(o->h);
   free(o->tri);
   free(o->group);
-  free(o->uv);
+  free(o->corner_uv);
+  free(o->extra_uv);
   free(o->vertex_uv);
   free(o->other_uv);
   memset(o, 0, sizeof *o);
@@ -587,8 +575,8 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
     int first = -1;
     for (int i = start[p]; i < start[p + 1]; i++) {
       int c = order[i];
-      const double *uv = &o->uv[2 * (size_t)c];
-      if (first < 0 || o->uv[2 * (size_t)first] != uv[0] || o->uv[2 * (size_t)first + 1] != uv[1]) {
+      const double *uv = ch_cut_out_uv(o, (size_t)c), *fuv = first < 0 ? NULL : ch_cut_out_uv(o, (size_t)first);
+      if (first < 0 || fuv[0] != uv[0] || fuv[1] != uv[1]) {
         m->corner_uv[c] = c;
         if (first < 0) first = c;
       } else {
@@ -608,11 +596,10 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
       m->corner_normal[c] = s;
     }
   }
-  /* The groups are spent, and so are the per-corner UVs once numbered in
-   * corner order where they are born (corner_uv then holds the numbers: a
+  /* The groups are spent, and so are o's UVs once numbered in corner
+   * order where they are born (m->corner_uv then holds the numbers: a
    * corner's first is before it, and already numbered): both go before
-   * the normals' arrays are made (56 bytes a triangle at the mesh's
-   * peak). */
+   * the normals' arrays are made. */
   free(o->group);
   o->group = NULL;
   int nuv = 0;
@@ -625,14 +612,19 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   for (size_t c = 0; c < nc; c++) {
     int first = m->corner_uv[c];
     if (first == (int)c) {
-      memcpy(&m->uvs[2 * (size_t)nuv], &o->uv[2 * c], 2 * sizeof *m->uvs);
+      memcpy(&m->uvs[2 * (size_t)nuv], ch_cut_out_uv(o, c), 2 * sizeof *m->uvs);
       m->corner_uv[c] = nuv++;
     } else {
       m->corner_uv[c] = m->corner_uv[first];
     }
   }
-  free(o->uv);
-  o->uv = NULL;
+  free(o->corner_uv);
+  free(o->extra_uv);
+  free(o->vertex_uv);
+  o->corner_uv = NULL;
+  o->extra_uv = NULL;
+  o->vertex_uv = NULL;
+  o->nextra = o->cap_extra = 0;
   /* Ranks of the born normals (born then holds them, -1 where none is
    * born). */
   int nslot = 0;
@@ -881,7 +873,7 @@ int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
     return -1;
   }
   ch_thin_rules rules = {thin_band, thin_max_edge, thin_edge_ok, thin_triangle_ok, x};
-  int n = ch_thin_bands(o->npos, &o->ntri, o->tri, o->uv, o->group, &rules, removed);
+  int n = ch_thin_bands(o->npos, &o->ntri, o->tri, o->corner_uv, o->vertex_uv, o->extra_uv, o->group, &rules, removed);
   free(x->gradient);
   free(x->known);
   free(x->distance);
@@ -895,6 +887,8 @@ int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
         o->st[2 * (size_t)k] = o->st[2 * (size_t)v];
         o->st[2 * (size_t)k + 1] = o->st[2 * (size_t)v + 1];
         o->h[k] = o->h[v];
+        o->vertex_uv[2 * (size_t)k] = o->vertex_uv[2 * (size_t)v];
+        o->vertex_uv[2 * (size_t)k + 1] = o->vertex_uv[2 * (size_t)v + 1];
         k++;
       }
     }

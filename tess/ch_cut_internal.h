@@ -28,7 +28,12 @@ typedef struct ch_cut_corner_uv {
 
 /* The cut's output before evaluation: vertices as (face, st, h), triangles
  * with their corner UVs and group (owns its arrays: ch_cut_out_free). A
- * part of the cut (one thread's chunk) is one of these too. */
+ * part of the cut (one thread's chunk) is one of these too. A corner's UV
+ * is most often its vertex's: the joined output keeps each vertex's UV,
+ * and per corner only whether it differs (across a UV seam, or a crossing
+ * interpolated from the other end of its edge: under 2% of the corners)
+ * and then where its own UV is (ch_cut_out_uv). Per corner in full, the
+ * UVs were 48 bytes a triangle, the largest array of the finish. */
 typedef struct ch_cut_out {
   double *pos; /* filled after evaluation */
   int npos, cap_pos;
@@ -39,8 +44,14 @@ typedef struct ch_cut_out {
   double *st, *h;
   int *tri;        /* 3 per triangle */
   uint64_t *group; /* per triangle: piece label or WALL_GROUP */
-  double *uv;      /* 6 per triangle: corner UVs */
   int ntri, cap_tri;
+  /* The joined output (no shared_uv): corner c's UV is vertex_uv's for
+   * its vertex where corner_uv[c] < 0, else extra_uv's corner_uv[c]-th.
+   * A corner that takes another corner's UV takes its corner_uv entry
+   * (the tables only grow, so the value is the same). */
+  int *corner_uv; /* 3 per triangle */
+  double *extra_uv;
+  int nextra, cap_extra;
   /* A part of the cut (shared_uv set) keeps no per-corner UVs: a corner's
    * UV is its vertex's (shared_uv below first_pos, vertex_uv from there)
    * except the corners listed in other_uv, by increasing corner: across a
@@ -48,12 +59,22 @@ typedef struct ch_cut_out {
    * Per corner, the UVs were the largest array at the embedding's peak
    * (48 bytes a triangle, with the working mesh still alive). */
   const double *shared_uv;
-  double *vertex_uv; /* 2 per vertex from first_pos */
+  double *vertex_uv; /* 2 per vertex from first_pos (the joined output's
+                        from 0) */
   ch_cut_corner_uv *other_uv;
   int nother, cap_other;
   int count_only; /* vertices and triangles are numbered and counted, not
                      stored (a sampled pilot's count: the cut's own) */
 } ch_cut_out;
+
+/* The UV of corner c (3 t + k) of the joined output o. */
+static inline const double *ch_cut_out_uv(const ch_cut_out *o, size_t c) {
+  int x = o->corner_uv[c];
+  return x < 0 ? &o->vertex_uv[2 * (size_t)o->tri[c]] : &o->extra_uv[2 * (size_t)x];
+}
+
+/* Appends uv to o's extra UVs: its index, or -1 when out of memory. */
+int ch_cut_out_extra_uv(ch_cut_out *o, const double uv[2]);
 
 /* Frees o's arrays and zeroes it. */
 void ch_cut_out_free(ch_cut_out *o);
@@ -88,12 +109,9 @@ void ch_cut_out_shrink(ch_cut_out *o);
  * memory. */
 int ch_cut_out_vertex(ch_cut_out *o, int face, const double st[2], const double uv[2], double h);
 
-/* The UVs of triangle t's corners (6) in part o (shared_uv set); *other
- * walks o's other_uv: from o->other_uv, with t = 0, 1, 2, ... in turn. */
-void ch_cut_out_corner_uvs(const ch_cut_out *o, int t, double *uv, const ch_cut_corner_uv **other);
-
-/* Appends a triangle (none if two corners are equal: a wall of zero
- * height); 0, or -1 when out of memory. */
+/* Appends a triangle to part o (shared_uv set, or count_only; none if
+ * two corners are equal: a wall of zero height); 0, or -1 when out of
+ * memory. */
 int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const double *ub, const double *uc,
                    uint64_t group);
 

@@ -100,7 +100,7 @@ static int corner_in_chart(const ch_surface *surface, const ch_cut_out *o, size_
   int v = o->tri[3 * t + (size_t)k];
   double uv[2];
   if (ch_surface_eval_uv(surface, o->face[v], o->st[2 * (size_t)v], o->st[2 * (size_t)v + 1], uv)) return 0;
-  const double *c = &o->uv[6 * t + 2 * (size_t)k];
+  const double *c = ch_cut_out_uv(o, 3 * t + (size_t)k);
   return fabs(uv[0] - c[0]) <= 1e-12 && fabs(uv[1] - c[1]) <= 1e-12;
 }
 
@@ -193,7 +193,8 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
     if (grow((void **)&o->face, np, sizeof *o->face) || grow((void **)&o->st, 2 * np, sizeof *o->st) ||
         grow((void **)&o->h, np, sizeof *o->h) || grow((void **)&o->pos, 3 * np, sizeof *o->pos) ||
         grow((void **)&o->tri, 3 * nt, sizeof *o->tri) || grow((void **)&o->group, nt, sizeof *o->group) ||
-        grow((void **)&o->uv, 6 * nt, sizeof *o->uv)) {
+        grow((void **)&o->corner_uv, 3 * nt, sizeof *o->corner_uv) ||
+        grow((void **)&o->vertex_uv, 2 * np, sizeof *o->vertex_uv)) {
       free(s);
       return -1;
     }
@@ -211,11 +212,12 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       int kx = (int)(s[i].at0 % 3), ky = (int)(s[i].at1 % 3);
       int a = o->tri[3 * tx + (size_t)kx], b = o->tri[3 * tx + (size_t)(kx + 1) % 3];
       int c = o->tri[3 * tx + (size_t)(kx + 2) % 3], d = o->tri[3 * ty + (size_t)(ky + 2) % 3];
-      double ua[2], ub[2], uc[2], ud[2];
-      memcpy(ua, &o->uv[6 * tx + 2 * (size_t)kx], sizeof ua);
-      memcpy(ub, &o->uv[6 * tx + 2 * (size_t)((kx + 1) % 3)], sizeof ub);
-      memcpy(uc, &o->uv[6 * tx + 2 * (size_t)((kx + 2) % 3)], sizeof uc);
-      memcpy(ud, &o->uv[6 * ty + 2 * (size_t)((ky + 2) % 3)], sizeof ud);
+      /* (the corners' UVs by their corner_uv entries: the values move
+       * with them) */
+      const double *pa = ch_cut_out_uv(o, 3 * tx + (size_t)kx), *pb = ch_cut_out_uv(o, 3 * tx + (size_t)(kx + 1) % 3);
+      double ua[2] = {pa[0], pa[1]}, ub[2] = {pb[0], pb[1]};
+      int ra = o->corner_uv[3 * tx + (size_t)kx], rb = o->corner_uv[3 * tx + (size_t)(kx + 1) % 3];
+      int rc = o->corner_uv[3 * tx + (size_t)(kx + 2) % 3], rd = o->corner_uv[3 * ty + (size_t)(ky + 2) % 3];
       o->face[m] = o->face[a];
       for (int j = 0; j < 2; j++) o->st[2 * m + j] = 0.5 * (o->st[2 * (size_t)a + j] + o->st[2 * (size_t)b + j]);
       /* The middle in UV, located in the face: an N-gon's sub-faces tile
@@ -232,16 +234,17 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       o->h[m] = ch_height_eval(height, sp.uv[0], sp.uv[1]);
       for (int j = 0; j < 3; j++) o->pos[3 * m + j] = sp.position[j] + o->h[m] * sp.normal[j];
       size_t n1 = (size_t)o->ntri + 2 * (size_t)i, n2 = n1 + 1;
-      int *T = o->tri;
-      double *U = o->uv;
+      int *T = o->tri, *R = o->corner_uv;
       T[3 * tx] = a, T[3 * tx + 1] = (int)m, T[3 * tx + 2] = c;
       T[3 * ty] = b, T[3 * ty + 1] = (int)m, T[3 * ty + 2] = d;
       T[3 * n1] = (int)m, T[3 * n1 + 1] = b, T[3 * n1 + 2] = c;
       T[3 * n2] = (int)m, T[3 * n2 + 1] = a, T[3 * n2 + 2] = d;
-      const double *corners[4][3] = {{ua, sp.uv, uc}, {ub, sp.uv, ud}, {sp.uv, ub, uc}, {sp.uv, ua, ud}};
+      /* (a and b read in tx's corners on both sides of the edge, m its own) */
+      memcpy(&o->vertex_uv[2 * m], sp.uv, 2 * sizeof *o->vertex_uv);
+      const int refs[4][3] = {{ra, -1, rc}, {rb, -1, rd}, {-1, rb, rc}, {-1, ra, rd}};
       size_t which[4] = {tx, ty, n1, n2};
       for (int q = 0; q < 4; q++)
-        for (int k = 0; k < 3; k++) memcpy(&U[6 * which[q] + 2 * (size_t)k], corners[q][k], 2 * sizeof *U);
+        for (int k = 0; k < 3; k++) R[3 * which[q] + (size_t)k] = refs[q][k];
       o->group[n1] = o->group[n2] = o->group[tx];
     }
     free(s);
@@ -343,7 +346,7 @@ static int corner_of(const ch_cut_out *o, int t, int v) {
 /* Twice the UV area of triangle t with corner k's UV replaced by uv. */
 static double uv_area_with(const ch_cut_out *o, int t, int k, const double uv[2]) {
   double c[3][2];
-  memcpy(c, &o->uv[6 * (size_t)t], sizeof c);
+  for (int j = 0; j < 3; j++) memcpy(c[j], ch_cut_out_uv(o, 3 * (size_t)t + (size_t)j), sizeof c[j]);
   c[k][0] = uv[0];
   c[k][1] = uv[1];
   return (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
@@ -371,14 +374,15 @@ static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) 
   const double *uvu = NULL;
   for (int i = 0; i < nv && !uvu; i++) {
     int k = corner_of(o, tv[i], u);
-    if (k >= 0) uvu = &o->uv[6 * (size_t)tv[i] + 2 * (size_t)k];
+    if (k >= 0) uvu = ch_cut_out_uv(o, 3 * (size_t)tv[i] + (size_t)k);
   }
   if (!uvu) return 0;
   for (int i = 0; i < nv; i++) {
     int t = tv[i];
     if (corner_of(o, t, u) >= 0) continue; /* removed */
     int k = corner_of(o, t, v);
-    double before = uv_area_with(o, t, k, &o->uv[6 * (size_t)t + 2 * (size_t)k]), after = uv_area_with(o, t, k, uvu);
+    double before = uv_area_with(o, t, k, ch_cut_out_uv(o, 3 * (size_t)t + (size_t)k)),
+           after = uv_area_with(o, t, k, uvu);
     if (!(after > 1e-3 * before)) return 0;
     double n0[3], n1[3];
     tri_normal(o, t, -1, 0, n0);
@@ -399,13 +403,14 @@ static double candidate(const ch_cut_out *o, const vertex_fans *f, int v, int sl
   const int *ts = fan(f, v);
   uint64_t group = o->group[ts[0]];
   if (!plain(group)) return INFINITY;
-  const double *uv0 = &o->uv[6 * (size_t)ts[0] + 2 * (size_t)corner_of(o, ts[0], v)], *pv = &o->pos[3 * (size_t)v];
+  const double *uv0 = ch_cut_out_uv(o, 3 * (size_t)ts[0] + (size_t)corner_of(o, ts[0], v)),
+               *pv = &o->pos[3 * (size_t)v];
   int next[32], prev[32];
   double shortest = INFINITY;
   for (int i = 0; i < n; i++) {
     int t = ts[i], k = corner_of(o, t, v);
     if (o->group[t] != group) return INFINITY;
-    const double *uv = &o->uv[6 * (size_t)t + 2 * (size_t)k];
+    const double *uv = ch_cut_out_uv(o, 3 * (size_t)t + (size_t)k);
     if (uv[0] != uv0[0] || uv[1] != uv0[1]) return INFINITY;
     next[i] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
     prev[i] = o->tri[3 * (size_t)t + (size_t)(k + 2) % 3];
@@ -458,12 +463,14 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
   }
   int nv = f->count[v], removed = 0;
   const int *tv = fan(f, v);
-  const double *uvu = NULL;
-  for (int j = 0; j < nv && !uvu; j++) {
+  int ref = 0, found = 0; /* u's UV in this chart: its corner_uv entry */
+  for (int j = 0; j < nv && !found; j++) {
     int k = corner_of(o, tv[j], u);
-    if (k >= 0) uvu = &o->uv[6 * (size_t)tv[j] + 2 * (size_t)k];
+    if (k >= 0) {
+      ref = o->corner_uv[3 * (size_t)tv[j] + (size_t)k];
+      found = 1;
+    }
   }
-  double uv[2] = {uvu[0], uvu[1]};
   int kept[32], nk = 0;
   for (int j = 0; j < nv; j++) {
     int t = tv[j];
@@ -478,7 +485,7 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
     }
     int k = corner_of(o, t, v);
     o->tri[3 * (size_t)t + k] = u;
-    memcpy(&o->uv[6 * (size_t)t + 2 * (size_t)k], uv, sizeof uv);
+    o->corner_uv[3 * (size_t)t + (size_t)k] = ref;
     kept[nk++] = t;
   }
   /* u's fan and v's kept triangles, merged in triangle order */
@@ -708,6 +715,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
         memcpy(&o->st[2 * (size_t)nv], &o->st[2 * (size_t)v], 2 * sizeof *o->st);
         o->h[nv] = o->h[v];
         memcpy(&o->pos[3 * (size_t)nv], &o->pos[3 * (size_t)v], 3 * sizeof *o->pos);
+        memcpy(&o->vertex_uv[2 * (size_t)nv], &o->vertex_uv[2 * (size_t)v], 2 * sizeof *o->vertex_uv);
       }
       nv++;
     }
@@ -717,7 +725,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
       for (int k = 0; k < 3; k++) o->tri[3 * (size_t)nt + k] = remap[o->tri[3 * (size_t)t + k]];
       if (nt != t) {
         o->group[nt] = o->group[t];
-        memcpy(&o->uv[6 * (size_t)nt], &o->uv[6 * (size_t)t], 6 * sizeof *o->uv);
+        memcpy(&o->corner_uv[3 * (size_t)nt], &o->corner_uv[3 * (size_t)t], 3 * sizeof *o->corner_uv);
       }
       nt++;
     }

@@ -641,27 +641,39 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
      * doubling, copies and page faults that cost as much as the cut). */
     long *vbase = oom ? NULL : malloc(((size_t)nchunks + 1) * sizeof *vbase);
     long *tbase = oom ? NULL : malloc(((size_t)nchunks + 1) * sizeof *tbase);
-    if (!vbase || !tbase) oom = 1;
+    long *xbase = oom ? NULL : malloc(((size_t)nchunks + 1) * sizeof *xbase); /* the corners listed with their own UV */
+    if (!vbase || !tbase || !xbase) oom = 1;
     if (!oom) {
       vbase[0] = o.npos;
       tbase[0] = o.ntri;
+      xbase[0] = 0;
       for (int c = 0; c < nchunks; c++) {
         vbase[c + 1] = vbase[c] + (part[c].npos - shared);
         tbase[c + 1] = tbase[c] + part[c].ntri;
+        xbase[c + 1] = xbase[c] + part[c].nother;
       }
-      if (vbase[nchunks] >= INT32_MAX / 3 || tbase[nchunks] >= INT32_MAX / 6) oom = 1;
+      if (vbase[nchunks] >= INT32_MAX / 3 || tbase[nchunks] >= INT32_MAX / 6 || xbase[nchunks] >= INT32_MAX / 2)
+        oom = 1;
       if (!oom && (double)tbase[nchunks] > cap) over = 1;
     }
     if (over) oom = 1; /* (the parts are freed below, then the error set) */
     if (!oom) {
       size_t nv = (size_t)vbase[nchunks], nt = (size_t)tbase[nchunks], ov = (size_t)o.npos, ot = (size_t)o.ntri;
+      size_t nx = (size_t)xbase[nchunks];
+      /* the shared vertices' UVs are the output's first */
+      o.vertex_uv = shared_uv;
+      shared_uv = NULL;
       if (ch_alloc_resize((void **)&o.face, ov, nv ? nv : 1, sizeof *o.face) ||
           ch_alloc_resize((void **)&o.st, 2 * ov, 2 * (nv ? nv : 1), sizeof *o.st) ||
           ch_alloc_resize((void **)&o.h, ov, nv ? nv : 1, sizeof *o.h) ||
+          ch_alloc_resize((void **)&o.vertex_uv, 2 * ov, 2 * (nv ? nv : 1), sizeof *o.vertex_uv) ||
           ch_alloc_resize((void **)&o.tri, 3 * ot, 3 * (nt ? nt : 1), sizeof *o.tri) ||
           ch_alloc_resize((void **)&o.group, ot, nt ? nt : 1, sizeof *o.group) ||
-          ch_alloc_resize((void **)&o.uv, 6 * ot, 6 * (nt ? nt : 1), sizeof *o.uv))
+          ch_alloc_resize((void **)&o.corner_uv, 3 * ot, 3 * (nt ? nt : 1), sizeof *o.corner_uv) ||
+          !(o.extra_uv = malloc(2 * (nx ? nx : 1) * sizeof *o.extra_uv)))
         oom = 1;
+      else
+        o.nextra = o.cap_extra = (int)nx;
     }
     if (!oom) {
 #pragma omp parallel for schedule(dynamic, 1)
@@ -673,6 +685,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
           memcpy(&o.face[v0], q->face, nv * sizeof *o.face);
           memcpy(&o.st[2 * v0], q->st, 2 * nv * sizeof *o.st);
           memcpy(&o.h[v0], q->h, nv * sizeof *o.h);
+          memcpy(&o.vertex_uv[2 * v0], q->vertex_uv, 2 * nv * sizeof *o.vertex_uv);
         }
         for (size_t t = 0; t < (size_t)q->ntri; t++)
           for (int k = 0; k < 3; k++) {
@@ -680,8 +693,14 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
             o.tri[3 * (t0 + t) + k] = x >= shared ? x + delta : x;
           }
         if (q->ntri) memcpy(&o.group[t0], q->group, (size_t)q->ntri * sizeof *o.group);
-        const ch_cut_corner_uv *other = q->other_uv;
-        for (int t = 0; t < q->ntri; t++) ch_cut_out_corner_uvs(q, t, &o.uv[6 * (t0 + (size_t)t)], &other);
+        /* (a part lists its corners with their own UV by increasing corner) */
+        size_t x0 = (size_t)xbase[c];
+        for (int j = 0; j < q->nother; j++)
+          memcpy(&o.extra_uv[2 * (x0 + (size_t)j)], q->other_uv[j].uv, 2 * sizeof *o.extra_uv);
+        for (size_t k = 0, j = 0; k < 3 * (size_t)q->ntri; k++) {
+          int own = j < (size_t)q->nother && (size_t)q->other_uv[j].corner == k;
+          o.corner_uv[3 * t0 + k] = own ? (int)(x0 + j++) : -1;
+        }
         ch_cut_out_free(&part[c]); /* (not both copies at once) */
       }
       o.npos = o.cap_pos = (int)vbase[nchunks];
@@ -706,6 +725,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     }
     free(vbase);
     free(tbase);
+    free(xbase);
     free(shared_uv);
     shared_uv = NULL;
     for (int c = 0; c < nchunks; c++) ch_cut_out_free(&part[c]);

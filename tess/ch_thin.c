@@ -17,7 +17,8 @@ enum { MAX_RING = 48, PASSES = 3, TILE_EDGES = 32 };
 
 typedef struct thin {
   int *tri;
-  double *uv;
+  int *corner_uv; /* per corner: -1 (its vertex's UV) or an index into extra_uv */
+  const double *vertex_uv, *extra_uv;
   const ch_thin_rules *rules;
   int *family, *layer;   /* per triangle */
   int *head, *next;      /* per vertex its corners (3 t + k), linked; dead triangles' too */
@@ -67,17 +68,26 @@ static int closed_fan(const ring *r) {
   return 1;
 }
 
-static const double *corner_uv(const thin *th, int c) { return &th->uv[2 * (size_t)c]; }
+static const double *uv_at(const thin *th, int c) {
+  int x = th->corner_uv[c];
+  return x < 0 ? &th->vertex_uv[2 * (size_t)th->tri[c]] : &th->extra_uv[2 * (size_t)x];
+}
 
 static double cross2(const double o[2], const double a[2], const double b[2]) {
   return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
 }
 
+/* The corner of vertex x in triangle t (x one of its vertices). */
+static int corner_in(const thin *th, int t, int x) {
+  for (int k = 0; k < 3; k++)
+    if (th->tri[3 * t + k] == x) return 3 * t + k;
+  return -1;
+}
+
 /* The UV of corner x of triangle t (x one of its vertices). */
 static const double *vertex_uv_in(const thin *th, int t, int x) {
-  for (int k = 0; k < 3; k++)
-    if (th->tri[3 * t + k] == x) return corner_uv(th, 3 * t + k);
-  return NULL;
+  int c = corner_in(th, t, x);
+  return c < 0 ? NULL : uv_at(th, c);
 }
 
 /* Marks w's neighbours through live triangles (stamp = a new generation,
@@ -111,7 +121,7 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
   int y1 = r->prv[iw], y2 = r->nxt[jw];
   if (y1 == y2) return 0;
   const double *uw = vertex_uv_in(th, r->tri[iw], w);
-  const double *uv_v = corner_uv(th, r->corner[0]);
+  const double *uv_v = uv_at(th, r->corner[0]);
   for (int i = 0; i < r->n; i++) { /* the new edges' lengths first: the cheapest test */
     int x = r->nxt[i];
     if (x == w || x == y1 || x == y2) continue;
@@ -144,7 +154,7 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
     if (x == w || x == y1 || x == y2) continue;
     if (!th->rules->edge_ok(th->rules->ctx, family, w, x, uw, vertex_uv_in(th, r->tri[i], x))) return 0;
   }
-  double uwc[2] = {uw[0], uw[1]};
+  int uw_ref = th->corner_uv[corner_in(th, r->tri[iw], w)]; /* (its UV: the same value, whichever corner holds it) */
   th->dead[r->tri[iw]] = th->dead[r->tri[jw]] = 1;
   /* w's corners: its live ones, then v's (now w's); dead ones dropped */
   int head = -1, *tail = &head;
@@ -154,7 +164,7 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
       if (th->dead[c / 3]) continue;
       if (pass) {
         th->tri[c] = w;
-        memcpy(&th->uv[2 * (size_t)c], uwc, sizeof uwc);
+        th->corner_uv[c] = uw_ref;
       }
       *tail = c;
       tail = &th->next[c];
@@ -171,7 +181,7 @@ static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
   if (r->n < 3) return -1;
   int f = th->family[r->tri[0]];
   *lo = *hi = th->layer[r->tri[0]];
-  const double *u0 = corner_uv(th, r->corner[0]);
+  const double *u0 = uv_at(th, r->corner[0]);
   for (int i = 0; i < r->n; i++) {
     int t = r->tri[i];
     if (th->family[t] != f || f < 0) return -1;
@@ -180,7 +190,7 @@ static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
     /* A seam: the corners see it at other UVs. Not rounding: a boundary
      * point is interpolated along its edge from either end by the two
      * triangles sharing it. */
-    const double *u = corner_uv(th, r->corner[i]);
+    const double *u = uv_at(th, r->corner[i]);
     if (!(fabs(u[0] - u0[0]) <= 1e-12 && fabs(u[1] - u0[1]) <= 1e-12)) return -1;
   }
   return *hi - *lo <= 1 ? f : -1;
@@ -221,7 +231,7 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
     nc = 2;
   } else {
     /* Inside a layer: to the nearest neighbour that works. */
-    const double *u = corner_uv(th, r.corner[0]);
+    const double *u = uv_at(th, r.corner[0]);
     double d[MAX_RING];
     for (int i = 0; i < r.n; i++) {
       const double *ux = vertex_uv_in(th, r.tri[i], r.nxt[i]);
@@ -251,11 +261,11 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
   }
 }
 
-int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, uint64_t *group,
-                  const ch_thin_rules *rules, unsigned char *removed) {
+int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv, const double *vertex_uv,
+                  const double *extra_uv, uint64_t *group, const ch_thin_rules *rules, unsigned char *removed) {
   int nv = num_vertices, nt = *num_triangles;
   if (nv <= 0 || nt <= 0) return 0;
-  thin th = {.tri = tri, .uv = uv, .rules = rules};
+  thin th = {.tri = tri, .corner_uv = corner_uv, .vertex_uv = vertex_uv, .extra_uv = extra_uv, .rules = rules};
   unsigned char *dirty = NULL, *visit = NULL;
   int *tile_start = NULL, *tile_list = NULL;
   th.family = malloc((size_t)nt * sizeof *th.family);
@@ -333,7 +343,7 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
   for (int t = 0; t < nt; t++)
     if (th.family[t] >= 0)
       for (int k = 0; k < 3; k++, edges++) {
-        const double *a = &uv[6 * (size_t)t + 2 * k], *b = &uv[6 * (size_t)t + 2 * ((k + 1) % 3)];
+        const double *a = uv_at(&th, 3 * t + k), *b = uv_at(&th, 3 * t + (k + 1) % 3);
         sum += ch_dist2d(b[0] - a[0], b[1] - a[1]);
       }
   int tiles = (int)fmin(64.0, fmax(2.0, floor(edges > 0 ? (double)edges / (TILE_EDGES * sum) : 2.0)));
@@ -347,7 +357,7 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
   for (int v = 0; v < nv; v++) {
     th.tile[v] = -1;
     if (th.head[v] < 0) continue;
-    const double *u = corner_uv(&th, th.head[v]);
+    const double *u = uv_at(&th, th.head[v]);
     int tx = (int)fmin(tiles - 1, fmax(0.0, floor(u[0] * tiles))), ty = (int)fmin(tiles - 1, fmax(0.0, floor(u[1] * tiles)));
     th.tile[v] = ty * tiles + tx;
     tile_start[th.tile[v] + 1]++;
@@ -394,7 +404,7 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, ui
     if (th.dead[t]) continue;
     if (n != t) {
       memmove(&tri[3 * (size_t)n], &tri[3 * (size_t)t], 3 * sizeof *tri);
-      memmove(&uv[6 * (size_t)n], &uv[6 * (size_t)t], 6 * sizeof *uv);
+      memmove(&corner_uv[3 * (size_t)n], &corner_uv[3 * (size_t)t], 3 * sizeof *corner_uv);
       group[n] = group[t];
     }
     n++;

@@ -48,16 +48,19 @@ typedef struct ch_thin_rules {
 } ch_thin_rules;
 
 /* Thins the triangles tri (3 vertex indices each, below num_vertices), with
- * their corners' UVs uv (6 per triangle, counter-clockwise or all
- * clockwise) and groups (one per triangle), in place: collapsed triangles
+ * their corners' UVs (counter-clockwise or all clockwise: corner c's is
+ * vertex_uv's of its vertex where corner_uv[c] < 0, else extra_uv's
+ * corner_uv[c]-th; a corner that moves to another vertex takes that
+ * vertex's corner_uv entry in the chart it moves in) and groups (one per
+ * triangle), in place: collapsed triangles
  * are removed and the rest keep their order; *num_triangles is updated.
  * removed (num_vertices, zeroed by the caller) gets 1 for every vertex no
  * triangle uses any more. Vertices whose corners differ in UV by more than
  * rounding (1e-12: a seam) stay.
  * Returns the number of vertices removed, or -1 when out of memory (then
  * nothing is changed). */
-int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, double *uv, uint64_t *group,
-                  const ch_thin_rules *rules, unsigned char *removed);
+int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv, const double *vertex_uv,
+                  const double *extra_uv, uint64_t *group, const ch_thin_rules *rules, unsigned char *removed);
 
 #ifdef __cplusplus
 }

@@ -898,8 +898,10 @@ static void cut_out_of_tessellation(scene *sc, ch_cut_out *out) {
   o.h = malloc((size_t)o.npos * sizeof *o.h);
   o.tri = malloc(3 * (size_t)o.ntri * sizeof *o.tri);
   o.group = calloc((size_t)o.ntri, sizeof *o.group);
-  o.uv = malloc(6 * (size_t)o.ntri * sizeof *o.uv);
-  REQUIRE(o.face && o.st && o.h && o.tri && o.group && o.uv);
+  o.corner_uv = malloc(3 * (size_t)o.ntri * sizeof *o.corner_uv);
+  o.vertex_uv = malloc(2 * (size_t)o.npos * sizeof *o.vertex_uv);
+  unsigned char *has_uv = calloc((size_t)o.npos, 1);
+  REQUIRE(o.face && o.st && o.h && o.tri && o.group && o.corner_uv && o.vertex_uv && has_uv);
   for (int v = 0; v < o.npos; v++) {
     o.face[v] = s.tess.vertex_face[v];
     memcpy(&o.st[2 * (size_t)v], &s.tess.vertex_st[2 * (size_t)v], 2 * sizeof *o.st);
@@ -910,9 +912,19 @@ static void cut_out_of_tessellation(scene *sc, ch_cut_out *out) {
   for (int f = 0; f < o.ntri; f++)
     for (int k = 0; k < 3; k++) {
       int c = m->face_start[f] + k;
-      o.tri[3 * (size_t)f + k] = m->corner_position[c];
-      memcpy(&o.uv[6 * (size_t)f + 2 * k], &m->uvs[2 * (size_t)m->corner_uv[c]], 2 * sizeof *o.uv);
+      int v = o.tri[3 * (size_t)f + k] = m->corner_position[c];
+      /* a vertex's UV is its first corner's; the corners that differ
+       * (across a UV seam) have their own */
+      const double *uv = &m->uvs[2 * (size_t)m->corner_uv[c]];
+      if (!has_uv[v]) {
+        memcpy(&o.vertex_uv[2 * (size_t)v], uv, 2 * sizeof *uv);
+        has_uv[v] = 1;
+      }
+      int own = uv[0] != o.vertex_uv[2 * (size_t)v] || uv[1] != o.vertex_uv[2 * (size_t)v + 1];
+      o.corner_uv[3 * (size_t)f + k] = own ? ch_cut_out_extra_uv(&o, uv) : -1;
+      REQUIRE(!own || o.corner_uv[3 * (size_t)f + k] >= 0);
     }
+  free(has_uv);
   ch_error err = {0};
   REQUIRE(ch_cut_evaluate_positions(s.surface, &o, &err) == CH_OK);
   *out = o;
@@ -940,7 +952,8 @@ static long cut_open_edges(const ch_cut_out *o) {
 static int cut_folded(const ch_cut_out *o) {
   int folded = 0;
   for (int t = 0; t < o->ntri; t++) {
-    const double *a = &o->uv[6 * (size_t)t], *b = a + 2, *c = a + 4;
+    const double *a = ch_cut_out_uv(o, 3 * (size_t)t), *b = ch_cut_out_uv(o, 3 * (size_t)t + 1),
+                 *c = ch_cut_out_uv(o, 3 * (size_t)t + 2);
     folded += (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]) <= 0.0;
   }
   return folded;
@@ -980,13 +993,13 @@ static void densify_case(const char *model, int exact) {
   }
   int folded = cut_folded(&o);
   for (int t = 0; t < o.ntri; t++) {
-    const double *a = &o.uv[6 * (size_t)t];
     for (int k = 0; k < 3; k++) {
       int v = o.tri[3 * (size_t)t + k];
       if (v < npos0) continue;
+      const double *a = ch_cut_out_uv(&o, 3 * (size_t)t + (size_t)k);
       double uv[2];
       REQUIRE(ch_surface_eval_uv(s.surface, o.face[v], o.st[2 * (size_t)v], o.st[2 * (size_t)v + 1], uv) == CH_OK);
-      uv_off += fabs(uv[0] - a[2 * k]) > 1e-12 || fabs(uv[1] - a[2 * k + 1]) > 1e-12;
+      uv_off += fabs(uv[0] - a[0]) > 1e-12 || fabs(uv[1] - a[1]) > 1e-12;
     }
   }
   CHECK_MSG(off == 0, "%d coordinates of new vertices off the displaced surface", off);
@@ -1027,7 +1040,8 @@ static void test_coarsen(void) {
   CHECK_MSG(removed == want, "%ld removed of %ld", removed, want);
   CHECK(removed_one == removed && one.ntri == o.ntri && one.npos == o.npos &&
         !memcmp(one.tri, o.tri, 3 * sizeof *o.tri * (size_t)o.ntri) &&
-        !memcmp(one.uv, o.uv, 6 * sizeof *o.uv * (size_t)o.ntri));
+        !memcmp(one.corner_uv, o.corner_uv, 3 * sizeof *o.corner_uv * (size_t)o.ntri) &&
+        !memcmp(one.vertex_uv, o.vertex_uv, 2 * sizeof *o.vertex_uv * (size_t)o.npos));
   ch_cut_out_free(&one);
   CHECK(o.ntri == ntri0 - removed && o.npos == npos0 - removed / 2);
   long open = cut_open_edges(&o);
