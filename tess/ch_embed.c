@@ -156,10 +156,13 @@ static long cleanup_estimate(const ch_cut_out *o) {
  * collapse of zero-length edges. On return o's positions are out's (the
  * caller still frees o with ch_cut_out_free). */
 static ch_status embed_finish(const ch_surface *surface, const ch_height *height, ch_cut_out *o, long target,
-                              ch_embed_stats *stats, ch_mesh *out, ch_error *err) {
+                              const ch_progress *progress, int run, ch_embed_stats *stats, ch_mesh *out,
+                              ch_error *err) {
   const ch_curve_set *set = height->set;
   double t_start = omp_get_wtime();
   ch_status st;
+  /* (the stages after the cut: a third of a large run) */
+  ch_progress_reportf(progress, -1.0, "embedding: run %d, positions", run);
   if ((st = ch_cut_evaluate_positions(surface, o, err))) return st;
   long extra = target > 0 ? target - (o->ntri - cleanup_estimate(o)) : 0;
   /* Short of the target by more than docs/spec.md §5 allows and by at
@@ -167,12 +170,14 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
    * COARSEN_SHARE: fewer triangles there. A run within the 5% is left as
    * it is. */
   if (extra > LANDED * (double)target && extra <= DENSIFY_SHARE * (double)target) {
+    ch_progress_reportf(progress, -1.0, "embedding: run %d, adding triangles where h is smooth", run);
     long added = ch_cut_densify(surface, height, o, extra, DENSIFY_ROUNDS);
     if (added == -1) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     if (added < 0) return ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a vertex left its base face");
     stats->densified = added;
   } else if (-extra > LANDED * (double)target && -extra <= COARSEN_SHARE * (double)target) {
     /* over it: fewer triangles where h is smooth, the features' untouched */
+    ch_progress_reportf(progress, -1.0, "embedding: run %d, coarsening where h is smooth", run);
     long removed = ch_cut_coarsen(o, -extra);
     if (removed < 0) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     stats->densified = -removed;
@@ -207,6 +212,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   /* (edges shorter than this are collapsed below; triangles thinner than it
    * count for nothing in the normals) */
   double eps = collapse_length(o->pos, o->npos);
+  ch_progress_reportf(progress, -1.0, "embedding: run %d, normals", run);
   if ((st = ch_cut_build_mesh(o, eps, out, err))) return st;
   o->pos = NULL; /* now out's */
   {
@@ -759,7 +765,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     }
     goto done;
   }
-  st = embed_finish(surface, height, &o, 0, &stats, out, err);
+  st = embed_finish(surface, height, &o, 0, desc ? desc->progress : NULL, pilot->run, &stats, out, err);
   if (!st && stats_out) *stats_out = stats;
   goto done;
 nomem:
@@ -844,7 +850,8 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
     if (!r->kept.o.tri) /* (a sampled pilot keeps no cut: ch_count_reply.estimated) */
       return ch_error_set(r->err, CH_ERR_INTERNAL, "feature embedding: a pilot without a cut to finish");
     r->cur_stats = r->kept.stats;
-    st = embed_finish(r->surface, r->height, &r->kept.o, r->finish_target, &r->cur_stats, &r->cur, r->err);
+    st = embed_finish(r->surface, r->height, &r->kept.o, r->finish_target, r->d.progress, r->pilot.run, &r->cur_stats,
+                      &r->cur, r->err);
     ch_cut_out_free(&r->kept.o);
     memset(&r->kept, 0, sizeof r->kept);
     if (!st) rp->count = (double)r->cur_stats.triangles;
