@@ -85,10 +85,13 @@ int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const d
   return 0;
 }
 
-int ch_cut_out_extra_uv(ch_cut_out *o, const double uv[2]) {
-  if (ch_alloc_grow((void **)&o->extra_uv, &o->cap_extra, 2 * (o->nextra + 1), sizeof *o->extra_uv, 512)) return -1;
-  memcpy(&o->extra_uv[2 * (size_t)o->nextra], uv, 2 * sizeof *uv);
-  return o->nextra++;
+void ch_cut_out_move_vertex(ch_cut_out *o, int to, int from) {
+  if (to == from) return;
+  o->face[to] = o->face[from];
+  memcpy(&o->st[2 * (size_t)to], &o->st[2 * (size_t)from], 2 * sizeof *o->st);
+  o->h[to] = o->h[from];
+  memcpy(&o->vertex_uv[2 * (size_t)to], &o->vertex_uv[2 * (size_t)from], 2 * sizeof *o->vertex_uv);
+  if (o->pos) memcpy(&o->pos[3 * (size_t)to], &o->pos[3 * (size_t)from], 3 * sizeof *o->pos);
 }
 
 static int out_quad(ch_cut_out *o, const int v[4], const double *uv[4], uint64_t group) {
@@ -624,7 +627,7 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   o->corner_uv = NULL;
   o->extra_uv = NULL;
   o->vertex_uv = NULL;
-  o->nextra = o->cap_extra = 0;
+  o->nextra = 0;
   /* Ranks of the born normals (born then holds them, -1 where none is
    * born). */
   int nslot = 0;
@@ -882,15 +885,7 @@ int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
     int k = 0;
     for (int v = 0; v < o->npos; v++) {
       map[v] = removed[v] ? -1 : k;
-      if (!removed[v]) {
-        o->face[k] = o->face[v];
-        o->st[2 * (size_t)k] = o->st[2 * (size_t)v];
-        o->st[2 * (size_t)k + 1] = o->st[2 * (size_t)v + 1];
-        o->h[k] = o->h[v];
-        o->vertex_uv[2 * (size_t)k] = o->vertex_uv[2 * (size_t)v];
-        o->vertex_uv[2 * (size_t)k + 1] = o->vertex_uv[2 * (size_t)v + 1];
-        k++;
-      }
+      if (!removed[v]) ch_cut_out_move_vertex(o, k++, v);
     }
     o->npos = k;
     for (size_t i = 0; i < 3 * (size_t)o->ntri; i++) o->tri[i] = map[o->tri[i]];

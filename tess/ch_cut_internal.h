@@ -51,7 +51,7 @@ typedef struct ch_cut_out {
    * (the tables only grow, so the value is the same). */
   int *corner_uv; /* 3 per triangle */
   double *extra_uv;
-  int nextra, cap_extra;
+  int nextra;
   /* A part of the cut (shared_uv set) keeps no per-corner UVs: a corner's
    * UV is its vertex's (shared_uv below first_pos, vertex_uv from there)
    * except the corners listed in other_uv, by increasing corner: across a
@@ -73,8 +73,10 @@ static inline const double *ch_cut_out_uv(const ch_cut_out *o, size_t c) {
   return x < 0 ? &o->vertex_uv[2 * (size_t)o->tri[c]] : &o->extra_uv[2 * (size_t)x];
 }
 
-/* Appends uv to o's extra UVs: its index, or -1 when out of memory. */
-int ch_cut_out_extra_uv(ch_cut_out *o, const double uv[2]);
+/* Moves vertex `from` of the joined output o to index `to` (face, st, h,
+ * UV and, once evaluated, position): the compactions after a thinning or
+ * a coarsening. */
+void ch_cut_out_move_vertex(ch_cut_out *o, int to, int from);
 
 /* Frees o's arrays and zeroes it. */
 void ch_cut_out_free(ch_cut_out *o);

@@ -214,8 +214,7 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
       int c = o->tri[3 * tx + (size_t)(kx + 2) % 3], d = o->tri[3 * ty + (size_t)(ky + 2) % 3];
       /* (the corners' UVs by their corner_uv entries: the values move
        * with them) */
-      const double *pa = ch_cut_out_uv(o, 3 * tx + (size_t)kx), *pb = ch_cut_out_uv(o, 3 * tx + (size_t)(kx + 1) % 3);
-      double ua[2] = {pa[0], pa[1]}, ub[2] = {pb[0], pb[1]};
+      const double *ua = ch_cut_out_uv(o, 3 * tx + (size_t)kx), *ub = ch_cut_out_uv(o, 3 * tx + (size_t)(kx + 1) % 3);
       int ra = o->corner_uv[3 * tx + (size_t)kx], rb = o->corner_uv[3 * tx + (size_t)(kx + 1) % 3];
       int rc = o->corner_uv[3 * tx + (size_t)(kx + 2) % 3], rd = o->corner_uv[3 * ty + (size_t)(ky + 2) % 3];
       o->face[m] = o->face[a];
@@ -710,14 +709,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
     for (int v = 0; v < o->npos; v++) {
       if (remap[v] < 0) continue;
       remap[v] = nv;
-      if (nv != v) {
-        o->face[nv] = o->face[v];
-        memcpy(&o->st[2 * (size_t)nv], &o->st[2 * (size_t)v], 2 * sizeof *o->st);
-        o->h[nv] = o->h[v];
-        memcpy(&o->pos[3 * (size_t)nv], &o->pos[3 * (size_t)v], 3 * sizeof *o->pos);
-        memcpy(&o->vertex_uv[2 * (size_t)nv], &o->vertex_uv[2 * (size_t)v], 2 * sizeof *o->vertex_uv);
-      }
-      nv++;
+      ch_cut_out_move_vertex(o, nv++, v);
     }
     int nt = 0;
     for (int t = 0; t < o->ntri; t++) {

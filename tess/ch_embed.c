@@ -679,7 +679,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
           !(o.extra_uv = malloc(2 * (nx ? nx : 1) * sizeof *o.extra_uv)))
         oom = 1;
       else
-        o.nextra = o.cap_extra = (int)nx;
+        o.nextra = (int)nx;
     }
     if (!oom) {
 #pragma omp parallel for schedule(dynamic, 1)

@@ -120,7 +120,8 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
   if (iw < 0 || jw < 0) return 0;
   int y1 = r->prv[iw], y2 = r->nxt[jw];
   if (y1 == y2) return 0;
-  const double *uw = vertex_uv_in(th, r->tri[iw], w);
+  int cw = corner_in(th, r->tri[iw], w); /* (w's UV in v's chart) */
+  const double *uw = uv_at(th, cw);
   const double *uv_v = uv_at(th, r->corner[0]);
   for (int i = 0; i < r->n; i++) { /* the new edges' lengths first: the cheapest test */
     int x = r->nxt[i];
@@ -154,7 +155,7 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
     if (x == w || x == y1 || x == y2) continue;
     if (!th->rules->edge_ok(th->rules->ctx, family, w, x, uw, vertex_uv_in(th, r->tri[i], x))) return 0;
   }
-  int uw_ref = th->corner_uv[corner_in(th, r->tri[iw], w)]; /* (its UV: the same value, whichever corner holds it) */
+  int uw_ref = th->corner_uv[cw]; /* (v's corners take it: the same UV value) */
   th->dead[r->tri[iw]] = th->dead[r->tri[jw]] = 1;
   /* w's corners: its live ones, then v's (now w's); dead ones dropped */
   int head = -1, *tail = &head;

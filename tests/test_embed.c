@@ -900,8 +900,9 @@ static void cut_out_of_tessellation(scene *sc, ch_cut_out *out) {
   o.group = calloc((size_t)o.ntri, sizeof *o.group);
   o.corner_uv = malloc(3 * (size_t)o.ntri * sizeof *o.corner_uv);
   o.vertex_uv = malloc(2 * (size_t)o.npos * sizeof *o.vertex_uv);
+  o.extra_uv = malloc(6 * (size_t)o.ntri * sizeof *o.extra_uv); /* (at most every corner) */
   unsigned char *has_uv = calloc((size_t)o.npos, 1);
-  REQUIRE(o.face && o.st && o.h && o.tri && o.group && o.corner_uv && o.vertex_uv && has_uv);
+  REQUIRE(o.face && o.st && o.h && o.tri && o.group && o.corner_uv && o.vertex_uv && o.extra_uv && has_uv);
   for (int v = 0; v < o.npos; v++) {
     o.face[v] = s.tess.vertex_face[v];
     memcpy(&o.st[2 * (size_t)v], &s.tess.vertex_st[2 * (size_t)v], 2 * sizeof *o.st);
@@ -921,8 +922,8 @@ static void cut_out_of_tessellation(scene *sc, ch_cut_out *out) {
         has_uv[v] = 1;
       }
       int own = uv[0] != o.vertex_uv[2 * (size_t)v] || uv[1] != o.vertex_uv[2 * (size_t)v + 1];
-      o.corner_uv[3 * (size_t)f + k] = own ? ch_cut_out_extra_uv(&o, uv) : -1;
-      REQUIRE(!own || o.corner_uv[3 * (size_t)f + k] >= 0);
+      if (own) memcpy(&o.extra_uv[2 * (size_t)o.nextra], uv, 2 * sizeof *uv);
+      o.corner_uv[3 * (size_t)f + k] = own ? o.nextra++ : -1;
     }
   free(has_uv);
   ch_error err = {0};
