@@ -390,16 +390,20 @@ static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, i
   }
 }
 
+/* No label is all ones (a label's groove part uses its low 30 bits). */
+#define NO_LABEL UINT64_MAX
+
 /* Finds the level of f = target between x0 < x1 (label l0 at x0, f -
  * target = f0 there and f1 of the other sign at x1) and narrows the
  * bisection's bracket [*lo, *hi] to it if the labels agree: l0 on x0's
  * side of it, another label on the other; returns whether they did. The
  * labels decide by their own evaluation, which can put the change a few
  * roundings away (on a step curve itself the side is rounding): the
- * bracket widens until they confirm it. */
-static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, level_kind kind, int64_t c, int seg,
-                           double target, double x0, double f0, double x1, double f1, double *lo, double *hi,
-                           uint64_t *lhi, level_cache *history) {
+ * bracket widens until they confirm it. expect (or NO_LABEL): the label
+ * the level leads to where nothing else changes there. */
+static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, uint64_t expect, level_kind kind,
+                           int64_t c, int seg, double target, double x0, double f0, double x1, double f1, double *lo,
+                           double *hi, uint64_t *lhi, level_cache *history) {
   double a = x0, b = x1, fa = f0, fb = f1;
   level_root(lb, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
   double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
@@ -408,7 +412,10 @@ static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, l
   for (int k = 0; k < 4; k++) {
     double l = fmax(x0, near - widen[k]), h = fmin(x1, far + widen[k]);
     uint64_t next = span_label(lb, e, h);
-    if (next == l0 || span_label(lb, e, l) != l0) continue;
+    /* Past the level the label it leads to (expect) confirms the near
+     * side as well: anything else that changed before the level would
+     * still show 1e-12 further on. */
+    if (next == l0 || (next != expect && span_label(lb, e, l) != l0)) continue;
     *lo = l;
     *hi = h;
     *lhi = next;
@@ -433,8 +440,9 @@ static int narrow_to_line(const ch_label_ctx *lb, const span *e, uint64_t l0, in
   if (!(k1 != k0 && k1 >= 1 && k1 <= nb - 1)) return -1;
   double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
   if (!(ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)) return 0;
-  return narrow_to_level(lb, e, l0, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target, lo, hi,
-                         lhi, cache);
+  uint64_t expect = ((g0 & ~(uint64_t)0xff) | (uint64_t)k1) << 32 | (l0 & 0xffffffffu);
+  return narrow_to_level(lb, e, l0, expect, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target,
+                         lo, hi, lhi, cache);
 }
 
 /* The fast paths of the crossing search: where two labels differ by one
@@ -466,7 +474,7 @@ static void narrow_crossing(const ch_label_ctx *lb, const span *e, uint64_t l0, 
     double fa = level_value(lb, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
     double fb = fabs(groove_level(lb, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, e, l0, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1)) {
     /* two grooves: where the deeper carve (or the higher raise) changes */
     int64_t c = (int64_t)GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
@@ -476,34 +484,36 @@ static void narrow_crossing(const ch_label_ctx *lb, const span *e, uint64_t l0, 
      * into another: its lines until the other is deeper), its next line;
      * the labels tell (one level root and two labels, not bisection). */
     if (!(fa != 0.0 && fa * fb < 0.0 &&
-          narrow_to_level(lb, e, l0, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL)))
+          narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_PAIR, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL)))
       narrow_to_line(lb, e, l0, -1, x0, x1, lo, hi, lhi, cache);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) == (s1 >> 1) && lb->height->step_method == CH_RECON_EXACT) {
     int c = (int)(s0 >> 1) - 1; /* one step curve's two sides */
     double fa = level_value(lb, e, LEVEL_STEP, c, -1, x0, &sa);
     double fb = level_value(lb, e, LEVEL_STEP, c, -1, x1, &sb);
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   } else if (g0 == g1 && !s0 != !s1) { /* a loop's wall from outside, or the edge of a step curve's radius */
     int c = (int)((s0 ? s0 : s1) >> 1) - 1;
     if (lb->step_outer && lb->height->step_method == CH_RECON_EXACT) {
       double fa = level_value(lb, e, LEVEL_STEP, c, -1, x0, &sa);
       double fb = level_value(lb, e, LEVEL_STEP, c, -1, x1, &sb);
       if (fa != 0.0 && fa * fb < 0.0 &&
-          narrow_to_level(lb, e, l0, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL))
+          narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_STEP, c, sa == sb ? sa : -1, 0.0, x0, fa, x1, fb, lo, hi, lhi,
+                          NULL))
         return;
     }
     double fa = level_value(lb, e, LEVEL_REACH, c, -1, x0, &sa) - lb->radius;
     double fb = level_value(lb, e, LEVEL_REACH, c, -1, x1, &sb) - lb->radius;
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, e, l0, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_REACH, c, sa == sb ? sa : -1, lb->radius, x0, fa, x1, fb, lo, hi, lhi,
+                      NULL);
   } else if (g0 == g1 && s0 && s1 && (s0 >> 1) != (s1 >> 1)) {
     /* where the nearest step curve changes */
     int64_t c = (int64_t)((s0 >> 1) - 1) * MAX_CURVES_LABELLED + (int64_t)((s1 >> 1) - 1);
     double fa = level_value(lb, e, LEVEL_NEAREST, c, -1, x0, NULL);
     double fb = level_value(lb, e, LEVEL_NEAREST, c, -1, x1, NULL);
     if (fa != 0.0 && fa * fb < 0.0)
-      narrow_to_level(lb, e, l0, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
+      narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_NEAREST, c, -1, 0.0, x0, fa, x1, fb, lo, hi, lhi, NULL);
   }
 }
 
