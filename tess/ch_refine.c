@@ -213,6 +213,21 @@ static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2]) {
   return fabs(t) < 0.5 ? cv->depth * ch_profile_eval(&cv->profile, t) : 0.0;
 }
 
+/* Where groove b takes over from groove a (the label's own rule, in
+ * ch_groove_field_eval: of two carves, or two raises, the curve later in
+ * a cell's order, the higher index, takes over only where it is deeper or
+ * higher by more than 1e-12 of its own; the deciding curve does not flip
+ * with the closest point's noise where mirrored grooves tie): negative on
+ * a's side, positive on b's. Where one carves and the other raises (or
+ * either is 0), their difference. */
+static double pair_level(const ch_label_ctx *lb, int a, int b, const double uv[2]) {
+  double ga = groove_carve(lb, a, uv), gb = groove_carve(lb, b, uv);
+  if (!(ga * gb > 0.0)) return ga - gb;
+  double sigma = ga < 0.0 ? -1.0 : 1.0; /* carves: the deeper (lower) wins */
+  if (a < b) return sigma * (gb - ga) - 1e-12 * fabs(gb);
+  return -(sigma * (ga - gb) - 1e-12 * fabs(ga));
+}
+
 /* The level function at point x of edge e, against curve c (LEVEL_PAIR
  * and LEVEL_NEAREST: c = a * MAX_CURVES_LABELLED + b for curves a and b,
  * in 64 bits: any number of curves),
@@ -222,8 +237,7 @@ static double level_value(const ch_label_ctx *lb, const span *e, level_kind kind
                           int *segment) {
   double uv[2];
   span_point(e, x, uv);
-  if (kind == LEVEL_PAIR)
-    return groove_carve(lb, (int)(c / MAX_CURVES_LABELLED), uv) - groove_carve(lb, (int)(c % MAX_CURVES_LABELLED), uv);
+  if (kind == LEVEL_PAIR) return pair_level(lb, (int)(c / MAX_CURVES_LABELLED), (int)(c % MAX_CURVES_LABELLED), uv);
   if (kind == LEVEL_NEAREST)
     return fabs(step_distance_at(lb, (int)(c / MAX_CURVES_LABELLED), uv, NULL)) -
            fabs(step_distance_at(lb, (int)(c % MAX_CURVES_LABELLED), uv, NULL));
