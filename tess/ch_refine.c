@@ -223,6 +223,10 @@ static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2]) {
 static double pair_level(const ch_label_ctx *lb, int a, int b, const double uv[2]) {
   double ga = groove_carve(lb, a, uv), gb = groove_carve(lb, b, uv);
   if (!(ga * gb > 0.0)) return ga - gb;
+  /* Equal to the bit: flat bottoms of one depth (box profiles) meet, where
+   * the earlier curve stays: a plateau on its side, not a difference of
+   * rounding that would pass for the root anywhere on it. */
+  if (ga == gb) return a < b ? -fabs(ga) : fabs(ga);
   double sigma = ga < 0.0 ? -1.0 : 1.0; /* carves: the deeper (lower) wins */
   if (a < b) return sigma * (gb - ga) - 1e-12 * fabs(gb);
   return -(sigma * (ga - gb) - 1e-12 * fabs(ga));
@@ -360,30 +364,40 @@ static double groove_level(const ch_label_ctx *lb, const span *e, int c, double 
  * position (Illinois) until the bracket is below tol, or until the last
  * estimate m is within tol / 4 of the root by the secant's slope: then
  * [*a, *b] = m -+ tol / 2 (unchecked: callers check the answer by the
- * labels). One segment of c (seg >= 0: both ends are nearest it) is
+ * labels). Where f jumps across the level rather than crossing it (t at
+ * the side change beyond an open end, a groove's edge where two flat
+ * bottoms meet) false position crawls: after two steps whose |f| did not
+ * halve, a bisection (a safeguard in the manner of Dekker's and Brent's,
+ * Brent 1973, ch. 4; the secant from a bisection's point is no slope to
+ * stop on). One segment of c (seg >= 0: both ends are nearest it) is
  * enough for the search. On return [*a, *b] brackets the root (in either
  * order) and *fa is f(*a)'s sign. history (LEVEL_LINE only, or NULL):
  * the groove's t read on the edge, for level_guess. */
 static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, int64_t c, int seg, double target,
                        double tol, double *a, double *b, double *fa, double *fb, level_cache *history) {
   int side = 0;
-  for (int it = 0; it < 80 && fabs(*b - *a) > tol; it++) {
+  double last[3] = {INFINITY, INFINITY, INFINITY}; /* |f| read one, two and three steps before */
+  for (int it = 0; it < 100 && fabs(*b - *a) > tol; it++) {
     double m = (*a * *fb - *b * *fa) / (*fb - *fa), model_slope = 0.0;
+    int bisect = it >= 3 && last[0] > 0.5 * last[1] && last[1] > 0.5 * last[2];
     /* (a few guesses only: where t jumps, at the side change beyond an
      * open end, the history has nothing to say and bisection decides) */
-    int guessed = history && it < 4 &&
+    int guessed = !bisect && history && it < 4 &&
                   level_guess(history, (int)c, target, fmin(*a, *b), fmax(*a, *b), &m, &model_slope);
-    if (!(m > fmin(*a, *b) && m < fmax(*a, *b))) m = 0.5 * (*a + *b);
+    if (bisect || !(m > fmin(*a, *b) && m < fmax(*a, *b))) m = 0.5 * (*a + *b);
     double fm = level_value(lb, e, kind, c, seg, m, NULL) - target;
     if (history) history_add(history, (int)c, m, fm + target);
     /* On the level itself a line's label is still the lower piece's:
      * keep bracketing. */
     if (fm == 0.0) fm = -1e-300;
+    last[2] = last[1];
+    last[1] = last[0];
+    last[0] = fabs(fm);
     /* the secant's slope, or the model's where that is flatter: the
      * stop asks the smaller step of the two to be below tol / 4 */
     double slope = (fm - *fb) / (m - *b);
     if (guessed && fabs(model_slope) < fabs(slope)) slope = model_slope;
-    if (fabs(fm) <= 0.25 * tol * fabs(slope)) {
+    if (!bisect && fabs(fm) <= 0.25 * tol * fabs(slope)) {
       /* the side of m - tol / 2 is the one opposite to fm's along the slope */
       double lo = m - 0.5 * tol, hi = m + 0.5 * tol, flo = (slope > 0.0) == (fm > 0.0) ? -fm : fm;
       *a = lo;
@@ -429,7 +443,16 @@ static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, u
     /* Past the level the label it leads to (expect) confirms the near
      * side as well: anything else that changed before the level would
      * still show 1e-12 further on. */
-    if (next == l0 || (next != expect && span_label(lb, e, l) != l0)) continue;
+    if (next == l0) continue;
+    if (next != expect) {
+      uint64_t ll = span_label(lb, e, l);
+      /* another line of l0's groove before the level: a change of its
+       * own, not a rounding a wider bracket would take in */
+      if (ll != l0 && kind != LEVEL_LINE && (ll & 0xffffffffu) == (l0 & 0xffffffffu) && (ll >> 32) && (l0 >> 32) &&
+          GROOVE_CURVE(ll >> 32) == GROOVE_CURVE(l0 >> 32))
+        return 0;
+      if (ll != l0) continue;
+    }
     *lo = l;
     *hi = h;
     *lhi = next;
@@ -485,10 +508,12 @@ static void narrow_crossing(const ch_label_ctx *lb, const span *e, uint64_t l0, 
     if (narrow_to_line(lb, e, l0, g1 ? (int)(g1 & 0xff) : -1, x0, x1, lo, hi, lhi, cache) >= 0) return;
   if (s0 == s1 && (!g0 != !g1)) { /* a rim (the outermost piece of the groove on one side) */
     int c = GROOVE_CURVE(g0 ? g0 : g1);
-    double fa = level_value(lb, e, LEVEL_RIM, c, -1, x0, &sa) - 0.5;
-    double fb = fabs(groove_level(lb, e, c, x1, &sb, cache)) - 0.5; /* LEVEL_RIM */
+    double ta = level_value(lb, e, LEVEL_LINE, c, -1, x0, &sa), tb = groove_level(lb, e, c, x1, &sb, cache);
+    double fa = fabs(ta) - 0.5, fb = fabs(tb) - 0.5; /* LEVEL_RIM */
     if (fa != 0.0 && fa * fb < 0.0)
       narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_RIM, c, sa == sb ? sa : -1, 0.5, x0, fa, x1, fb, lo, hi, lhi, NULL);
+    else if (ta != 0.0 && ta * tb < 0.0) /* a profile zero on one side of its curve (bevel): a wall at t = 0 */
+      narrow_to_level(lb, e, l0, NO_LABEL, LEVEL_LINE, c, sa == sb ? sa : -1, 0.0, x0, ta, x1, tb, lo, hi, lhi, NULL);
   } else if (s0 == s1 && g0 && g1 && GROOVE_CURVE(g0) != GROOVE_CURVE(g1)) {
     /* two grooves: where the deeper carve (or the higher raise) changes */
     int64_t c = (int64_t)GROOVE_CURVE(g0) * MAX_CURVES_LABELLED + GROOVE_CURVE(g1);
