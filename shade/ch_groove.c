@@ -193,6 +193,17 @@ static int profile_is_even(ch_profile_kind kind) {
   return kind == CH_PROFILE_V || kind == CH_PROFILE_U || kind == CH_PROFILE_BOX || kind == CH_PROFILE_RIDGE;
 }
 
+/* How far the rounding of s moves carve g = depth P(s / w) of curve c at
+ * q: 2^-50 of q's larger coordinate (a distance is as exact as the points
+ * it is read from: mirrored grooves' distances on their line of symmetry
+ * differ by up to 1.4e-16 at UV 0.5) times P's slope. A u profile's slope
+ * grows without bound towards its rims: there 1e-16 in s moved g by
+ * 3e-11 of itself, past a tie relative to g alone. */
+static double carve_rounding(const ch_curve *c, double s, const double q[2]) {
+  double scale = fmax(1.0, fmax(fabs(q[0]), fabs(q[1])));
+  return fabs(c->depth * ch_profile_slope(&c->profile, s / c->width)) / c->width * (0x1p-50 * scale);
+}
+
 static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d2, int seg, double t,
                     const double q[2]) {
   const ch_curve *c = &f->set->curves[curve];
@@ -213,17 +224,21 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
   if (!sided) s = distance * ch_curve_side(f->set, seg, t, q);
   /* The deciding curve changes only when another is deeper (higher) by
    * more than rounding: mirrored grooves tie along their line of symmetry,
-   * where the closest-point noise would otherwise flip it back and forth. */
+   * where the closest-point noise would otherwise flip it back and forth.
+   * Rounding is P's own (relative) and that of s through P's slope. */
   double tie = 1e-12 * fabs(g);
+  const ch_curve *curves = f->set->curves;
   if (g < cs->min_carve) {
-    if (cs->carve_curve < 0 || g < cs->min_carve - tie) {
+    int old = cs->carve_curve;
+    if (old < 0 || g < cs->min_carve - (tie + carve_rounding(c, s, q) + carve_rounding(&curves[old], cs->carve_s, q))) {
       cs->carve_curve = curve;
       cs->carve_s = s;
     }
     cs->min_carve = g;
   }
   if (g > cs->max_raise) {
-    if (cs->raise_curve < 0 || g > cs->max_raise + tie) {
+    int old = cs->raise_curve;
+    if (old < 0 || g > cs->max_raise + (tie + carve_rounding(c, s, q) + carve_rounding(&curves[old], cs->raise_s, q))) {
       cs->raise_curve = curve;
       cs->raise_s = s;
     }

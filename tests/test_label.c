@@ -232,10 +232,44 @@ static void test_hidden_caps(void) {
   scene_close(&sc);
 }
 
+/* Mirrored grooves tie along their line of symmetry (docs/spec.md §3: the
+ * first of equals decides h): two u circles as ornament's rosette draws
+ * them, mirrored about u = 0.5. Their distances there differ by rounding
+ * (1e-16), which a u profile's slope towards its rims amplifies past a
+ * tie relative to g; the label along the line must still name the first
+ * circle throughout, or an edge lying on the line is cut at random. */
+static void test_mirrored_tie(void) {
+  static const char mirrored[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<g data-profile='u' data-width='1.8' data-depth='0.012'>"
+      "<circle cx='37.876' cy='43' r='14'/><circle cx='62.124' cy='43' r='14'/>"
+      "</g></svg>";
+  label_scene sc;
+  REQUIRE(scene_open(&sc, mirrored, "mirrored.svg", 0.05, 0.002));
+  REQUIRE(sc.set.num_curves == 2);
+  int both = 0, rim = 0, other = 0;
+  for (int i = 0; i <= 200000; i++) {
+    double q[2] = {0.5, 0.3 + 0.4 * i / 200000.0};
+    ch_curve_point a, b;
+    ch_curve_closest(&sc.set, 0, q, &a);
+    ch_curve_closest(&sc.set, 1, q, &b);
+    double half = 0.5 * sc.set.curves[0].width;
+    if (!(a.distance < half && b.distance < half)) continue;
+    both++;
+    rim += a.distance > 0.9 * half;
+    uint64_t g = ch_label_at(&sc.lb, q) >> 32;
+    other += GROOVE_CURVE(g) != 0;
+  }
+  CHECK_MSG(both > 1000 && rim > 100, "%d points in both grooves, %d near the rims", both, rim);
+  CHECK_MSG(other == 0, "%d of %d points on the line of symmetry labelled by the second circle", other, both);
+  scene_close(&sc);
+}
+
 int main(void) {
   RUN(test_labels);
   RUN(test_crossing_loops);
   RUN(test_nested_loops);
   RUN(test_hidden_caps);
+  RUN(test_mirrored_tie);
   TEST_MAIN_END();
 }
