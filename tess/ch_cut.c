@@ -417,16 +417,6 @@ static void note_unresolved(ch_embed_stats *stats, const double uv[2], int at_se
 static int fan_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T,
                         const ch_refine_node *nodes, int m, ch_cut_out *o);
 
-/* Whether a corner of T is a vertex of a UV seam labelled in its other
- * chart (its home face's UV) with another piece than T's UV there gives:
- * the features differ across the seam, h jumps there, and the one shared
- * vertex (which keeps the mesh closed) takes the other chart's h. */
-static int at_differing_seam(const ch_label_ctx *lb, const ch_refine_mesh *w, const ch_refine_tri *T) {
-  for (int k = 0; k < 3; k++)
-    if (ch_refine_on_seam(w, T->v[k], T->uv[k]) && ch_label_at(lb, T->uv[k]) != w->verts[T->v[k]].label) return 1;
-  return 0;
-}
-
 /* Cuts triangle t into its pieces, with walls where h jumps. */
 int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, double tol, ch_cut_out *o,
                     ch_embed_stats *stats) {
@@ -450,7 +440,7 @@ int ch_cut_triangle(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, doub
     double cuv[2] = {0, 0};
     for (int k = 0; k < 3; k++)
       for (int i = 0; i < 2; i++) cuv[i] += T->uv[k][i] / 3.0;
-    note_unresolved(stats, cuv, at_differing_seam(lb, w, T));
+    note_unresolved(stats, cuv, ch_refine_at_differing_seam(lb, w, t));
   }
   ch_refine_node *all = nodes;
   if (m < 0) { /* more nodes than a cut takes: all of them for the fan, so its neighbours' crossings meet it */

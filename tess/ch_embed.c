@@ -28,6 +28,13 @@ double ch_embed_angle_deg(double reference_edge) { return fmin(10.0, fmax(1.0, 1
 
 /* Rounds of ch_cut_densify: each can double the quiet part's triangles. */
 #define DENSIFY_ROUNDS 4
+/* Refinement rounds after the last that only split triangles the cut
+ * would fan (ch_refine_uncut): the last round's children, and theirs.
+ * Those the bundled sets left uncut at 8 rounds took one (plane + panels
+ * at 440k and 540k, plane + glyphs at 730k); where no split resolves a
+ * triangle (two creases crossing in an X) the rounds end at the split's
+ * least length (plane + ornament at 620k: after two). */
+#define FINISH_ROUNDS 4
 /* The largest share of the target a full run may take that way (further
  * below, the base near the features would be coarser than the target's:
  * another run is the better answer), and the largest it may give back
@@ -486,7 +493,12 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     crossed = w.nedges;
     double td = omp_get_wtime();
     stats.seconds_crossings += td - tc;
-    if (round >= max_rounds) break;
+    /* The triangles of the last round's split have their crossings but
+     * were never looked at: after max_rounds, up to FINISH_ROUNDS more
+     * rounds split those the cut would fan, and only those (a mesh without
+     * them comes out the same), until the split reaches its least length. */
+    if (round >= max_rounds + FINISH_ROUNDS) break;
+    int finishing = round >= max_rounds;
     unsigned char *refine = calloc((size_t)(w.ntris > 0 ? w.ntris : 1), 1);
     if (!refine) goto nomem;
     report(desc, pilot, round, "refinement", -1.0);
@@ -494,8 +506,9 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
      * kept their edges and crossings, so their answer too. */
 #pragma omp parallel for schedule(dynamic, 256)
     for (int t = 0; t < w.ntris; t++)
-      refine[t] = (unsigned char)((!fresh || fresh[t]) && (!sampled || sample_tile(&w.tris[t], quarter)) &&
-                                  ch_refine_needed(&lb, &w, t, round >= 8, round));
+      refine[t] =
+          (unsigned char)((!fresh || fresh[t]) && (!sampled || sample_tile(&w.tris[t], quarter)) &&
+                          (finishing ? ch_refine_uncut(&lb, &w, t) : ch_refine_needed(&lb, &w, t, round >= 8, round)));
     double te = omp_get_wtime();
     stats.seconds_classify += te - td;
     int split = 0, first_new = w.nverts;

@@ -1149,6 +1149,19 @@ static int line_between(const ch_label_ctx *lb, uint64_t a, uint64_t b, double *
   return 1;
 }
 
+int ch_refine_at_differing_seam(const ch_label_ctx *lb, const ch_refine_mesh *w, int t) {
+  const ch_refine_tri *T = &w->tris[t];
+  for (int k = 0; k < 3; k++)
+    if (ch_refine_on_seam(w, T->v[k], T->uv[k]) && ch_label_at(lb, T->uv[k]) != w->verts[T->v[k]].label) return 1;
+  return 0;
+}
+
+int ch_refine_uncut(const ch_label_ctx *lb, const ch_refine_mesh *w, int t) {
+  ch_refine_node nodes[MAX_NODES];
+  int m = ch_refine_gather_nodes(w, t, nodes);
+  return m >= 0 && ch_refine_classify(nodes, m) == CUT_COMPLEX && !ch_refine_at_differing_seam(lb, w, t);
+}
+
 int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int only_uncut, int round) {
   const ch_refine_tri *T = &w->tris[t];
   if (ch_label_quiet(lb, T->uv[0]) && ch_label_quiet(lb, T->uv[1]) && ch_label_quiet(lb, T->uv[2])) return 0;

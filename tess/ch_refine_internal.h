@@ -119,6 +119,19 @@ void ch_refine_locate_st(const ch_surface *surface, int face, const double uv[2]
  * or it is coarse over a rounded cap. */
 int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int only_uncut, int round);
 
+/* Whether a corner of triangle t is a vertex of a UV seam labelled in its
+ * other chart (its home face's UV) with another piece than t's UV there
+ * gives: the features differ across the seam, h jumps there, and the one
+ * shared vertex (which keeps the mesh closed) takes the other chart's h. */
+int ch_refine_at_differing_seam(const ch_label_ctx *lb, const ch_refine_mesh *w, int t);
+
+/* Whether the cut would fan triangle t (ch_cut_triangle: its crossings
+ * do not make chords and one junction) where splitting may still help:
+ * not when it holds more nodes than a cut takes (ch_refine_needed's
+ * DENSE_ROUNDS), nor at a differing seam (smaller triangles there still
+ * share the vertex on the seam). */
+int ch_refine_uncut(const ch_label_ctx *lb, const ch_refine_mesh *w, int t);
+
 /* Labels (ch_label_at) and h of the vertices from `from` on, in parallel. */
 void ch_refine_label_vertices(const ch_label_ctx *lb, ch_refine_mesh *w, int from);
 
