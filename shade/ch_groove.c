@@ -199,7 +199,7 @@ static int profile_is_even(ch_profile_kind kind) {
  * differ by up to 1.4e-16 at UV 0.5) times P's slope. A u profile's slope
  * grows without bound towards its rims: there 1e-16 in s moved g by
  * 3e-11 of itself, past a tie relative to g alone. */
-static double carve_rounding(const ch_curve *c, double s, const double q[2]) {
+double ch_groove_carve_rounding(const ch_curve *c, double s, const double q[2]) {
   double scale = fmax(1.0, fmax(fabs(q[0]), fabs(q[1])));
   return fabs(c->depth * ch_profile_slope(&c->profile, s / c->width)) / c->width * (0x1p-50 * scale);
 }
@@ -230,7 +230,8 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
   const ch_curve *curves = f->set->curves;
   if (g < cs->min_carve) {
     int old = cs->carve_curve;
-    if (old < 0 || g < cs->min_carve - (tie + carve_rounding(c, s, q) + carve_rounding(&curves[old], cs->carve_s, q))) {
+    if (old < 0 || g < cs->min_carve - (tie + ch_groove_carve_rounding(c, s, q) +
+                                        ch_groove_carve_rounding(&curves[old], cs->carve_s, q))) {
       cs->carve_curve = curve;
       cs->carve_s = s;
     }
@@ -238,7 +239,8 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
   }
   if (g > cs->max_raise) {
     int old = cs->raise_curve;
-    if (old < 0 || g > cs->max_raise + (tie + carve_rounding(c, s, q) + carve_rounding(&curves[old], cs->raise_s, q))) {
+    if (old < 0 || g > cs->max_raise + (tie + ch_groove_carve_rounding(c, s, q) +
+                                        ch_groove_carve_rounding(&curves[old], cs->raise_s, q))) {
       cs->raise_curve = curve;
       cs->raise_s = s;
     }

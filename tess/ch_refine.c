@@ -206,30 +206,33 @@ static double step_distance_at(const ch_label_ctx *lb, int c, const double uv[2]
  * the nearest changes). */
 typedef enum { LEVEL_LINE, LEVEL_RIM, LEVEL_STEP, LEVEL_PAIR, LEVEL_REACH, LEVEL_NEAREST } level_kind;
 
-/* Groove c's carve (or raise) g = depth P(t) at uv, 0 outside it. */
-static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2]) {
+/* Groove c's carve (or raise) g = depth P(t) at uv, 0 outside it; *s
+ * gets its signed distance. */
+static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2], double *s) {
   const ch_curve *cv = &lb->set->curves[c];
-  double t = ch_label_groove_distance_in(lb, c, uv, NULL, 1) / cv->width;
+  *s = ch_label_groove_distance_in(lb, c, uv, NULL, 1);
+  double t = *s / cv->width;
   return fabs(t) < 0.5 ? cv->depth * ch_profile_eval(&cv->profile, t) : 0.0;
 }
 
-/* Where groove b takes over from groove a (the label's own rule, in
- * ch_groove_field_eval: of two carves, or two raises, the curve later in
- * a cell's order, the higher index, takes over only where it is deeper or
- * higher by more than 1e-12 of its own; the deciding curve does not flip
- * with the closest point's noise where mirrored grooves tie): negative on
- * a's side, positive on b's. Where one carves and the other raises (or
- * either is 0), their difference. */
+/* Where groove b takes over from groove a, by the labels' own rule (the
+ * tie of ch_groove_field_eval: of two carves, or two raises, the curve
+ * later in a cell's order, the higher index, takes over only where it is
+ * deeper or higher by more than rounding, ch_groove_carve_rounding):
+ * negative on a's side, positive on b's. Where one carves and the other
+ * raises (or either is 0), their difference. */
 static double pair_level(const ch_label_ctx *lb, int a, int b, const double uv[2]) {
-  double ga = groove_carve(lb, a, uv), gb = groove_carve(lb, b, uv);
+  double sa, sb, ga = groove_carve(lb, a, uv, &sa), gb = groove_carve(lb, b, uv, &sb);
   if (!(ga * gb > 0.0)) return ga - gb;
   /* Equal to the bit: flat bottoms of one depth (box profiles) meet, where
    * the earlier curve stays: a plateau on its side, not a difference of
    * rounding that would pass for the root anywhere on it. */
   if (ga == gb) return a < b ? -fabs(ga) : fabs(ga);
   double sigma = ga < 0.0 ? -1.0 : 1.0; /* carves: the deeper (lower) wins */
-  if (a < b) return sigma * (gb - ga) - 1e-12 * fabs(gb);
-  return -(sigma * (ga - gb) - 1e-12 * fabs(ga));
+  const ch_curve *curves = lb->set->curves;
+  double rounding = ch_groove_carve_rounding(&curves[a], sa, uv) + ch_groove_carve_rounding(&curves[b], sb, uv);
+  if (a < b) return sigma * (gb - ga) - (1e-12 * fabs(gb) + rounding);
+  return -(sigma * (ga - gb) - (1e-12 * fabs(ga) + rounding));
 }
 
 /* The level function at point x of edge e, against curve c (LEVEL_PAIR
