@@ -36,9 +36,10 @@ double ch_bezier_length(const double p[3][2]);
 /* Closest point of the segment to q: returns the squared distance and the
  * parameter in [0, 1] (the smallest one on ties). For quadratics the
  * stationary points are the real roots of a cubic, found per monotone
- * interval by safeguarded Newton, so nearly straight, folded and degenerate
- * segments are handled without special cases. is_line selects the exact
- * projection onto p[0]..p[2]. */
+ * interval by safeguarded Halley iteration stopped by a bound on its error
+ * (t within 1e-17 of the root, beside the rounding), so nearly straight,
+ * folded and degenerate segments are handled without special cases.
+ * is_line selects the exact projection onto p[0]..p[2]. */
 double ch_bezier_closest(const double p[3][2], int is_line, const double q[2], double *t);
 
 /* Callback receiving quadratic pieces (control points in output space). */
