@@ -228,9 +228,19 @@ static __attribute__((noinline)) double closest_turning(const double p[3][2], co
     double hi = i < ncrit ? crit[i] : 1.0;
     double fhi = i < ncrit ? ((k[0] * hi + k[1]) * hi + k[2]) * hi + k[3] : f1;
     /* A minimum of the distance is where f goes from negative to
-     * positive; Halley starts where the chord of f's graph crosses 0. */
+     * positive. f' vanishes at a cut, so Halley starts from Newton's step
+     * at the end where f' is larger (3.0 evaluations a root on glyphs'
+     * queries, 3.9 from the chord of f's graph). */
     if (flo <= 0.0 && fhi >= 0.0 && !(flo == 0.0 && fhi == 0.0)) {
-      double t = flo == 0.0 ? lo : fhi == 0.0 ? hi : increasing_root(k, lo, hi, lo + (hi - lo) * (flo / (flo - fhi)));
+      double t;
+      if (flo == 0.0) {
+        t = lo;
+      } else if (fhi == 0.0) {
+        t = hi;
+      } else {
+        double dlo = (3.0 * k[0] * lo + 2.0 * k[1]) * lo + k[2], dhi = (3.0 * k[0] * hi + 2.0 * k[1]) * hi + k[2];
+        t = increasing_root(k, lo, hi, dlo > dhi ? lo - flo / dlo : hi - fhi / dhi);
+      }
       double d = dist2_from(a, b, m, t);
       if (d < best) {
         best = d;
