@@ -424,16 +424,20 @@ static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, i
 /* No label is all ones (a label's groove part uses its low 30 bits). */
 #define NO_LABEL UINT64_MAX
 
-/* Narrows the bisection's bracket [*lo, *hi] to the level a root search
- * found in [near, far] (between x0 < x1, label l0 at x0) if the labels
- * agree: l0 on x0's side of it, another label on the other; returns
- * whether they did. The labels decide by their own evaluation, which can
- * put the change a few roundings away (on a step curve itself the side is
- * rounding): the bracket widens until they confirm it. expect (or
- * NO_LABEL): the label the level leads to where nothing else changes
- * there. */
-static int confirm_level(const ch_label_ctx *lb, const span *e, uint64_t l0, uint64_t expect, level_kind kind,
-                         double x0, double x1, double near, double far, double *lo, double *hi, uint64_t *lhi) {
+/* Finds the level of f = target between x0 < x1 (label l0 at x0, f -
+ * target = f0 there and f1 of the other sign at x1) and narrows the
+ * bisection's bracket [*lo, *hi] to it if the labels agree: l0 on x0's
+ * side of it, another label on the other; returns whether they did. The
+ * labels decide by their own evaluation, which can put the change a few
+ * roundings away (on a step curve itself the side is rounding): the
+ * bracket widens until they confirm it. expect (or NO_LABEL): the label
+ * the level leads to where nothing else changes there. */
+static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, uint64_t expect, level_kind kind,
+                           int64_t c, int seg, double target, double x0, double f0, double x1, double f1, double *lo,
+                           double *hi, uint64_t *lhi, level_cache *history) {
+  double a = x0, b = x1, fa = f0, fb = f1;
+  level_root(lb, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
+  double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
   if (!(near < far)) return 0;
   static const double widen[] = {0.0, 1e-13, 1e-11, 1e-9};
   for (int k = 0; k < 4; k++) {
@@ -460,52 +464,10 @@ static int confirm_level(const ch_label_ctx *lb, const span *e, uint64_t l0, uin
   return 0;
 }
 
-/* Finds the level of f = target between x0 < x1 (label l0 at x0, f -
- * target = f0 there and f1 of the other sign at x1) and confirms it by
- * the labels (confirm_level). */
-static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, uint64_t expect, level_kind kind,
-                           int64_t c, int seg, double target, double x0, double f0, double x1, double f1, double *lo,
-                           double *hi, uint64_t *lhi, level_cache *history) {
-  double a = x0, b = x1, fa = f0, fb = f1;
-  level_root(lb, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
-  double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
-  return confirm_level(lb, e, l0, expect, kind, x0, x1, near, far, lo, hi, lhi);
-}
-
-/* Where the side of segment seg's open end flips between x0 and x1 along
- * e, both ends' closest point being that end E: beyond an open end the
- * signed distance is |q - E| with the side of the end's tangent T
- * (ch_curve_side), so t jumps from +|t| to -|t| on the ray from E along
- * T, a line: cross(T, q(x) - E) is linear in x and its root is read off
- * the ends (a level root would crawl at a jump). *x gets it and *t |t|
- * there; 0 where there is no such flip. */
-static int side_flip(const ch_label_ctx *lb, const span *e, int seg, double x0, double x1, double *x, double *t) {
-  const ch_segment *sg = &lb->set->segments[seg];
-  double q0[2], q1[2], p0, p1;
-  span_point(e, x0, q0);
-  span_point(e, x1, q1);
-  ch_bezier_closest(sg->p, sg->is_line, q0, &p0);
-  ch_bezier_closest(sg->p, sg->is_line, q1, &p1);
-  int end = p0 <= 0.0 && p1 <= 0.0 && sg->prev < 0 ? 0 : p0 >= 1.0 && p1 >= 1.0 && sg->next < 0 ? 1 : -1;
-  if (end < 0) return 0;
-  double tangent[2], at[2];
-  ch_bezier_tangent(sg->p, end, tangent);
-  ch_segment_point(sg, end, at);
-  double f0 = ch_cross2(tangent, (double[2]){q0[0] - at[0], q0[1] - at[1]});
-  double f1 = ch_cross2(tangent, (double[2]){q1[0] - at[0], q1[1] - at[1]});
-  if (!(f0 * f1 < 0.0)) return 0;
-  *x = x0 + (x1 - x0) * (f0 / (f0 - f1));
-  double q[2];
-  span_point(e, *x, q);
-  *t = ch_dist2d(q[0] - at[0], q[1] - at[1]) / lb->set->curves[sg->curve].width;
-  return 1;
-}
-
 /* From piece k0 of groove line set g0 (l0's) to piece k1 of the same set
  * (k1 < 0: the next one the way t goes from x0 to x1) across its line:
  * -1 where there is no such line (k1 beyond the set: a rim), else whether
- * narrow_to_level confirmed it. Beyond an open end the flip of t's sign
- * comes first where it is nearer than the next line. */
+ * narrow_to_level confirmed it. */
 static int narrow_to_line(const ch_label_ctx *lb, const span *e, uint64_t l0, int k1, double x0, double x1,
                           double *lo, double *hi, uint64_t *lhi, level_cache *cache) {
   uint64_t g0 = l0 >> 32;
@@ -514,38 +476,6 @@ static int narrow_to_line(const ch_label_ctx *lb, const span *e, uint64_t l0, in
   double ta = level_value(lb, e, LEVEL_LINE, c, -1, x0, &sa);
   history_add(cache, c, x0, ta);
   double tb = groove_level(lb, e, c, x1, &sb, cache);
-  double xs, ts;
-  if (ta * tb < 0.0 && sa == sb && sa >= 0 && side_flip(lb, e, sa, x0, x1, &xs, &ts)) {
-    /* t is continuous up to the flip: its next line there, else the flip
-     * (beyond the support: the rim comes first) */
-    if (ts >= 0.5) return -1;
-    double tf = ta > 0.0 ? ts : -ts;
-    int up = tf > ta, k = k0 + (up ? 1 : -1);
-    double target = (up ? br[k0] : br[k0 - 1]) + 1e-13;
-    if (k >= 1 && k <= nb - 1 && ta - target != 0.0 && (ta - target) * (tf - target) < 0.0) {
-      uint64_t expect = ((g0 & ~(uint64_t)0xff) | (uint64_t)k) << 32 | (l0 & 0xffffffffu);
-      return narrow_to_level(lb, e, l0, expect, LEVEL_LINE, c, sa, target, x0, ta - target, xs, tf - target, lo, hi,
-                             lhi, cache);
-    }
-    double l = xs - 0.5 * CROSSING_TOL, h = xs + 0.5 * CROSSING_TOL;
-    uint64_t ll = span_label(lb, e, l), lh = span_label(lb, e, h);
-    if (ll == l0 && lh != l0) {
-      *lo = l;
-      *hi = h;
-      *lhi = lh;
-      return 1;
-    }
-    if (ll == l0 && lh == l0) {
-      /* within one piece across the middle (|t| below its half width):
-       * the next line is beyond the flip, where t is continuous again */
-      x0 = h;
-      ta = level_value(lb, e, LEVEL_LINE, c, -1, x0, &sa);
-      history_add(cache, c, x0, ta);
-      k1 = -1;
-    }
-    /* else the labels see the flip elsewhere (another part of the curve
-     * nearer): the search as for any line */
-  }
   if (k1 < 0) k1 = k0 + (tb > ta ? 1 : -1);
   if (!(k1 != k0 && k1 >= 1 && k1 <= nb - 1)) return -1;
   double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
