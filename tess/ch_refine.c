@@ -480,7 +480,11 @@ static int narrow_to_line(const ch_label_ctx *lb, const span *e, uint64_t l0, in
   if (!(k1 != k0 && k1 >= 1 && k1 <= nb - 1)) return -1;
   double target = (k1 > k0 ? br[k0] : br[k0 - 1]) + 1e-13; /* where the label's piece index steps */
   if (!(ta - target != 0.0 && (ta - target) * (tb - target) < 0.0)) return 0;
-  uint64_t expect = ((g0 & ~(uint64_t)0xff) | (uint64_t)k1) << 32 | (l0 & 0xffffffffu);
+  /* past the line, the next piece (k1 may lie beyond it: where t jumps
+   * to k1, beyond an open end, the lines before the jump are changes of
+   * their own) */
+  int next = k1 > k0 ? k0 + 1 : k0 - 1;
+  uint64_t expect = ((g0 & ~(uint64_t)0xff) | (uint64_t)next) << 32 | (l0 & 0xffffffffu);
   return narrow_to_level(lb, e, l0, expect, LEVEL_LINE, c, sa == sb ? sa : -1, target, x0, ta - target, x1, tb - target,
                          lo, hi, lhi, cache);
 }
