@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "bench_util.h"
+#include "bezier_reference.h"
 #include "ch_bezier.h"
 
 typedef struct query {
@@ -158,117 +159,13 @@ static double closest_before(const double p[3][2], int is_line, const double q[2
  * local minimum's (to tell a unique minimum), cond f' there over
  * |B'/2|^2. */
 
-typedef long double ld;
-
-/* B(t) - q and B'(t) / 2, the former from p0 - q and the differences
- * (not from the points themselves: their rounding would swamp distances
- * far below the coordinates). */
-static void ref_point(const double p[3][2], const double q[2], ld t, ld x[2], ld d[2]) {
-  for (int k = 0; k < 2; k++) {
-    ld a = (ld)p[1][k] - p[0][k], b = (ld)p[2][k] - 2.0L * p[1][k] + p[0][k];
-    x[k] = ((ld)p[0][k] - q[k]) + t * (2.0L * a + t * b);
-    d[k] = a + t * b;
-  }
-}
-
-static ld ref_f(const double p[3][2], const double q[2], ld t) {
-  ld x[2], d[2];
-  ref_point(p, q, t, x, d);
-  return x[0] * d[0] + x[1] * d[1];
-}
-
-static ld ref_g(const double p[3][2], const double q[2], ld t) {
-  ld x[2], d[2];
-  ref_point(p, q, t, x, d);
-  return x[0] * x[0] + x[1] * x[1];
-}
-
-static int cmp_ld(const void *a, const void *b) {
-  ld x = *(const ld *)a, y = *(const ld *)b;
-  return x < y ? -1 : x > y;
-}
-
 typedef struct reference {
   double t, g1, g2, cond;
 } reference;
 
 static reference ref_closest(const double p[3][2], int is_line, const double q[2]) {
-  enum { STEPS = 64 };
-  ld cuts[STEPS + 4];
-  int n = 0;
-  for (int i = 0; i <= STEPS; i++) cuts[n++] = (ld)i / STEPS;
-  double pl[3][2];
-  memcpy(pl, p, sizeof pl);
-  if (is_line) /* the straight segment p0 p2, as a quadratic */
-    for (int k = 0; k < 2; k++) pl[1][k] = 0.5 * (p[0][k] + p[2][k]);
-  /* f' = 3 |b|^2 t^2 + 6 a.b t + 2 |a|^2 + m.b (a = p1 - p0, b = p2 - 2 p1 + p0, m = p0 - q). */
-  ld a[2], b[2], m[2];
-  for (int k = 0; k < 2; k++) {
-    a[k] = (ld)pl[1][k] - pl[0][k];
-    b[k] = (ld)pl[2][k] - 2.0L * pl[1][k] + pl[0][k];
-    m[k] = (ld)pl[0][k] - q[k];
-  }
-  ld A = 3.0L * (b[0] * b[0] + b[1] * b[1]), B = 6.0L * (a[0] * b[0] + a[1] * b[1]);
-  ld C = 2.0L * (a[0] * a[0] + a[1] * a[1]) + m[0] * b[0] + m[1] * b[1];
-  ld disc = B * B - 4.0L * A * C;
-  if (A != 0.0L && disc >= 0.0L) {
-    ld sq = sqrtl(disc), qq = -0.5L * (B + (B >= 0 ? sq : -sq));
-    ld r[2] = {qq / A, qq != 0.0L ? C / qq : qq / A};
-    for (int i = 0; i < 2; i++)
-      if (r[i] > 0.0L && r[i] < 1.0L) cuts[n++] = r[i];
-  } else if (A == 0.0L && B != 0.0L) {
-    ld r = -C / B;
-    if (r > 0.0L && r < 1.0L) cuts[n++] = r;
-  }
-  qsort(cuts, (size_t)n, sizeof cuts[0], cmp_ld);
-  reference out = {0.0, INFINITY, INFINITY, 0.0};
-  ld cand[STEPS + 6];
-  int nc = 0;
-  /* The ends where they are local minima (else, where the distance
-   * changes by less than the rounding across a root next to an end, they
-   * would win the ties). */
-  if (ref_f(pl, q, 0.0L) >= 0.0L) cand[nc++] = 0.0L;
-  if (ref_f(pl, q, 1.0L) <= 0.0L) cand[nc++] = 1.0L;
-  for (int i = 0; i + 1 < n; i++) {
-    ld lo = cuts[i], hi = cuts[i + 1], flo = ref_f(pl, q, lo), fhi = ref_f(pl, q, hi);
-    if (!(flo <= 0.0L && fhi >= 0.0L) || lo == hi) continue;
-    for (int it = 0; it < 200; it++) {
-      ld mid = 0.5L * (lo + hi);
-      if (mid <= lo || mid >= hi) break;
-      if (ref_f(pl, q, mid) < 0.0L)
-        lo = mid;
-      else
-        hi = mid;
-    }
-    cand[nc++] = 0.5L * (lo + hi);
-  }
-  /* The best and the best local minimum apart from it (farther than a
-   * hair in t: the same minimum found from two cut pairs is one). */
-  ld best = INFINITY, bt = 0.0L;
-  for (int i = 0; i < nc; i++) {
-    ld g = ref_g(pl, q, cand[i]);
-    if (g < best || (g == best && cand[i] < bt)) best = g, bt = cand[i];
-  }
-  ld second = INFINITY;
-  for (int i = 0; i < nc; i++) {
-    ld g = ref_g(pl, q, cand[i]);
-    if (fabsl(cand[i] - bt) > 1e-6L && g < second) {
-      /* an end counts only where the distance rises going in */
-      if (cand[i] == 0.0L && ref_f(pl, q, 0.0L) < 0.0L) continue;
-      if (cand[i] == 1.0L && ref_f(pl, q, 1.0L) > 0.0L) continue;
-      second = g;
-    }
-  }
-  out.t = (double)bt;
-  out.g1 = (double)best;
-  /* f' there against |B'/2|^2: 0 at the centre of curvature, where t is
-   * only known to about the cube root of the rounding. */
-  ld x[2], d[2];
-  ref_point(pl, q, bt, x, d);
-  ld dd = d[0] * d[0] + d[1] * d[1], fp = dd + x[0] * b[0] + x[1] * b[1];
-  out.cond = dd > 0.0L ? (double)(fp / dd) : 0.0;
-  out.g2 = (double)second;
-  return out;
+  ref_closest_t r = ref_closest_ld(p, is_line, q);
+  return (reference){(double)r.t, (double)r.g1, (double)r.g2, (double)r.cond};
 }
 
 /* The point at t, for telling minima apart. */

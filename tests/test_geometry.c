@@ -9,12 +9,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bezier_reference.h"
 #include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_groove.h"
 #include "ch_segtree.h"
 #include "ch_test.h"
-
 
 /* Independent closest point: 4096 samples, then bisection on the sign of
  * the derivative of the squared distance around the best sample (both
@@ -111,100 +111,7 @@ static void test_closest_vs_brute_force(void) {
  * unique?), cond f' at the root over |B'/2|^2 (0 at the centre of
  * curvature, where t is only known to about the cube root of the
  * rounding). */
-typedef long double ld;
-typedef struct ld_closest {
-  ld t, g1, g2, cond;
-} ld_closest;
-
-/* B(t) - q and B'(t) / 2, the former from p0 - q and the differences
- * (from the points themselves, their rounding would swamp distances far
- * below the coordinates). */
-static void ld_point(const double p[3][2], const double q[2], ld t, ld x[2], ld d[2]) {
-  for (int k = 0; k < 2; k++) {
-    ld a = (ld)p[1][k] - p[0][k], b = (ld)p[2][k] - 2.0L * p[1][k] + p[0][k];
-    x[k] = ((ld)p[0][k] - q[k]) + t * (2.0L * a + t * b);
-    d[k] = a + t * b;
-  }
-}
-
-static ld ld_f(const double p[3][2], const double q[2], ld t) {
-  ld x[2], d[2];
-  ld_point(p, q, t, x, d);
-  return x[0] * d[0] + x[1] * d[1];
-}
-
-static ld ld_g(const double p[3][2], const double q[2], ld t) {
-  ld x[2], d[2];
-  ld_point(p, q, t, x, d);
-  return x[0] * x[0] + x[1] * x[1];
-}
-
-static ld_closest ld_reference(const double p[3][2], const double q[2]) {
-  enum { STEPS = 64 };
-  ld cuts[STEPS + 3];
-  int n = 0;
-  for (int i = 0; i <= STEPS; i++) cuts[n++] = (ld)i / STEPS;
-  ld a[2], b[2], m[2];
-  for (int k = 0; k < 2; k++) {
-    a[k] = (ld)p[1][k] - p[0][k];
-    b[k] = (ld)p[2][k] - 2.0L * p[1][k] + p[0][k];
-    m[k] = (ld)p[0][k] - q[k];
-  }
-  /* f' = 3 |b|^2 t^2 + 6 a.b t + 2 |a|^2 + m.b */
-  ld A = 3.0L * (b[0] * b[0] + b[1] * b[1]), B = 6.0L * (a[0] * b[0] + a[1] * b[1]);
-  ld C = 2.0L * (a[0] * a[0] + a[1] * a[1]) + m[0] * b[0] + m[1] * b[1], disc = B * B - 4.0L * A * C;
-  if (A != 0.0L && disc >= 0.0L) {
-    ld sq = sqrtl(disc), qq = -0.5L * (B + (B >= 0 ? sq : -sq));
-    ld r[2] = {qq / A, qq != 0.0L ? C / qq : qq / A};
-    for (int i = 0; i < 2; i++)
-      if (r[i] > 0.0L && r[i] < 1.0L) cuts[n++] = r[i];
-  }
-  for (int i = 1; i < n; i++) /* insertion sort: the two roots into place */
-    for (int j = i; j > 0 && cuts[j] < cuts[j - 1]; j--) {
-      ld tmp = cuts[j];
-      cuts[j] = cuts[j - 1];
-      cuts[j - 1] = tmp;
-    }
-  ld cand[STEPS + 5];
-  int nc = 0;
-  /* The ends where they are local minima (else, where the distance
-   * changes by less than the rounding across a root next to an end, they
-   * would win the ties). */
-  if (ld_f(p, q, 0.0L) >= 0.0L) cand[nc++] = 0.0L;
-  if (ld_f(p, q, 1.0L) <= 0.0L) cand[nc++] = 1.0L;
-  for (int i = 0; i + 1 < n; i++) {
-    ld lo = cuts[i], hi = cuts[i + 1];
-    if (!(ld_f(p, q, lo) <= 0.0L && ld_f(p, q, hi) >= 0.0L) || lo == hi) continue;
-    for (int it = 0; it < 200; it++) {
-      ld mid = 0.5L * (lo + hi);
-      if (mid <= lo || mid >= hi) break;
-      if (ld_f(p, q, mid) < 0.0L)
-        lo = mid;
-      else
-        hi = mid;
-    }
-    cand[nc++] = 0.5L * (lo + hi);
-  }
-  ld_closest out = {0.0L, INFINITY, INFINITY, 0.0L};
-  for (int i = 0; i < nc; i++) {
-    ld g = ld_g(p, q, cand[i]);
-    if (g < out.g1 || (g == out.g1 && cand[i] < out.t)) out.g1 = g, out.t = cand[i];
-  }
-  for (int i = 0; i < nc; i++) {
-    if (fabsl(cand[i] - out.t) <= 1e-6L) continue;
-    /* an end is a local minimum only where the distance rises going in */
-    if ((cand[i] == 0.0L && ld_f(p, q, 0.0L) < 0.0L) || (cand[i] == 1.0L && ld_f(p, q, 1.0L) > 0.0L)) continue;
-    ld g = ld_g(p, q, cand[i]);
-    if (g < out.g2) out.g2 = g;
-  }
-  ld x[2], d[2];
-  ld_point(p, q, out.t, x, d);
-  ld dd = d[0] * d[0] + d[1] * d[1];
-  out.cond = dd > 0.0L ? (dd + x[0] * b[0] + x[1] * b[1]) / dd : 0.0L;
-  return out;
-}
-
-/* ch_bezier_closest against ld_reference on random and adversarial
+/* ch_bezier_closest against ref_closest_ld (bezier_reference.h) on random and adversarial
  * quadratics (nearly straight, p1 far away as at a cusp, p0 == p2,
  * tiny, p1 off the chord's middle along it) and queries (near the curve,
  * on it, at and near the centre of curvature, far away, anywhere):
@@ -266,7 +173,7 @@ static void test_closest_vs_long_double(void) {
         break;
     }
     double t, d2 = ch_bezier_closest(p, 0, q, &t);
-    ld_closest ref = ld_reference(p, q);
+    ref_closest_t ref = ref_closest_ld(p, 0, q);
     double size = 0.0, big = fmax(fabs(q[0]), fabs(q[1]));
     for (int j = 0; j < 3; j++) {
       size = fmax(size, hypot(p[j][0] - p[0][0], p[j][1] - p[0][1]));
@@ -277,15 +184,15 @@ static void test_closest_vs_long_double(void) {
     size = fmax(size, dist);
     CHECK_MSG(t >= 0.0 && t <= 1.0, "point %d: t %.17g", i, t);
     /* t gives the distance returned */
-    double self = fabs(sqrt((double)ld_g(p, q, t)) - sqrt(d2)) / u;
+    double self = fabs(sqrt((double)ref_g(p, q, t)) - sqrt(d2)) / u;
     max_self = fmax(max_self, self);
     double derr = (sqrt(d2) - dist) / u;
     if (derr > 1e-12 * size / u + 64.0) {
       /* at the reference's point: a flat minimum's imprecision (q at a
        * folded segment's turning point), else another minimum */
       ld x[2], xr[2], dummy[2];
-      ld_point(p, q, t, x, dummy);
-      ld_point(p, q, ref.t, xr, dummy);
+      ref_point(p, q, t, x, dummy);
+      ref_point(p, q, ref.t, xr, dummy);
       if (hypotl(x[0] - xr[0], x[1] - xr[1]) < 1e-4L * size) {
         flat++;
         CHECK_MSG(derr * u <= 1e-9 * size, "point %d: flat minimum %.3g off", i, derr * u);
@@ -303,8 +210,8 @@ static void test_closest_vs_long_double(void) {
      * distance over the size where the rounding turns the segment. */
     if (ref.g2 - ref.g1 > 1e-9L * size * size && ref.cond > 1e-6L) {
       ld x[2], xr[2], dummy[2];
-      ld_point(p, q, t, x, dummy);
-      ld_point(p, q, ref.t, xr, dummy);
+      ref_point(p, q, t, x, dummy);
+      ref_point(p, q, ref.t, xr, dummy);
       double perr = (double)hypotl(x[0] - xr[0], x[1] - xr[1]) * fmin((double)ref.cond, 1.0) / (u * (1.0 + dist / seg));
       max_perr = fmax(max_perr, perr);
       CHECK_MSG(perr <= 1e4, "point %d kind %d/%d: t %.17g, reference %.17Lg", i, i % 6, (i / 6) % 6, t, ref.t);
