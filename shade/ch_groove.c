@@ -199,9 +199,14 @@ static int profile_is_even(ch_profile_kind kind) {
  * differ by up to 1.4e-16 at UV 0.5) times P's slope. A u profile's slope
  * grows without bound towards its rims: there 1e-16 in s moved g by
  * 3e-11 of itself, past a tie relative to g alone. */
-double ch_groove_carve_rounding(const ch_curve *c, double s, const double q[2]) {
+static double carve_rounding(const ch_curve *c, double s, const double q[2]) {
   double scale = fmax(1.0, fmax(fabs(q[0]), fabs(q[1])));
   return fabs(c->depth * ch_profile_slope(&c->profile, s / c->width)) / c->width * (0x1p-50 * scale);
+}
+
+double ch_groove_tie(const ch_curve *later, double g, double s_later, const ch_curve *earlier, double s_earlier,
+                     const double q[2]) {
+  return 1e-12 * fabs(g) + carve_rounding(later, s_later, q) + carve_rounding(earlier, s_earlier, q);
 }
 
 static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d2, int seg, double t,
@@ -226,12 +231,10 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
    * more than rounding: mirrored grooves tie along their line of symmetry,
    * where the closest-point noise would otherwise flip it back and forth.
    * Rounding is P's own (relative) and that of s through P's slope. */
-  double tie = 1e-12 * fabs(g);
   const ch_curve *curves = f->set->curves;
   if (g < cs->min_carve) {
     int old = cs->carve_curve;
-    if (old < 0 || g < cs->min_carve - (tie + ch_groove_carve_rounding(c, s, q) +
-                                        ch_groove_carve_rounding(&curves[old], cs->carve_s, q))) {
+    if (old < 0 || g < cs->min_carve - ch_groove_tie(c, g, s, &curves[old], cs->carve_s, q)) {
       cs->carve_curve = curve;
       cs->carve_s = s;
     }
@@ -239,8 +242,7 @@ static void combine(const ch_groove_field *f, csg_state *cs, int curve, double d
   }
   if (g > cs->max_raise) {
     int old = cs->raise_curve;
-    if (old < 0 || g > cs->max_raise + (tie + ch_groove_carve_rounding(c, s, q) +
-                                        ch_groove_carve_rounding(&curves[old], cs->raise_s, q))) {
+    if (old < 0 || g > cs->max_raise + ch_groove_tie(c, g, s, &curves[old], cs->raise_s, q)) {
       cs->raise_curve = curve;
       cs->raise_s = s;
     }

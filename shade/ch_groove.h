@@ -80,15 +80,14 @@ int ch_groove_field_count(const ch_groove_field *field, double u, double v);
  * field, valid while it lives. */
 const double *ch_groove_field_boxes(const ch_groove_field *field);
 
-/* The deciding groove's tie (ch_groove_field_eval): curve y, later in a
- * cell's order than the deciding x, takes over only where its carve g_y
- * is deeper (a raise: higher) than x's by more than
- * 1e-12 |g_y| + ch_groove_carve_rounding(y, s_y, q) +
- * ch_groove_carve_rounding(x, s_x, q): mirrored grooves tie along their
- * line of symmetry, where the closest point's noise would flip the label.
- * This is how far the rounding of the signed distance s moves the carve
- * depth P(s / w) of curve c at q. */
-double ch_groove_carve_rounding(const ch_curve *c, double s, const double q[2]);
+/* The deciding groove's tie (ch_groove_field_eval): curve `later`, after
+ * the deciding `earlier` in a cell's order, takes over at q only where its
+ * carve g is deeper (a raise: higher) than the other's by more than this:
+ * 1e-12 |g| plus how far the rounding of each signed distance s moves its
+ * carve depth P(s / w) through P's slope. Mirrored grooves tie along their
+ * line of symmetry, where the closest point's noise would flip the label. */
+double ch_groove_tie(const ch_curve *later, double g, double s_later, const ch_curve *earlier, double s_earlier,
+                     const double q[2]);
 
 /* What decides h at a point. */
 typedef struct ch_groove_sample {

@@ -218,7 +218,7 @@ static double groove_carve(const ch_label_ctx *lb, int c, const double uv[2], do
 /* Where groove b takes over from groove a, by the labels' own rule (the
  * tie of ch_groove_field_eval: of two carves, or two raises, the curve
  * later in a cell's order, the higher index, takes over only where it is
- * deeper or higher by more than rounding, ch_groove_carve_rounding):
+ * deeper or higher by more than ch_groove_tie):
  * negative on a's side, positive on b's. Where one carves and the other
  * raises (or either is 0), their difference. */
 static double pair_level(const ch_label_ctx *lb, int a, int b, const double uv[2]) {
@@ -230,9 +230,8 @@ static double pair_level(const ch_label_ctx *lb, int a, int b, const double uv[2
   if (ga == gb) return a < b ? -fabs(ga) : fabs(ga);
   double sigma = ga < 0.0 ? -1.0 : 1.0; /* carves: the deeper (lower) wins */
   const ch_curve *curves = lb->set->curves;
-  double rounding = ch_groove_carve_rounding(&curves[a], sa, uv) + ch_groove_carve_rounding(&curves[b], sb, uv);
-  if (a < b) return sigma * (gb - ga) - (1e-12 * fabs(gb) + rounding);
-  return -(sigma * (ga - gb) - (1e-12 * fabs(ga) + rounding));
+  if (a < b) return sigma * (gb - ga) - ch_groove_tie(&curves[b], gb, sb, &curves[a], sa, uv);
+  return -(sigma * (ga - gb) - ch_groove_tie(&curves[a], ga, sa, &curves[b], sb, uv));
 }
 
 /* The level function at point x of edge e, against curve c (LEVEL_PAIR
