@@ -632,9 +632,9 @@ class SvgWriter:
             self.lines.append('%s<%s%s/>' % (ind, node.tag, a))
 
 
-def svg_document(title, notes, children, step=False):
+def svg_document(title, notes, children, step=False, viewbox='0 0 100 100'):
     root = Node('svg', [('xmlns', 'http://www.w3.org/2000/svg'), ('version', '1.1'),
-                        ('viewBox', '0 0 100 100'), ('width', '800'), ('height', '800'),
+                        ('viewBox', viewbox), ('width', '800'), ('height', '800'),
                         ('fill', 'none'), ('stroke-linecap', 'round'), ('stroke-linejoin', 'round')])
     t = Node('title')
     t.text = title
@@ -927,12 +927,25 @@ def svg_ornament():
                         [E('g', *kids, data_kind='groove')])
 
 
-def svg_glyphs():
+# tablet.obj's front chart is u in [0.01, 0.76], v in [0.0125, 0.9875] at 0.75
+# UV per object unit both ways: this viewBox (133.33 units across) lays a
+# 100 x 100 art square on it at that scale, against its left edge and centred
+# in v, whole and undistorted (widths scale with it).
+TABLET_VIEWBOX = '%s %s %s %s' % (fn(-0.01 / 0.0075), fn(-0.125 / 0.0075), fn(1 / 0.0075), fn(1 / 0.0075))
+
+
+def svg_glyphs(tablet=False):
     notes = ['Hieroglyph-like engraving: a cartouche (bevel, sloping inwards) holding a sun',
              'disc, a flowering reed, a water ripple and a bread loaf; an eye of Horus,',
              'an ankh, a djed pillar, two reeds and three water lines. Each glyph is drawn',
              'in its own coordinates and placed by a group transform; widths stay in viewBox',
              'units whatever the transform (docs/spec.md §2).']
+    viewbox = '0 0 100 100'
+    if tablet:
+        notes += ['This copy is laid out for models/tablet.obj: its viewBox puts the 100 x 100',
+                  "square of the art on the tablet's front chart (u 0.01-0.76, v 0.125-0.875),",
+                  'so no curve reaches a UV seam.']
+        viewbox = TABLET_VIEWBOX
 
     def reed():
         return [E('path', d='M 0 15 V -1'),
@@ -987,7 +1000,7 @@ def svg_glyphs():
     kids.append(E('g', *[E('g', water(8, y == 95), transform='translate(86.5 %s)' % fn(y)) for y in (87, 91, 95)],
                   data_profile='u', data_width='1.5', data_depth='0.01', comment='water: three ripples (relative q t, the last absolute Q T)'))
     return svg_document('glyphs: hieroglyph-like engraving in a cartouche and beside it', notes,
-                        [E('g', *kids, data_kind='groove')])
+                        [E('g', *kids, data_kind='groove')], viewbox=viewbox)
 
 
 def svg_panels():
@@ -1209,6 +1222,9 @@ CURVES = [('glyphs.svg', svg_glyphs), ('ornament.svg', svg_ornament), ('frame.sv
           ('relief.svg', svg_relief), ('star.svg', svg_star), ('spiral.svg', svg_spiral),
           ('bricks.svg', svg_bricks), ('panels.svg', svg_panels), ('steps_simple.svg', svg_steps_simple)]
 
+# Curve sets drawn for one base mesh's UV layout (models/, beside the mesh).
+FITTED = [('tablet_glyphs.svg', lambda: svg_glyphs(tablet=True), TABLET_VIEWBOX)]
+
 CLOSED = {'plane.obj': False, 'torus.obj': True, 'obelisk.obj': True, 'vase.obj': False, 'tablet.obj': True}
 
 
@@ -1219,6 +1235,9 @@ def write_all(outdir):
             f.write(fun().text())
     for name, fun in CURVES:
         with open(os.path.join(outdir, 'curves', name), 'w', newline='\n') as f:
+            f.write(fun())
+    for name, fun, _ in FITTED:
+        with open(os.path.join(outdir, name), 'w', newline='\n') as f:
             f.write(fun())
     os.makedirs(os.path.join(outdir, 'torture'), exist_ok=True)
     for name, fun in TORTURE:
@@ -1380,13 +1399,14 @@ def strip_ns(tag):
 PROFILES = ('v', 'u', 'box', 'ridge', 'bevel')
 
 
-def check_svg(path):
+def check_svg(path, viewbox='0 0 100 100'):
+    """Checks an SVG whose art lies in the square 0..100 of its viewBox."""
     errs = []
     name = os.path.basename(path)
     root = ET.parse(path).getroot()
     if strip_ns(root.tag) != 'svg':
         return [name + ': root is not <svg>'], ''
-    if root.get('viewBox') != '0 0 100 100':
+    if root.get('viewBox') != viewbox:
         errs.append('viewBox is %r' % root.get('viewBox'))
     if not any(strip_ns(c.tag) == 'title' and (c.text or '').strip() for c in root):
         errs.append('no <title>')
@@ -1459,6 +1479,11 @@ def check(folder, verbose=True):
             print('%-17s %s' % ('curves/' + name, info))
             for n in notes:
                 print('%17s   %s' % ('', n))
+    for name, _, viewbox in FITTED:
+        e, info, notes = check_svg(os.path.join(folder, name), viewbox)
+        errors += e
+        if verbose:
+            print('%-17s %s' % (name, info))
     for name, _ in TORTURE:
         e, info, notes = check_svg(os.path.join(folder, 'torture', name))
         errors += e
