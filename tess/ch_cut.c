@@ -504,29 +504,27 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
  * from the corners the angle reads anyway, rather than kept per face (32
  * bytes a triangle at the embedding's peak, first touched there). */
 static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, double out[3]) {
+  static const int next[3] = {1, 2, 0}, prev[3] = {2, 0, 1};
   const int *v = &o->tri[3 * t];
-  const double *p0 = &o->pos[3 * (size_t)v[0]], *p1 = &o->pos[3 * (size_t)v[1]], *p2 = &o->pos[3 * (size_t)v[2]];
-  double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-  double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-  double e3[3] = {p2[0] - p1[0], p2[1] - p1[1], p2[2] - p1[2]};
+  const double *a = &o->pos[3 * (size_t)v[k]], *b = &o->pos[3 * (size_t)v[next[k]]];
+  const double *c = &o->pos[3 * (size_t)v[prev[k]]];
+  double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  double e[3] = {c[0] - b[0], c[1] - b[1], c[2] - b[2]};
+  /* (u x w is the face's normal times twice its area at every corner: the
+   * corner's sine is |u x w| / (|u| |w|), so one cross product serves both) */
   double f[3];
-  ch_cross3(e1, e2, f);
+  ch_cross3(u, w, f);
   double fl = sqrt(ch_dot3(f, f));
   /* A sliver (a boundary point within rounding of a vertex, before the
    * cleanup collapses it) has a corner near 180 degrees, so the largest
    * weight of its vertex's, and a normal that rounding decides: it would
    * tilt that vertex's normal by tens of degrees for the real triangles
    * around it. */
-  double longest = sqrt(fmax(ch_dot3(e1, e1), fmax(ch_dot3(e2, e2), ch_dot3(e3, e3))));
-  double corner_angle = 0.0;
-  if (fl >= thin * longest && fl > 0.0) {
-    const double *a = &o->pos[3 * (size_t)v[k]], *b = &o->pos[3 * (size_t)v[(k + 1) % 3]];
-    const double *c = &o->pos[3 * (size_t)v[(k + 2) % 3]];
-    double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, x[3];
-    ch_cross3(u, w, x);
-    corner_angle = atan2(sqrt(ch_dot3(x, x)), ch_dot3(u, w)) / fl;
-  }
-  for (int i = 0; i < 3; i++) out[i] = f[i] * corner_angle;
+  double lu = ch_dot3(u, u), lw = ch_dot3(w, w), le = ch_dot3(e, e);
+  double longest = sqrt(lu > lw ? (lu > le ? lu : le) : (lw > le ? lw : le)); /* (no NaN here: fmax's call) */
+  double weight = 0.0;
+  if (fl >= thin * longest && fl > 0.0) weight = atan2(fl, ch_dot3(u, w)) / fl;
+  for (int i = 0; i < 3; i++) out[i] = f[i] * weight;
 }
 
 /* Per-corner normals: the angle-weighted mean of the face normals around a
@@ -565,27 +563,37 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
    * corner_uv and corner_normal hold the born corner for now. */
 #pragma omp parallel for schedule(dynamic, 1024)
   for (int p = 0; p < o->npos; p++) {
+    enum { KNOWN = 16 };
+    uint64_t known_group[KNOWN]; /* the groups born so far at p, in order, and where */
+    int known_corner[KNOWN], nknown = 0;
     int first = -1;
+    const double *fuv = NULL;
     for (int i = start[p]; i < start[p + 1]; i++) {
       int c = order[i];
-      const double *uv = ch_cut_out_uv(o, (size_t)c), *fuv = first < 0 ? NULL : ch_cut_out_uv(o, (size_t)first);
+      const double *uv = ch_cut_out_uv(o, (size_t)c);
       if (first < 0 || fuv[0] != uv[0] || fuv[1] != uv[1]) {
         m->corner_uv[c] = c;
-        if (first < 0) first = c;
+        if (first < 0) first = c, fuv = uv;
       } else {
         m->corner_uv[c] = first;
       }
       uint64_t g = o->group[c / 3];
       int s = -1;
-      for (int j = start[p]; j < i; j++) {
-        int d = order[j];
-        if (born[d] && o->group[d / 3] == g) {
-          s = d;
-          break;
+      if (nknown <= KNOWN) {
+        for (int j = 0; j < nknown && s < 0; j++)
+          if (known_group[j] == g) s = known_corner[j];
+      } else { /* (more groups than kept: the earlier corners themselves) */
+        for (int j = start[p]; j < i && s < 0; j++) {
+          int d = order[j];
+          if (born[d] && o->group[d / 3] == g) s = d;
         }
       }
       born[c] = s < 0;
-      if (s < 0) s = c;
+      if (s < 0) {
+        if (nknown < KNOWN) known_group[nknown] = g, known_corner[nknown] = c;
+        nknown++;
+        s = c;
+      }
       m->corner_normal[c] = s;
     }
   }
