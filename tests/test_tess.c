@@ -633,8 +633,9 @@ static void test_watertight(void) {
       make_fan(&m);
     }
     for (int sc = 0; sc < 2; sc++) {
-      for (int k = 0; k < 4; k++) tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){rates[k], 0, NULL, 0});
-      tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){0, i < NUM_MODELS ? 30000 : 3000, NULL, 0});
+      for (int k = 0; k < 4; k++)
+        tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){.uniform_rate = rates[k], .target_triangles = 0});
+      tess_one(name, &m, closed, (ch_scheme)sc, (ch_tess_desc){.target_triangles = i < NUM_MODELS ? 30000 : 3000});
     }
     ch_mesh_free(&m);
   }
@@ -653,7 +654,7 @@ static void test_targets(void) {
     for (int k = 0; k < ntargets; k++) {
       ch_tess_result r;
       ch_error err = {0};
-      ch_status st = ch_tess_build(S, &(ch_tess_desc){0, targets[k], NULL, 0}, &r, &err);
+      ch_status st = ch_tess_build(S, &(ch_tess_desc){.target_triangles = targets[k]}, &r, &err);
       CHECK_MSG(st == CH_OK, "%s", err.message);
       if (st != CH_OK) continue;
       double rel = (r.mesh.num_faces - (double)targets[k]) / targets[k];
@@ -686,7 +687,7 @@ static void test_target_between_steps(void) {
   ch_surface *S = surface_of(&m, CH_SCHEME_CATMARK);
   REQUIRE(S);
   ch_tess_result r;
-  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 80000, NULL, 0}, &r, NULL) == CH_OK);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 80000}, &r, NULL) == CH_OK);
   int n12 = 0, n13 = 0;
   for (int e = 0; e < r.num_edges; e++) {
     n12 += r.edge_rates[e] == 12;
@@ -697,6 +698,18 @@ static void test_target_between_steps(void) {
   CHECK(fabs(r.mesh.num_faces - 80000.0) <= 0.05 * 80000);
   CHECK(n12 > 0 && n13 > 0 && n12 + n13 == r.num_edges);
   check_tess("plane catmark target 80000", &m, S, &r, 0);
+  ch_tess_free(&r);
+  /* 84000 is within 5% of 86528 (r = 13 everywhere); asked for the
+   * closest, some edges stay at 12 and the count lands within one edge's
+   * step (a rate-13 edge adds 2 x 13 triangles to each of its two faces,
+   * give or take the inner rates' rounding). */
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 84000}, &r, NULL) == CH_OK);
+  CHECK(r.mesh.num_faces == 86528);
+  ch_tess_free(&r);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 84000, .closest = 1}, &r, NULL) == CH_OK);
+  fprintf(stderr, "  plane target 84000, closest: %d triangles\n", r.mesh.num_faces);
+  CHECK(fabs(r.mesh.num_faces - 84000.0) <= 4 * 26 + 4);
+  check_tess("plane catmark target 84000 closest", &m, S, &r, 0);
   ch_tess_free(&r);
   ch_surface_destroy(S);
   ch_mesh_free(&m);
@@ -802,7 +815,7 @@ static void test_write_obj(void) {
   ch_surface *S = surface_of(&m, CH_SCHEME_CATMARK);
   REQUIRE(S);
   ch_tess_result r;
-  REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 20000, NULL, 0}, &r, NULL) == CH_OK);
+  REQUIRE(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 20000}, &r, NULL) == CH_OK);
   const char *dir = getenv("TMPDIR");
   char path[1100];
   snprintf(path, sizeof path, "%s/tess_torus.obj", dir && *dir ? dir : "/tmp");
@@ -834,16 +847,17 @@ static void test_bad_input(void) {
   CHECK(ch_surface_create(&m, (ch_scheme)7, &S, &err) == CH_ERR_INPUT);
   REQUIRE(ch_surface_create(&m, CH_SCHEME_CATMARK, &S, &err) == CH_OK);
   ch_tess_result r;
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 0, NULL, 0}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){2, 100, NULL, 0}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){40000, 0, NULL, 0}, &r, &err) == CH_ERR_INPUT);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){32767, 0, NULL, 0}, &r, &err) == CH_ERR_INPUT); /* 1.3e10 */
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 0}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.uniform_rate = 2, .target_triangles = 100}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.uniform_rate = 40000, .target_triangles = 0}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.uniform_rate = 32767, .target_triangles = 0}, &r, &err) ==
+        CH_ERR_INPUT); /* 1.3e10 */
   CHECK(strstr(err.message, "maximum") != NULL);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 3, NULL, 0}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 3}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
   CHECK(strstr(err.message, "below") != NULL);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 12, NULL, 0}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 12}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
   ch_tess_free(&r);
-  CHECK(ch_tess_build(S, &(ch_tess_desc){0, 1L << 40, NULL, 0}, &r, &err) == CH_ERR_INPUT);
+  CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 1L << 40}, &r, &err) == CH_ERR_INPUT);
   CHECK(r.mesh.positions == NULL && r.edge_rates == NULL);
   ch_surface_destroy(S);
   ch_surface_destroy(NULL);
@@ -860,7 +874,7 @@ static void test_bad_input(void) {
   make_mesh(&m, 9, pos9, 6, cube_sizes, cube_idx, uvs, 4, cuv4);
   for (int sc = 0; sc < 2; sc++) {
     REQUIRE(ch_surface_create(&m, (ch_scheme)sc, &S, &err) == CH_OK);
-    REQUIRE(ch_tess_build(S, &(ch_tess_desc){3, 0, NULL, 0}, &r, &err) == CH_OK);
+    REQUIRE(ch_tess_build(S, &(ch_tess_desc){.uniform_rate = 3}, &r, &err) == CH_OK);
     CHECK(r.mesh.num_positions == 8 + 12 * 2 + 6 * 4);
     CHECK(check_tess("cube with an unused position", &m, S, &r, 1) == 0);
     ch_tess_free(&r);
@@ -991,7 +1005,7 @@ static void test_warped(void) {
                 checked, worst);
         CHECK(worst < 1e-6 && checked > r.mesh.num_positions / 10);
         /* density: the quarter the camera looks at holds more triangles */
-        REQUIRE(ch_tess_build(S, &(ch_tess_desc){0, 30000, NULL, 0}, &flat, &err) == CH_OK);
+        REQUIRE(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 30000}, &flat, &err) == CH_OK);
         long near_w = 0, near_f = 0;
         for (int pass = 0; pass < 2; pass++) {
           const ch_mesh *M = pass ? &flat.mesh : &r.mesh;
