@@ -42,10 +42,17 @@ void ch_segment_point(const ch_segment *s, double t, double out[2]) {
 }
 
 void ch_segment_box(const ch_segment *s, double r, double box[4]) {
-  box[0] = fmin(fmin(s->p[0][0], s->p[1][0]), s->p[2][0]) - r;
-  box[1] = fmin(fmin(s->p[0][1], s->p[1][1]), s->p[2][1]) - r;
-  box[2] = fmax(fmax(s->p[0][0], s->p[1][0]), s->p[2][0]) + r;
-  box[3] = fmax(fmax(s->p[0][1], s->p[1][1]), s->p[2][1]) + r;
+  /* (comparisons, not fmin/fmax: the control points are finite, and gcc
+   * calls libm for those, four times a box, in the step labels' inner
+   * loop) */
+  for (int k = 0; k < 2; k++) {
+    double a = s->p[0][k], b = s->p[1][k], c = s->p[2][k];
+    double lo = a < b ? a : b, hi = a < b ? b : a;
+    lo = c < lo ? c : lo;
+    hi = c > hi ? c : hi;
+    box[k] = lo - r;
+    box[2 + k] = hi + r;
+  }
 }
 
 void ch_curve_describe(const ch_curve *curve, char *out, size_t out_size) {
