@@ -486,12 +486,12 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
   int failed = 0;
 #pragma omp parallel for schedule(dynamic, 1024) reduction(| : failed)
   for (int i = 0; i < o->npos; i++) {
-    ch_surface_point sp;
-    if (ch_surface_eval(surface, o->face[i], o->st[2 * (size_t)i], o->st[2 * (size_t)i + 1], &sp)) {
+    double b[3], n[3];
+    if (ch_surface_eval_position(surface, o->face[i], o->st[2 * (size_t)i], o->st[2 * (size_t)i + 1], b, n)) {
       failed = 1;
       continue;
     }
-    for (int k = 0; k < 3; k++) o->pos[3 * (size_t)i + k] = sp.position[k] + o->h[i] * sp.normal[k];
+    for (int k = 0; k < 3; k++) o->pos[3 * (size_t)i + k] = b[k] + o->h[i] * n[k];
   }
   if (failed) return ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a vertex left its base face");
   return CH_OK;

@@ -400,6 +400,25 @@ extern "C" ch_status ch_surface_eval_uv(const ch_surface *S, int face, double s,
   return CH_OK;
 }
 
+extern "C" ch_status ch_surface_eval_position(const ch_surface *S, int face, double s, double t, double P[3],
+                                              double N[3]) {
+  if (!S || !P || !N || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;
+  try {
+    if (!in_domain(S->pos[face].GetParameterization(), s, t)) return CH_ERR_INPUT;
+    double st[2] = {s, t};
+    if (S->scheme == CH_SCHEME_BILINEAR) {
+      S->pos[face].Evaluate(st, &S->pos_pts[3 * S->pos_off[face]], PD(3), P);
+      S->pos[face].Evaluate(st, &S->nrm_pts[3 * S->pos_off[face]], PD(3), N);
+      if (ch_normalize3(N)) return CH_OK;
+    }
+    double Du[3], Dv[3];
+    eval_point(S, face, st, P, Du, Dv, N, NULL);
+  } catch (...) {
+    return CH_ERR_INTERNAL;
+  }
+  return CH_OK;
+}
+
 extern "C" ch_status ch_surface_eval(const ch_surface *S, int face, double s, double t,
                                      ch_surface_point *out) {
   if (!S || !out || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;

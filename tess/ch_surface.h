@@ -112,6 +112,12 @@ ch_status ch_surface_eval(const ch_surface *surface, int face, double s, double 
 /* Only the UV of ch_surface_eval (the same value, a fraction of the cost). */
 ch_status ch_surface_eval_uv(const ch_surface *surface, int face, double s, double t, double uv[2]);
 
+/* Only B and N of ch_surface_eval (the same values, without the UV and,
+ * on a bilinear surface where the normals do not cancel, the derivatives):
+ * what a displaced point needs. */
+ch_status ch_surface_eval_position(const ch_surface *surface, int face, double s, double t, double position[3],
+                                   double normal[3]);
+
 #ifdef __cplusplus
 }
 #endif

@@ -359,6 +359,9 @@ static void continuity(const char *name, const ch_mesh *m, ch_scheme scheme) {
       ch_surface_edge_param(S, b->face, b->k, a->forward == b->forward ? x : 1.0 - x, sb);
       CHECK(ch_surface_eval(S, a->face, sa[0], sa[1], &pa) == CH_OK);
       CHECK(ch_surface_eval(S, b->face, sb[0], sb[1], &pb) == CH_OK);
+      double qp[3], qn[3]; /* the position alone: the same bits */
+      CHECK(ch_surface_eval_position(S, a->face, sa[0], sa[1], qp, qn) == CH_OK);
+      CHECK(!memcmp(qp, pa.position, sizeof qp) && !memcmp(qn, pa.normal, sizeof qn));
       ep = fmax(ep, dist3(pa.position, pb.position));
       en = fmax(en, dist3(pa.normal, pb.normal));
     }
