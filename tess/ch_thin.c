@@ -29,14 +29,28 @@ typedef struct thin {
   unsigned char *deferred; /* per vertex: its collapse reached beyond its tile */
 } thin;
 
+static const double *uv_at(const thin *th, int c) {
+  int x = th->corner_uv[c];
+  return x < 0 ? &th->vertex_uv[2 * (size_t)th->tri[c]] : &th->extra_uv[2 * (size_t)x];
+}
+
 /* The ring of v: its live triangles with the corner after v (nxt) and the
- * one before (prv), counter-clockwise. Returns their number, -1 if above
- * MAX_RING. */
+ * one before (prv), counter-clockwise, and the UVs the triangles give them
+ * (their first corners of that vertex: looked up once here, as the tests
+ * read them again and again). Returns their number, -1 if above MAX_RING. */
 typedef struct ring {
   int n;
   int tri[MAX_RING], corner[MAX_RING];
   int nxt[MAX_RING], prv[MAX_RING];
+  int cnxt[MAX_RING];                            /* nxt's corner */
+  const double *unxt[MAX_RING], *uprv[MAX_RING]; /* nxt's and prv's UVs */
 } ring;
+
+/* The first corner of t holding the vertex of its corner k. */
+static int first_corner(const thin *th, int t, int k) {
+  const int *c = &th->tri[3 * t];
+  return 3 * t + (c[0] == c[k] ? 0 : c[1] == c[k] ? 1 : k);
+}
 
 static int gather_ring(const thin *th, int v, ring *r) {
   r->n = 0;
@@ -44,50 +58,37 @@ static int gather_ring(const thin *th, int v, ring *r) {
     int t = c / 3, k = c % 3;
     if (th->dead[t]) continue;
     if (r->n == MAX_RING) return -1;
+    int k1 = k == 2 ? 0 : k + 1, k2 = k == 0 ? 2 : k - 1;
     r->tri[r->n] = t;
     r->corner[r->n] = c;
-    r->nxt[r->n] = th->tri[3 * t + (k + 1) % 3];
-    r->prv[r->n] = th->tri[3 * t + (k + 2) % 3];
+    r->nxt[r->n] = th->tri[3 * t + k1];
+    r->prv[r->n] = th->tri[3 * t + k2];
+    r->cnxt[r->n] = first_corner(th, t, k1);
+    r->unxt[r->n] = uv_at(th, r->cnxt[r->n]);
+    r->uprv[r->n] = uv_at(th, first_corner(th, t, k2));
     r->n++;
   }
   return r->n;
 }
 
 /* Whether the ring closes once around v: every neighbour follows one
- * triangle and precedes another, and none twice. */
+ * triangle and precedes another, and none twice. (The neighbours after v
+ * all differ and each comes before v somewhere: then, n of them in n
+ * places, each exactly once.) */
 static int closed_fan(const ring *r) {
   if (r->n < 3) return 0;
   for (int i = 0; i < r->n; i++) {
-    int as_prv = 0, as_nxt = 0;
-    for (int j = 0; j < r->n; j++) {
-      as_prv += r->prv[j] == r->nxt[i];
-      as_nxt += r->nxt[j] == r->nxt[i];
-    }
-    if (as_prv != 1 || as_nxt != 1) return 0;
+    for (int j = 0; j < i; j++)
+      if (r->nxt[j] == r->nxt[i]) return 0;
+    int j = 0;
+    while (j < r->n && r->prv[j] != r->nxt[i]) j++;
+    if (j == r->n) return 0;
   }
   return 1;
 }
 
-static const double *uv_at(const thin *th, int c) {
-  int x = th->corner_uv[c];
-  return x < 0 ? &th->vertex_uv[2 * (size_t)th->tri[c]] : &th->extra_uv[2 * (size_t)x];
-}
-
 static double cross2(const double o[2], const double a[2], const double b[2]) {
   return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
-}
-
-/* The corner of vertex x in triangle t (x one of its vertices). */
-static int corner_in(const thin *th, int t, int x) {
-  for (int k = 0; k < 3; k++)
-    if (th->tri[3 * t + k] == x) return 3 * t + k;
-  return -1;
-}
-
-/* The UV of corner x of triangle t (x one of its vertices). */
-static const double *vertex_uv_in(const thin *th, int t, int x) {
-  int c = corner_in(th, t, x);
-  return c < 0 ? NULL : uv_at(th, c);
 }
 
 /* Marks w's neighbours through live triangles (stamp = a new generation,
@@ -120,23 +121,23 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
   if (iw < 0 || jw < 0) return 0;
   int y1 = r->prv[iw], y2 = r->nxt[jw];
   if (y1 == y2) return 0;
-  int cw = corner_in(th, r->tri[iw], w); /* (w's UV in v's chart) */
-  const double *uw = uv_at(th, cw);
+  int cw = r->cnxt[iw]; /* (w's UV in v's chart) */
+  const double *uw = r->unxt[iw];
   const double *uv_v = uv_at(th, r->corner[0]);
   for (int i = 0; i < r->n; i++) { /* the new edges' lengths first: the cheapest test */
     int x = r->nxt[i];
     if (x == w || x == y1 || x == y2) continue;
-    const double *ux = vertex_uv_in(th, r->tri[i], x), mid[2] = {0.5 * (ux[0] + uw[0]), 0.5 * (ux[1] + uw[1])};
+    const double *ux = r->unxt[i], mid[2] = {0.5 * (ux[0] + uw[0]), 0.5 * (ux[1] + uw[1])};
     if (ch_dist2d(ux[0] - uw[0], ux[1] - uw[1]) > th->rules->max_edge(th->rules->ctx, mid)) return 0;
   }
   int g = mark_neighbours(th, w, in);
   if (!g) return -1;
   for (int i = 0; i < r->n; i++) {
     if (i == iw || i == jw) continue;
-    int t = r->tri[i], x = r->nxt[i], y = r->prv[i];
+    int x = r->nxt[i], y = r->prv[i];
     /* the link condition: w's only common neighbours with v are y1, y2 */
     if (x != y1 && x != y2 && th->stamp[x] == g) return 0;
-    const double *ux = vertex_uv_in(th, t, x), *uy = vertex_uv_in(th, t, y);
+    const double *ux = r->unxt[i], *uy = r->uprv[i];
     double before = cross2(uv_v, ux, uy), after = cross2(uw, ux, uy);
     double lx = ch_dist2d(ux[0] - uw[0], ux[1] - uw[1]), ly = ch_dist2d(uy[0] - uw[0], uy[1] - uw[1]);
     /* keeps its orientation, and is not a needle of no angle */
@@ -147,13 +148,13 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
     if (i == iw || i == jw) continue;
     int t = r->tri[i], x = r->nxt[i], y = r->prv[i];
     const int tv[3] = {w, x, y};
-    const double *tuv[3] = {uw, vertex_uv_in(th, t, x), vertex_uv_in(th, t, y)};
+    const double *tuv[3] = {uw, r->unxt[i], r->uprv[i]};
     if (th->rules->triangle_ok && !th->rules->triangle_ok(th->rules->ctx, family, th->layer[t], tv, tuv)) return 0;
   }
   for (int i = 0; i < r->n; i++) {
     int x = r->nxt[i];
     if (x == w || x == y1 || x == y2) continue;
-    if (!th->rules->edge_ok(th->rules->ctx, family, w, x, uw, vertex_uv_in(th, r->tri[i], x))) return 0;
+    if (!th->rules->edge_ok(th->rules->ctx, family, w, x, uw, r->unxt[i])) return 0;
   }
   int uw_ref = th->corner_uv[cw]; /* (v's corners take it: the same UV value) */
   th->dead[r->tri[iw]] = th->dead[r->tri[jw]] = 1;
@@ -198,16 +199,17 @@ static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
 }
 
 /* The two neighbours of line vertex v along its line (the edges with
- * different layers on their two sides); 0 if not two. */
+ * different layers on their two sides); 0 if not two. r is a closed fan:
+ * one triangle has each neighbour before v. */
 static int line_neighbours(const thin *th, const ring *r, int out[2]) {
   int nc = 0;
   for (int i = 0; i < r->n; i++) {
-    int x = r->nxt[i];
-    for (int j = 0; j < r->n; j++)
-      if (r->prv[j] == x && th->layer[r->tri[j]] != th->layer[r->tri[i]]) {
-        if (nc == 2) return 0;
-        out[nc++] = x;
-      }
+    int x = r->nxt[i], j = 0;
+    while (r->prv[j] != x) j++;
+    if (th->layer[r->tri[j]] != th->layer[r->tri[i]]) {
+      if (nc == 2) return 0;
+      out[nc++] = x;
+    }
   }
   return nc == 2;
 }
@@ -235,7 +237,7 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
     const double *u = uv_at(th, r.corner[0]);
     double d[MAX_RING];
     for (int i = 0; i < r.n; i++) {
-      const double *ux = vertex_uv_in(th, r.tri[i], r.nxt[i]);
+      const double *ux = r.unxt[i];
       double di = ch_dist2d(ux[0] - u[0], ux[1] - u[1]);
       int j = nc++;
       while (j > 0 && d[j - 1] > di) {
