@@ -737,8 +737,12 @@ static int thin_band(void *ctx, uint64_t group, int *layer) {
 
 static double thin_max_edge(void *ctx, const double uv[2]) {
   const thin_context *x = ctx;
-  int gx = (int)fmin(EDGE_GRID - 1, fmax(0.0, uv[0] * EDGE_GRID)),
-      gy = (int)fmin(EDGE_GRID - 1, fmax(0.0, uv[1] * EDGE_GRID));
+  /* clamped as fmin(EDGE_GRID - 1, fmax(0, .)) would, NaN to 0, without
+   * their library calls (gcc inlines them only with -ffinite-math-only) */
+  double u = uv[0] * EDGE_GRID, v = uv[1] * EDGE_GRID;
+  u = u > 0.0 ? u : 0.0;
+  v = v > 0.0 ? v : 0.0;
+  int gx = (int)(u < EDGE_GRID - 1 ? u : EDGE_GRID - 1), gy = (int)(v < EDGE_GRID - 1 ? v : EDGE_GRID - 1);
   return x->edge_grid[gy * EDGE_GRID + gx];
 }
 
