@@ -684,6 +684,9 @@ typedef struct thin_context {
   unsigned char *known;  /* once computed: 1, or 2 where it has none (a rim) */
   double *distance;      /* per output vertex: its signed distance to distance_curve's */
   int *distance_curve;   /* -1 until computed */
+  double (*normal)[3];   /* per output vertex: exact_normal's last, for normal_key */
+  int *normal_key;       /* its curve * 256 + layer (0 for a u groove's), -1 until computed */
+  double *cos_max;       /* per curve: thin_triangle_ok's bound */
 } thin_context;
 
 /* Groove c's signed distance at output vertex v (at uv), cached. */
@@ -798,6 +801,13 @@ static int exact_normal(thin_context *x, int c, int k, int v, const double uv[2]
     x->known[v] = 1;
   }
   if (x->known[v] != 1) return 0;
+  /* the normal depends on the curve and, but in a u groove, the layer:
+   * the same one again is read back (a vertex is in many triangles) */
+  int key = c * 256 + (cv->profile.kind == CH_PROFILE_U ? 0 : k);
+  if (x->normal_key[v] == key) {
+    for (int i = 0; i < 3; i++) n[i] = x->normal[v][i];
+    return 1;
+  }
   const double *g = x->gradient[v];
   double t = g[2], dp;
   if (cv->profile.kind == CH_PROFILE_U) {
@@ -811,7 +821,8 @@ static int exact_normal(thin_context *x, int c, int k, int v, const double uv[2]
   }
   double slope = cv->depth * dp / cv->width / lb->object_scale; /* dh/ds in object units */
   double m[3] = {-slope * g[0], -slope * g[1], 1.0}, l = sqrt(ch_dot3(m, m));
-  for (int i = 0; i < 3; i++) n[i] = m[i] / l;
+  for (int i = 0; i < 3; i++) n[i] = x->normal[v][i] = m[i] / l;
+  x->normal_key[v] = key;
   return 1;
 }
 
@@ -837,7 +848,7 @@ static int thin_triangle_ok(void *ctx, int family, int layer, const int v[3], co
   double l = sqrt(ch_dot3(f, f));
   if (!(l > 0.0)) return 0;
   if (f[2] < 0.0) l = -l;
-  double cos_max = cos(0.6 * lb->curve_angle[c]);
+  double cos_max = x->cos_max[c];
   for (int k = 0; k < 3; k++) {
     double n[3];
     if (!exact_normal(x, c, layer, v[k], uv[k], n)) continue;
@@ -858,31 +869,32 @@ int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
     free(map);
     return -1;
   }
+  size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
+  int ncurves = lb->set->num_curves;
   x->lb = lb;
   x->o = o;
   x->edge_grid = edge_grid;
-  x->gradient = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->gradient);
-  x->known = calloc((size_t)(o->npos > 0 ? o->npos : 1), 1);
-  x->distance = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->distance);
-  x->distance_curve = malloc((size_t)(o->npos > 0 ? o->npos : 1) * sizeof *x->distance_curve);
-  if (x->distance_curve)
-    for (int v = 0; v < o->npos; v++) x->distance_curve[v] = -1;
-  if (!x->gradient || !x->known || !x->distance || !x->distance_curve) {
-    free(x->distance);
-    free(x->distance_curve);
-    free(x->gradient);
-    free(x->known);
-    free(x);
-    free(removed);
-    free(map);
-    return -1;
+  x->gradient = malloc(np * sizeof *x->gradient);
+  x->known = calloc(np, 1);
+  x->distance = malloc(np * sizeof *x->distance);
+  x->distance_curve = malloc(np * sizeof *x->distance_curve);
+  x->normal = malloc(np * sizeof *x->normal);
+  x->normal_key = malloc(np * sizeof *x->normal_key);
+  x->cos_max = malloc((size_t)(ncurves > 0 ? ncurves : 1) * sizeof *x->cos_max);
+  int n = -1;
+  if (x->gradient && x->known && x->distance && x->distance_curve && x->normal && x->normal_key && x->cos_max) {
+    for (int v = 0; v < o->npos; v++) x->distance_curve[v] = x->normal_key[v] = -1;
+    for (int c = 0; c < ncurves; c++) x->cos_max[c] = cos(0.6 * lb->curve_angle[c]);
+    ch_thin_rules rules = {thin_band, thin_max_edge, thin_edge_ok, thin_triangle_ok, x};
+    n = ch_thin_bands(o->npos, &o->ntri, o->tri, o->corner_uv, o->vertex_uv, o->extra_uv, o->group, &rules, removed);
   }
-  ch_thin_rules rules = {thin_band, thin_max_edge, thin_edge_ok, thin_triangle_ok, x};
-  int n = ch_thin_bands(o->npos, &o->ntri, o->tri, o->corner_uv, o->vertex_uv, o->extra_uv, o->group, &rules, removed);
   free(x->gradient);
   free(x->known);
   free(x->distance);
   free(x->distance_curve);
+  free(x->normal);
+  free(x->normal_key);
+  free(x->cos_max);
   if (n > 0) {
     int k = 0;
     for (int v = 0; v < o->npos; v++) {
