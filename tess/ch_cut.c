@@ -686,6 +686,8 @@ typedef struct thin_context {
   int *distance_curve;   /* -1 until computed */
   double (*normal)[3];   /* per output vertex: exact_normal's last, for normal_key */
   int *normal_key;       /* its curve * 256 + layer (0 for a u groove's), -1 until computed */
+  double *height;        /* per output vertex: h at height_uv (the edge rule's), */
+  const double **height_uv; /* NULL until computed */
   double *cos_max;       /* per curve: thin_triangle_ok's bound */
 } thin_context;
 
@@ -749,6 +751,15 @@ static double thin_max_edge(void *ctx, const double uv[2]) {
   return x->edge_grid[gy * EDGE_GRID + gx];
 }
 
+/* h at output vertex v (at uv), cached for that UV. */
+static double vertex_height(thin_context *x, int v, const double uv[2]) {
+  if (x->height_uv[v] != uv) {
+    x->height[v] = ch_height_eval(x->lb->height, uv[0], uv[1]);
+    x->height_uv[v] = uv;
+  }
+  return x->height[v];
+}
+
 /* The refinement's chord rule (ch_refine_needed) for any new edge. */
 static int thin_edge_ok(void *ctx, int family, int va, int vb, const double a[2], const double b[2]) {
   thin_context *x = ctx;
@@ -762,8 +773,7 @@ static int thin_edge_ok(void *ctx, int family, int va, int vb, const double a[2]
            dm = ch_label_groove_distance(lb, c, mid);
     err = fabs(dm - 0.5 * (da + db)) / cv->width * fabs(cv->depth);
   } else {
-    err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) -
-               0.5 * (ch_height_eval(lb->height, a[0], a[1]) + ch_height_eval(lb->height, b[0], b[1])));
+    err = fabs(ch_height_eval(lb->height, mid[0], mid[1]) - 0.5 * (vertex_height(x, va, a) + vertex_height(x, vb, b)));
   }
   return err <= lb->chord_tol[c] * ch_label_chord_factor(lb, mid);
 }
@@ -880,9 +890,12 @@ int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
   x->distance_curve = malloc(np * sizeof *x->distance_curve);
   x->normal = malloc(np * sizeof *x->normal);
   x->normal_key = malloc(np * sizeof *x->normal_key);
+  x->height = malloc(np * sizeof *x->height);
+  x->height_uv = calloc(np, sizeof *x->height_uv);
   x->cos_max = malloc((size_t)(ncurves > 0 ? ncurves : 1) * sizeof *x->cos_max);
   int n = -1;
-  if (x->gradient && x->known && x->distance && x->distance_curve && x->normal && x->normal_key && x->cos_max) {
+  if (x->gradient && x->known && x->distance && x->distance_curve && x->normal && x->normal_key && x->height &&
+      x->height_uv && x->cos_max) {
     for (int v = 0; v < o->npos; v++) x->distance_curve[v] = x->normal_key[v] = -1;
     for (int c = 0; c < ncurves; c++) x->cos_max[c] = cos(0.6 * lb->curve_angle[c]);
     ch_thin_rules rules = {thin_band, thin_max_edge, thin_edge_ok, thin_triangle_ok, x};
@@ -894,6 +907,8 @@ int ch_cut_thin(const ch_label_ctx *lb, const float *edge_grid, ch_cut_out *o) {
   free(x->distance_curve);
   free(x->normal);
   free(x->normal_key);
+  free(x->height);
+  free(x->height_uv);
   free(x->cos_max);
   if (n > 0) {
     int k = 0;
