@@ -177,6 +177,11 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
   return 1;
 }
 
+/* What ch_thin_bands gathers of a vertex's triangles for its key. */
+typedef struct vertex_band {
+  int n, f, lo, hi, other;
+} vertex_band;
+
 /* Classifies v: its family (or -1: it stays) and its lowest and highest
  * layer; whether its corners agree in UV. */
 static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
@@ -294,42 +299,51 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
     any |= th.family[t] >= 0;
   }
   if (!any) goto done;
-  for (int v = 0; v < nv; v++) th.head[v] = -1;
-  for (int c = 3 * nt - 1; c >= 0; c--) { /* each list in corner order */
-    th.next[c] = th.head[tri[c]];
-    th.head[tri[c]] = c;
-  }
   /* Keys: a vertex between layers k and k + 1 of family f lies on line k;
    * one between layer k and what is not f's (a rim) on that layer's edge.
-   * Three corners with one key make a triangle along a line. */
+   * Three corners with one key make a triangle along a line. Gathered
+   * from the triangles, in the same sweep as the corner lists: its
+   * corners' count, its family (-1 none yet, -2 two), lowest and highest
+   * layer, and whether a triangle of none touches it. */
+  vertex_band *vb = malloc((size_t)nv * sizeof *vb);
+  if (!vb) {
+    count = -1;
+    goto done;
+  }
   for (int v = 0; v < nv; v++) {
-    ring r;
-    th.key[v] = -1;
-    if (gather_ring(&th, v, &r) <= 0) continue;
-    int f = -1, lo = 0, hi = 0, other = 0;
-    for (int i = 0; i < r.n; i++) {
-      int t = r.tri[i];
-      if (th.family[t] < 0) {
-        other = 1;
-        continue;
-      }
-      if (f < 0) {
-        f = th.family[t];
-        lo = hi = th.layer[t];
-      } else if (th.family[t] != f) {
-        f = -2;
-        break;
-      }
-      lo = th.layer[t] < lo ? th.layer[t] : lo;
-      hi = th.layer[t] > hi ? th.layer[t] : hi;
+    th.head[v] = -1;
+    vb[v] = (vertex_band){.f = -1};
+  }
+  for (int c = 3 * nt - 1; c >= 0; c--) { /* each list in corner order */
+    int v = tri[c], f = th.family[c / 3], l = th.layer[c / 3];
+    vertex_band *b = &vb[v];
+    th.next[c] = th.head[v];
+    th.head[v] = c;
+    b->n++;
+    if (f < 0)
+      b->other = 1;
+    else if (b->f == -1) {
+      b->f = f;
+      b->lo = b->hi = l;
+    } else if (b->f != f)
+      b->f = -2;
+    else {
+      b->lo = l < b->lo ? l : b->lo;
+      b->hi = l > b->hi ? l : b->hi;
     }
-    if (f < 0) continue;
+  }
+  for (int v = 0; v < nv; v++) {
+    const vertex_band *b = &vb[v];
+    int f = b->f, lo = b->lo, hi = b->hi, other = b->other;
+    th.key[v] = -1;
+    if (b->n > MAX_RING || f < 0) continue; /* (as the collapses skip a ring above MAX_RING) */
     if (!other && hi == lo + 1) th.key[v] = ((int64_t)f << 21) | ((int64_t)lo << 1);
     if (other && hi == lo) th.key[v] = ((int64_t)f << 21) | ((int64_t)lo << 1) | 1;
     /* Only a vertex inside one family's band, inside a layer or on a
      * line, ever moves (collapses keep every triangle's band). */
     dirty[v] = !other && hi <= lo + 1;
   }
+  free(vb);
   /* Tiles of UV TILE_EDGES mean band edges wide (at most 64 a side),
    * coloured like a 2 x 2 checkerboard: tiles of one colour share no
    * triangle a collapse inside one of them touches, so they run side by
@@ -361,7 +375,11 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
     th.tile[v] = -1;
     if (th.head[v] < 0) continue;
     const double *u = uv_at(&th, th.head[v]);
-    int tx = (int)fmin(tiles - 1, fmax(0.0, floor(u[0] * tiles))), ty = (int)fmin(tiles - 1, fmax(0.0, floor(u[1] * tiles)));
+    /* clamped as by fmin(tiles - 1, fmax(0, .)), without their calls */
+    double fx = floor(u[0] * tiles), fy = floor(u[1] * tiles);
+    fx = fx > 0.0 ? fx : 0.0;
+    fy = fy > 0.0 ? fy : 0.0;
+    int tx = (int)(fx < tiles - 1 ? fx : tiles - 1), ty = (int)(fy < tiles - 1 ? fy : tiles - 1);
     th.tile[v] = ty * tiles + tx;
     tile_start[th.tile[v] + 1]++;
   }
@@ -406,8 +424,10 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
   for (int t = 0; t < nt; t++) {
     if (th.dead[t]) continue;
     if (n != t) {
-      memmove(&tri[3 * (size_t)n], &tri[3 * (size_t)t], 3 * sizeof *tri);
-      memmove(&corner_uv[3 * (size_t)n], &corner_uv[3 * (size_t)t], 3 * sizeof *corner_uv);
+      for (int k = 0; k < 3; k++) {
+        tri[3 * (size_t)n + k] = tri[3 * (size_t)t + k];
+        corner_uv[3 * (size_t)n + k] = corner_uv[3 * (size_t)t + k];
+      }
       group[n] = group[t];
     }
     n++;
