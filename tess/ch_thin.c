@@ -44,6 +44,10 @@ typedef struct ring {
   int nxt[MAX_RING], prv[MAX_RING];
   int cnxt[MAX_RING];                            /* nxt's corner */
   const double *unxt[MAX_RING], *uprv[MAX_RING]; /* nxt's and prv's UVs */
+  /* of a closed fan (closed_fan, collapse_vertex): */
+  int back[MAX_RING];      /* the triangle with nxt[i] before v */
+  double before[MAX_RING]; /* the triangle's doubled area in UV */
+  int64_t line[MAX_RING];  /* nxt's and prv's common key, or -1 */
 } ring;
 
 /* The first corner of t holding the vertex of its corner k. */
@@ -74,8 +78,8 @@ static int gather_ring(const thin *th, int v, ring *r) {
 /* Whether the ring closes once around v: every neighbour follows one
  * triangle and precedes another, and none twice. (The neighbours after v
  * all differ and each comes before v somewhere: then, n of them in n
- * places, each exactly once.) */
-static int closed_fan(const ring *r) {
+ * places, each exactly once.) Sets back. */
+static int closed_fan(ring *r) {
   if (r->n < 3) return 0;
   for (int i = 0; i < r->n; i++) {
     for (int j = 0; j < i; j++)
@@ -83,6 +87,7 @@ static int closed_fan(const ring *r) {
     int j = 0;
     while (j < r->n && r->prv[j] != r->nxt[i]) j++;
     if (j == r->n) return 0;
+    r->back[i] = j;
   }
   return 1;
 }
@@ -92,38 +97,33 @@ static double cross2(const double o[2], const double a[2], const double b[2]) {
 }
 
 /* Marks w's neighbours through live triangles (stamp = a new generation,
- * returned). 0 if one lies outside tile `in` (when in >= 0). */
+ * returned). 0 if one lies outside tile `in` (when in >= 0). (Not w
+ * itself: it lies in the tile and is never looked up.) */
 static int mark_neighbours(thin *th, int w, int in) {
   int g;
 #pragma omp atomic capture
   g = ++th->generation;
   for (int c = th->head[w]; c >= 0; c = th->next[c]) {
-    int t = c / 3;
+    int t = c / 3, k = c % 3;
     if (th->dead[t]) continue;
-    for (int k = 0; k < 3; k++) {
-      int x = th->tri[3 * t + k];
-      if (in >= 0 && th->tile[x] != in) return 0;
-      th->stamp[x] = g;
-    }
+    int x = th->tri[3 * t + (k == 2 ? 0 : k + 1)], y = th->tri[3 * t + (k == 0 ? 2 : k - 1)];
+    if (in >= 0 && (th->tile[x] != in || th->tile[y] != in)) return 0;
+    th->stamp[x] = th->stamp[y] = g;
   }
   return g;
 }
 
-/* Collapses v into its neighbour w if every rule allows it: 1; 0 if not;
- * -1 if w's neighbours reach beyond tile `in` (in >= 0: only what lies
- * in one tile is touched, so tiles of one colour run side by side). */
-static int try_collapse(thin *th, int v, const ring *r, int w, int family, int in) {
-  int iw = -1, jw = -1; /* the triangles (v, w, .) and (v, ., w) */
-  for (int i = 0; i < r->n; i++) {
-    if (r->nxt[i] == w) iw = i;
-    if (r->prv[i] == w) jw = i;
-  }
-  if (iw < 0 || jw < 0) return 0;
+/* Collapses v into its neighbour w = r->nxt[iw] (r a closed fan) if
+ * every rule allows it: 1; 0 if not; -1 if w's neighbours reach beyond
+ * tile `in` (in >= 0: only what lies in one tile is touched, so tiles of
+ * one colour run side by side). */
+static int try_collapse(thin *th, int v, const ring *r, int iw, int family, int in) {
+  int w = r->nxt[iw], jw = r->back[iw]; /* the triangles (v, w, .) and (v, ., w) */
   int y1 = r->prv[iw], y2 = r->nxt[jw];
   if (y1 == y2) return 0;
   int cw = r->cnxt[iw]; /* (w's UV in v's chart) */
   const double *uw = r->unxt[iw];
-  const double *uv_v = uv_at(th, r->corner[0]);
+  int64_t kw = th->key[w];
   for (int i = 0; i < r->n; i++) { /* the new edges' lengths first: the cheapest test */
     int x = r->nxt[i];
     if (x == w || x == y1 || x == y2) continue;
@@ -134,15 +134,16 @@ static int try_collapse(thin *th, int v, const ring *r, int w, int family, int i
   if (!g) return -1;
   for (int i = 0; i < r->n; i++) {
     if (i == iw || i == jw) continue;
-    int x = r->nxt[i], y = r->prv[i];
+    int x = r->nxt[i];
     /* the link condition: w's only common neighbours with v are y1, y2 */
     if (x != y1 && x != y2 && th->stamp[x] == g) return 0;
-    const double *ux = r->unxt[i], *uy = r->uprv[i];
-    double before = cross2(uv_v, ux, uy), after = cross2(uw, ux, uy);
-    double lx = ch_dist2d(ux[0] - uw[0], ux[1] - uw[1]), ly = ch_dist2d(uy[0] - uw[0], uy[1] - uw[1]);
+    if (kw >= 0 && kw == r->line[i]) return 0; /* not along a line */
     /* keeps its orientation, and is not a needle of no angle */
-    if (!(after * before > 0.0) || fabs(after) <= 1e-9 * lx * ly) return 0;
-    if (th->key[w] >= 0 && th->key[w] == th->key[x] && th->key[x] == th->key[y]) return 0;
+    const double *ux = r->unxt[i], *uy = r->uprv[i];
+    double after = cross2(uw, ux, uy);
+    if (!(after * r->before[i] > 0.0)) return 0;
+    double lx = ch_dist2d(ux[0] - uw[0], ux[1] - uw[1]), ly = ch_dist2d(uy[0] - uw[0], uy[1] - uw[1]);
+    if (fabs(after) <= 1e-9 * lx * ly) return 0;
   }
   for (int i = 0; i < r->n; i++) { /* then the caller's tests, dearer */
     if (i == iw || i == jw) continue;
@@ -204,18 +205,15 @@ static int classify_vertex(const thin *th, const ring *r, int *lo, int *hi) {
 }
 
 /* The two neighbours of line vertex v along its line (the edges with
- * different layers on their two sides); 0 if not two. r is a closed fan:
- * one triangle has each neighbour before v. */
+ * different layers on their two sides), as indices into closed fan r; 0
+ * if not two. */
 static int line_neighbours(const thin *th, const ring *r, int out[2]) {
   int nc = 0;
-  for (int i = 0; i < r->n; i++) {
-    int x = r->nxt[i], j = 0;
-    while (r->prv[j] != x) j++;
-    if (th->layer[r->tri[j]] != th->layer[r->tri[i]]) {
+  for (int i = 0; i < r->n; i++)
+    if (th->layer[r->tri[r->back[i]]] != th->layer[r->tri[i]]) {
       if (nc == 2) return 0;
-      out[nc++] = x;
+      out[nc++] = i;
     }
-  }
   return nc == 2;
 }
 
@@ -231,7 +229,14 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
     }
   int f = classify_vertex(th, &r, &lo, &hi);
   if (f < 0 || !closed_fan(&r)) return;
-  int cand[MAX_RING], nc = 0;
+  /* what try_collapse tests of each triangle whatever the candidate */
+  const double *u = uv_at(th, r.corner[0]);
+  for (int i = 0; i < r.n; i++) {
+    int64_t kx = th->key[r.nxt[i]];
+    r.line[i] = kx == th->key[r.prv[i]] ? kx : -1;
+    r.before[i] = cross2(u, r.unxt[i], r.uprv[i]);
+  }
+  int cand[MAX_RING], nc = 0; /* indices into r */
   if (hi > lo) {
     /* On line lo: it moves along the line, to one of the two neighbours
      * the line's edges lead to. */
@@ -239,7 +244,6 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
     nc = 2;
   } else {
     /* Inside a layer: to the nearest neighbour that works. */
-    const double *u = uv_at(th, r.corner[0]);
     double d[MAX_RING];
     for (int i = 0; i < r.n; i++) {
       const double *ux = r.unxt[i];
@@ -251,7 +255,7 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
         j--;
       }
       d[j] = di;
-      cand[j] = r.nxt[i];
+      cand[j] = i;
     }
   }
   for (int i = 0; i < nc; i++) {
