@@ -24,9 +24,12 @@ typedef struct thin {
   int *head, *next;      /* per vertex its corners (3 t + k), linked; dead triangles' too */
   unsigned char *dead;   /* per triangle */
   int64_t *key;          /* per vertex: the line it lies on, or -1 */
-  int *stamp, generation; /* per vertex: = generation while it is a marked neighbour */
+  int *stamp;            /* per vertex: = generation while it is a marked neighbour */
   int *tile;             /* per vertex: its tile of UV (see ch_thin_bands) */
   unsigned char *deferred; /* per vertex: its collapse reached beyond its tile */
+  /* Alone on its cache line: every thread increments it for every
+   * candidate, and the pointers above are read all the time. */
+  _Alignas(64) int generation;
 } thin;
 
 static const double *uv_at(const thin *th, int c) {
