@@ -342,34 +342,24 @@ static int corner_of(const ch_cut_out *o, int t, int v) {
   return -1;
 }
 
-/* Twice the UV area of triangle t with corner k's UV replaced by uv. */
-static double uv_area_with(const ch_cut_out *o, int t, int k, const double uv[2]) {
-  double c[3][2];
-  for (int j = 0; j < 3; j++) memcpy(c[j], ch_cut_out_uv(o, 3 * (size_t)t + (size_t)j), sizeof c[j]);
-  c[k][0] = uv[0];
-  c[k][1] = uv[1];
-  return (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
+/* Twice the UV area of triangle t (*before) and with corner k's UV
+ * replaced by uv (*after). */
+static void uv_areas(const ch_cut_out *o, int t, int k, const double uv[2], double *before, double *after) {
+  const double *c[3];
+  for (int j = 0; j < 3; j++) c[j] = ch_cut_out_uv(o, 3 * (size_t)t + (size_t)j);
+  *before = (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
+  c[k] = uv;
+  *after = (c[1][0] - c[0][0]) * (c[2][1] - c[0][1]) - (c[2][0] - c[0][0]) * (c[1][1] - c[0][1]);
 }
 
 /* Whether collapsing v into its neighbour u keeps the mesh as it should:
  * u and v share exactly the two neighbours across edge u-v (the link
  * condition), and every triangle left keeps its UV orientation and turns
- * its normal by under 20 degrees. */
+ * its normal by under 20 degrees. (The tests read only: the one that
+ * fails most, the UV orientation, goes first.) */
 static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
   int nv = f->count[v], nu = f->count[u], shared = 0;
   const int *tv = fan(f, v), *tu = fan(f, u);
-  /* v's neighbours (its fan is closed: each is one triangle's next
-   * corner), and how many of them u's triangles hold */
-  for (int i = 0; i < nv; i++) {
-    int k = corner_of(o, tv[i], v), w = o->tri[3 * (size_t)tv[i] + (size_t)(k + 1) % 3];
-    if (w == u) continue;
-    for (int j = 0; j < nu; j++)
-      if (corner_of(o, tu[j], w) >= 0) {
-        shared++;
-        break;
-      }
-  }
-  if (shared != 2) return 0;
   const double *uvu = NULL;
   for (int i = 0; i < nv && !uvu; i++) {
     int k = corner_of(o, tv[i], u);
@@ -379,10 +369,29 @@ static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) 
   for (int i = 0; i < nv; i++) {
     int t = tv[i];
     if (corner_of(o, t, u) >= 0) continue; /* removed */
-    int k = corner_of(o, t, v);
-    double before = uv_area_with(o, t, k, ch_cut_out_uv(o, 3 * (size_t)t + (size_t)k)),
-           after = uv_area_with(o, t, k, uvu);
+    double before, after;
+    uv_areas(o, t, corner_of(o, t, v), uvu, &before, &after);
     if (!(after > 1e-3 * before)) return 0;
+  }
+  /* v's neighbours (its fan is closed: each is one triangle's next
+   * corner), and how many of them u's triangles hold */
+  for (int i = 0; i < nv; i++) {
+    const int *c = &o->tri[3 * (size_t)tv[i]];
+    int w = c[c[0] == v ? 1 : c[1] == v ? 2 : 0];
+    if (w == u) continue;
+    for (int j = 0; j < nu; j++) {
+      const int *d = &o->tri[3 * (size_t)tu[j]];
+      if (d[0] == w || d[1] == w || d[2] == w) {
+        shared++;
+        break;
+      }
+    }
+  }
+  if (shared != 2) return 0;
+  for (int i = 0; i < nv; i++) {
+    int t = tv[i];
+    if (corner_of(o, t, u) >= 0) continue;
+    int k = corner_of(o, t, v);
     double n0[3], n1[3];
     tri_normal(o, t, -1, 0, n0);
     tri_normal(o, t, k, u, n1);
@@ -394,35 +403,79 @@ static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) 
 /* Vertex v's shortest edge squared as a collapse candidate, INFINITY
  * where v is not inside a plain piece: one piece, off UV seams (one UV in
  * every triangle), its triangles one closed fan (each next corner is
- * another's previous once), its neighbours in its slab (unless
- * !slabbed). */
-static double candidate(const ch_cut_out *o, const vertex_fans *f, int v, int slabbed) {
-  int n = f->count[v];
+ * another's previous once). *crosses: whether a neighbour is in another
+ * slab (then v is no candidate in this one; where `slabbed` the answer
+ * is then INFINITY at once). */
+static double candidate(const ch_cut_out *o, const vertex_fans *f, int v, int slabbed, int *crosses) {
+  int n = f->count[v], cross = 0;
+  *crosses = 0;
   if (n < 3 || n > 32) return INFINITY;
   const int *ts = fan(f, v);
   uint64_t group = o->group[ts[0]];
   if (!plain(group)) return INFINITY;
   const double *uv0 = ch_cut_out_uv(o, 3 * (size_t)ts[0] + (size_t)corner_of(o, ts[0], v)),
                *pv = &o->pos[3 * (size_t)v];
-  int next[32], prev[32];
+  /* (prev padded to whole vectors with -1, no vertex, for the count) */
+  int next[32], prev[32], n4 = (n + 3) & ~3;
   double shortest = INFINITY;
   for (int i = 0; i < n; i++) {
-    int t = ts[i], k = corner_of(o, t, v);
+    int t = ts[i];
+    const int *c = &o->tri[3 * (size_t)t];
+    int k = c[0] == v ? 0 : c[1] == v ? 1 : 2; /* (v is one of them) */
     if (o->group[t] != group) return INFINITY;
     const double *uv = ch_cut_out_uv(o, 3 * (size_t)t + (size_t)k);
     if (uv[0] != uv0[0] || uv[1] != uv0[1]) return INFINITY;
-    next[i] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
-    prev[i] = o->tri[3 * (size_t)t + (size_t)(k + 2) % 3];
-    if (slabbed && f->region[next[i]] != f->region[v]) return INFINITY;
+    next[i] = c[k == 2 ? 0 : k + 1];
+    prev[i] = c[k == 0 ? 2 : k - 1];
+    if (f->region[next[i]] != f->region[v]) {
+      cross = 1;
+      if (slabbed) {
+        *crosses = 1;
+        return INFINITY;
+      }
+    }
     double d = dist2(pv, &o->pos[3 * (size_t)next[i]]);
     shortest = d < shortest ? d : shortest;
   }
+  for (int j = n; j < n4; j++) prev[j] = -1;
   for (int i = 0; i < n; i++) {
-    int m = 0;
-    for (int j = 0; j < n; j++) m += prev[j] == next[i];
+    int m = 0, w = next[i];
+#pragma omp simd reduction(+ : m)
+    for (int j = 0; j < n4; j++) m += prev[j] == w;
     if (m != 1) return INFINITY;
   }
+  *crosses = cross;
   return shortest;
+}
+
+/* Vertex v's shortest edge squared and *crosses as candidate() finds
+ * them, where v is one. */
+static double shortest_edge(const ch_cut_out *o, const vertex_fans *f, int v, int *crosses) {
+  const int *ts = fan(f, v);
+  const double *p = &o->pos[3 * (size_t)v];
+  double shortest = INFINITY;
+  int cross = 0;
+  for (int i = 0; i < f->count[v]; i++) {
+    const int *c = &o->tri[3 * (size_t)ts[i]];
+    int w = c[c[0] == v ? 1 : c[1] == v ? 2 : 0];
+    cross |= f->region[w] != f->region[v];
+    double d = dist2(p, &o->pos[3 * (size_t)w]);
+    shortest = d < shortest ? d : shortest;
+  }
+  *crosses = cross;
+  return shortest;
+}
+
+/* Whether a neighbour of v (a candidate: its fan closed) is in another
+ * slab: candidate()'s *crosses. */
+static int crosses_slab(const ch_cut_out *o, const vertex_fans *f, int v) {
+  const int *ts = fan(f, v);
+  for (int i = 0; i < f->count[v]; i++) {
+    const int *c = &o->tri[3 * (size_t)ts[i]];
+    int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+    if (f->region[c[k == 2 ? 0 : k + 1]] != f->region[v]) return 1;
+  }
+  return 0;
 }
 
 /* Drops triangle t from vertex w's fan (keeping its order). */
@@ -501,11 +554,16 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
 
 /* The collapse candidates, an indexed min-heap by (length2, v): at[v] is
  * v's place in it, -1 when out (not a candidate, or no collapse allowed
- * until its fan changes). A vertex's key changes in place. */
+ * until its fan changes). A vertex's key changes in place. unslabbed
+ * keeps candidate() of every vertex as its fan is now, its slab aside
+ * (NAN: not known, a neighbour was in another slab): only a collapse's
+ * vertex and its neighbours change it, so with the next phase's slabs
+ * the others need only their neighbours' slabs read. */
 typedef struct cand_heap {
-  double *length2; /* per vertex */
-  int *at;         /* per vertex */
-  int *v;          /* the heap */
+  double *length2;   /* per vertex */
+  double *unslabbed; /* per vertex */
+  int *at;           /* per vertex */
+  int *v;            /* the heap */
   int n;
 } cand_heap;
 
@@ -583,8 +641,8 @@ static long coarsen_region(ch_cut_out *o, vertex_fans *f, cand_heap *heap, int *
     double ls[32];
     const int *tv = fan(f, v);
     for (int a = 0; a < n; a++) {
-      int t = tv[a], k = corner_of(o, t, v);
-      us[a] = o->tri[3 * (size_t)t + (size_t)(k + 1) % 3];
+      const int *c = &o->tri[3 * (size_t)tv[a]];
+      us[a] = c[c[0] == v ? 1 : c[1] == v ? 2 : 0];
       ls[a] = dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)us[a]]);
     }
     for (int a = 1; a < n; a++)
@@ -597,12 +655,38 @@ static long coarsen_region(ch_cut_out *o, vertex_fans *f, cand_heap *heap, int *
     for (int a = 0; a < n && u < 0; a++)
       if (collapse_ok(o, f, v, us[a])) u = us[a];
     if (u < 0) continue; /* (weighed again if its fan changes) */
+    /* v's neighbours in none of u's triangles keep their triangles, UVs
+     * and fan structure, with u in v's place (a name they did not hold):
+     * of candidate() only their edges change */
+    unsigned char renamed[32];
+    const int *tu = fan(f, u);
+    for (int a = 0; a < n; a++) {
+      int w = us[a], held = w == u;
+      for (int j = 0; j < f->count[u] && !held; j++) {
+        const int *c = &o->tri[3 * (size_t)tu[j]];
+        held = c[0] == w || c[1] == w || c[2] == w;
+      }
+      renamed[a] = !held;
+    }
     int gone = collapse_apply(o, f, v, u);
     if (gone < 0) return -1;
     removed += gone;
     remap[v] = -1;
+    heap->unslabbed[v] = INFINITY; /* (its fan is empty) */
     /* v's neighbours (u among them): their fans or edges changed */
-    for (int a = 0; a < n; a++) heap_set(heap, us[a], candidate(o, f, us[a], 1));
+    for (int a = 0; a < n; a++) {
+      int w = us[a], cross;
+      double l = heap->unslabbed[w];
+      if (renamed[a] && !isnan(l)) {
+        if (!(l < INFINITY)) continue; /* (no candidate before, none now) */
+        l = heap->unslabbed[w] = shortest_edge(o, f, w, &cross);
+        heap_set(heap, w, cross ? INFINITY : l);
+      } else {
+        l = candidate(o, f, w, 1, &cross);
+        heap->unslabbed[w] = cross ? NAN : l;
+        heap_set(heap, w, l);
+      }
+    }
   }
   return removed;
 }
@@ -611,11 +695,11 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
   long removed = 0;
   size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
   vertex_fans f = {0};
-  double *length2 = malloc(np * sizeof *length2);
+  double *length2 = malloc(np * sizeof *length2), *unslabbed = malloc(np * sizeof *unslabbed);
   int *at = malloc(np * sizeof *at), *heap_v = malloc(np * sizeof *heap_v);
   int *remap = malloc(np * sizeof *remap);
   double *lengths = malloc(np * sizeof *lengths);
-  if (!length2 || !at || !heap_v || !remap || !lengths || fans_build(o, &f)) {
+  if (!length2 || !unslabbed || !at || !heap_v || !remap || !lengths || fans_build(o, &f)) {
     removed = -1;
     goto done;
   }
@@ -634,16 +718,22 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
     long blocked = 0; /* candidates but for their slab */
 #pragma omp parallel for schedule(static) reduction(+ : blocked)
     for (int v = 0; v < o->npos; v++) {
-      length2[v] = candidate(o, &f, v, 1);
+      if (phase == 0 || isnan(unslabbed[v])) {
+        int cross;
+        unslabbed[v] = candidate(o, &f, v, 0, &cross);
+        blocked += cross && unslabbed[v] < INFINITY;
+        length2[v] = cross ? INFINITY : unslabbed[v];
+      } else {
+        length2[v] = unslabbed[v] < INFINITY && !crosses_slab(o, &f, v) ? unslabbed[v] : INFINITY;
+      }
       at[v] = -1;
-      if (phase == 0 && !(length2[v] < INFINITY)) blocked += candidate(o, &f, v, 0) < INFINITY;
     }
     /* Each slab's heap in its own part of heap_v. */
     cand_heap heap[COARSEN_REGIONS];
     long in_region[COARSEN_REGIONS] = {0}, candidates = 0;
     for (int v = 0; v < o->npos; v++) in_region[f.region[v]]++;
     for (int r = 0, first = 0; r < COARSEN_REGIONS; r++) {
-      heap[r] = (cand_heap){.length2 = length2, .at = at, .v = heap_v + first, .n = 0};
+      heap[r] = (cand_heap){.length2 = length2, .unslabbed = unslabbed, .at = at, .v = heap_v + first, .n = 0};
       first += (int)in_region[r];
     }
     for (int v = 0; v < o->npos; v++)
@@ -725,7 +815,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
     o->ntri = nt;
   }
 done:
-  free(length2), free(at), free(heap_v), free(remap), free(lengths);
+  free(length2), free(unslabbed), free(at), free(heap_v), free(remap), free(lengths);
   fans_free(&f);
   return removed;
 }
