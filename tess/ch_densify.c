@@ -13,6 +13,7 @@
  * neighbour that keeps its place on the surface, where the link condition
  * holds (Dey et al. 1999) and no triangle turns over. */
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -300,24 +301,92 @@ static void assign_slabs(const ch_cut_out *o, vertex_fans *f, double shift) {
   }
 }
 
+/* Below this many corners per thread the threads' counts cost more than
+ * they save (as in ch_sort_buckets). */
+enum { FAN_CORNERS_PER_THREAD = 1 << 16 };
+
 static int fans_build(const ch_cut_out *o, vertex_fans *f) {
-  size_t n = 3 * (size_t)o->ntri;
-  f->start = malloc(((size_t)o->npos + 1) * sizeof *f->start);
-  f->count = malloc(((size_t)o->npos + 1) * sizeof *f->count);
+  size_t n = 3 * (size_t)o->ntri, np = (size_t)(o->npos > 0 ? o->npos : 0);
+  size_t nb = (size_t)omp_get_max_threads();
+  if (nb > n / FAN_CORNERS_PER_THREAD) nb = n / FAN_CORNERS_PER_THREAD;
+  if (nb < 1) nb = 1;
+  f->start = malloc((np + 1) * sizeof *f->start);
+  f->count = malloc((np + 1) * sizeof *f->count);
   f->tri = ch_alloc_large(n ? n : 1, sizeof *f->tri, 0);
-  f->region = malloc((size_t)o->npos + 1);
-  f->store = malloc((size_t)o->npos + 1);
-  if (!f->start || !f->count || !f->tri || !f->region || !f->store) return -1;
-  /* Corners by vertex in corner order: each vertex's triangles in order. */
-  if (ch_sort_buckets(o->tri, n, o->npos, f->start, f->tri)) return -1;
-#pragma omp parallel for schedule(static)
-  for (size_t c = 0; c < n; c++) f->tri[c] /= 3;
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < o->npos; v++) f->count[v] = f->start[v + 1] - f->start[v];
+  f->region = malloc(np + 1);
+  f->store = malloc(np + 1);
+  /* at[b * np + v]: range b's corners of vertex v, then where range b
+   * puts its first one */
+  int *at = calloc(nb * np + 1, sizeof *at);
+  if (!f->start || !f->count || !f->tri || !f->region || !f->store || !at) {
+    free(at);
+    return -1;
+  }
+  /* Triangles by vertex in triangle order: a counting sort of the
+   * corners, as ch_sort_buckets, that writes the triangle (not the
+   * corner) and sums the vertices' counts in parallel. */
+  size_t nt = (size_t)o->ntri;
+#pragma omp parallel for schedule(static, 1) num_threads((int)nb)
+  for (size_t b = 0; b < nb; b++) {
+    int *c = &at[b * np];
+    for (size_t i = 3 * (b * nt / nb), i1 = 3 * ((b + 1) * nt / nb); i < i1; i++) c[o->tri[i]]++;
+  }
+  int nth = omp_get_max_threads(), *part = calloc((size_t)nth + 1, sizeof *part);
+  if (!part) {
+    free(at);
+    return -1;
+  }
+  /* The slabs: along the longest side of the positions' box (ch_box3's,
+   * found here in parallel: a NaN is passed over as fmin does). */
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+#pragma omp parallel num_threads(nth)
+  {
+    /* each thread its block of vertices: their counts and box, then
+     * (after the blocks' sums) their starts */
+    int th = omp_get_thread_num(), nth_ = omp_get_num_threads();
+    size_t v0 = (size_t)th * np / (size_t)nth_, v1 = (size_t)(th + 1) * np / (size_t)nth_;
+    int sum = 0;
+    double l[3] = {INFINITY, INFINITY, INFINITY}, h[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = v0; v < v1; v++) {
+      int c = 0;
+      for (size_t b = 0; b < nb; b++) c += at[b * np + v];
+      f->count[v] = c;
+      sum += c;
+      for (int k = 0; k < 3; k++) {
+        double x = o->pos[3 * v + (size_t)k];
+        l[k] = x < l[k] ? x : l[k];
+        h[k] = x > h[k] ? x : h[k];
+      }
+    }
+    part[th + 1] = sum;
+#pragma omp critical
+    for (int k = 0; k < 3; k++) {
+      lo[k] = l[k] < lo[k] ? l[k] : lo[k];
+      hi[k] = h[k] > hi[k] ? h[k] : hi[k];
+    }
+#pragma omp barrier
+#pragma omp single
+    for (int k = 0; k < nth_; k++) part[k + 1] += part[k];
+    int s = part[th];
+    for (size_t v = v0; v < v1; v++) {
+      f->start[v] = s;
+      for (size_t b = 0; b < nb; b++) {
+        int c = at[b * np + v];
+        at[b * np + v] = s;
+        s += c;
+      }
+    }
+  }
+  f->start[np] = (int)n;
+  free(part);
+#pragma omp parallel for schedule(static, 1) num_threads((int)nb)
+  for (size_t b = 0; b < nb; b++) {
+    int *c = &at[b * np];
+    for (size_t t = b * nt / nb, t1 = (b + 1) * nt / nb; t < t1; t++)
+      for (int k = 0; k < 3; k++) f->tri[c[o->tri[3 * t + (size_t)k]]++] = (int)t;
+  }
+  free(at);
   f->len = n;
-  /* The slabs: along the longest side of the positions' box. */
-  double lo[3], hi[3];
-  ch_box3(o->pos, (size_t)(o->npos > 0 ? o->npos : 0), lo, hi);
   int axis = 0;
   for (int k = 1; k < 3; k++)
     if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
