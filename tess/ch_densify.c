@@ -621,50 +621,65 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
   return removed;
 }
 
-/* The collapse candidates, an indexed min-heap by (length2, v): at[v] is
- * v's place in it, -1 when out (not a candidate, or no collapse allowed
- * until its fan changes). A vertex's key changes in place. unslabbed
- * keeps candidate() of every vertex as its fan is now, its slab aside
- * (NAN: not known, a neighbour was in another slab): only a collapse's
- * vertex and its neighbours change it, so with the next phase's slabs
- * the others need only their neighbours' slabs read. */
+/* The collapse candidates, an indexed 4-ary min-heap by (length2, v),
+ * the keys in it (read in place, not through the vertex): at[v] is v's
+ * place in it, -1 when out (not a candidate, or no collapse allowed until
+ * its fan changes). A vertex's key changes in place. The keys are
+ * distinct, so any heap of them takes the vertices out in the same order.
+ * unslabbed keeps candidate() of every vertex as its fan is now, its slab
+ * aside (NAN: not known, a neighbour was in another slab): only a
+ * collapse's vertex and its neighbours change it, so with the next
+ * phase's slabs the others need only their neighbours' slabs read. */
+typedef struct cand_item {
+  double length2;
+  int v;
+} cand_item;
+
 typedef struct cand_heap {
-  double *length2;   /* per vertex */
+  cand_item *e;      /* the heap */
   double *unslabbed; /* per vertex */
   int *at;           /* per vertex */
-  int *v;            /* the heap */
   int n;
 } cand_heap;
 
-static int heap_less(const cand_heap *h, int a, int b) {
-  return h->length2[a] < h->length2[b] || (h->length2[a] == h->length2[b] && a < b);
+static int item_less(cand_item a, cand_item b) {
+  return a.length2 < b.length2 || (a.length2 == b.length2 && a.v < b.v);
 }
 
-static void heap_place(cand_heap *h, int i, int v) {
-  h->v[i] = v;
-  h->at[v] = i;
+static void heap_place(cand_heap *h, int i, cand_item x) {
+  h->e[i] = x;
+  h->at[x.v] = i;
 }
 
-static void heap_up(cand_heap *h, int i) {
-  int v = h->v[i];
-  while (i > 0 && heap_less(h, v, h->v[(i - 1) / 2])) {
-    heap_place(h, i, h->v[(i - 1) / 2]);
-    i = (i - 1) / 2;
+/* Puts x at place i or above (the places above i hold no larger key). */
+static void heap_up(cand_heap *h, int i, cand_item x) {
+  while (i > 0 && item_less(x, h->e[(i - 1) / 4])) {
+    heap_place(h, i, h->e[(i - 1) / 4]);
+    i = (i - 1) / 4;
   }
-  heap_place(h, i, v);
+  heap_place(h, i, x);
 }
 
-static void heap_down(cand_heap *h, int i) {
-  int v = h->v[i];
+/* Puts x at place i or below. */
+static void heap_down(cand_heap *h, int i, cand_item x) {
   for (;;) {
-    int l = 2 * i + 1, m = -1;
-    if (l < h->n) m = l;
-    if (l + 1 < h->n && heap_less(h, h->v[l + 1], h->v[l])) m = l + 1;
-    if (m < 0 || !heap_less(h, h->v[m], v)) break;
-    heap_place(h, i, h->v[m]);
+    int c = 4 * i + 1, m = c, end = c + 4 < h->n ? c + 4 : h->n;
+    if (c >= h->n) break;
+    for (int j = c + 1; j < end; j++)
+      if (item_less(h->e[j], h->e[m])) m = j;
+    if (!item_less(h->e[m], x)) break;
+    heap_place(h, i, h->e[m]);
     i = m;
   }
-  heap_place(h, i, v);
+  heap_place(h, i, x);
+}
+
+/* Puts x at place i, up or down from there. */
+static void heap_fix(cand_heap *h, int i, cand_item x) {
+  if (i > 0 && item_less(x, h->e[(i - 1) / 4]))
+    heap_up(h, i, x);
+  else
+    heap_down(h, i, x);
 }
 
 /* Takes v out of the heap (if in). */
@@ -673,10 +688,7 @@ static void heap_remove(cand_heap *h, int v) {
   if (i < 0) return;
   h->at[v] = -1;
   if (i == --h->n) return;
-  int w = h->v[h->n]; /* the last, in v's place: up or down from there */
-  heap_place(h, i, w);
-  heap_up(h, i);
-  heap_down(h, h->at[w]);
+  heap_fix(h, i, h->e[h->n]); /* the last, in v's place */
 }
 
 /* Sets v's key (INFINITY: out of the heap). */
@@ -685,14 +697,11 @@ static void heap_set(cand_heap *h, int v, double length2) {
     heap_remove(h, v);
     return;
   }
-  h->length2[v] = length2;
-  if (h->at[v] < 0) {
-    heap_place(h, h->n++, v);
-    heap_up(h, h->n - 1);
-  } else {
-    heap_up(h, h->at[v]);
-    heap_down(h, h->at[v]);
-  }
+  cand_item x = {length2, v};
+  if (h->at[v] < 0)
+    heap_up(h, h->n++, x);
+  else
+    heap_fix(h, h->at[v], x);
 }
 
 /* Slab r's greedy order until it has removed `budget` triangles (less
@@ -703,7 +712,7 @@ static void heap_set(cand_heap *h, int v, double length2) {
 static long coarsen_region(ch_cut_out *o, vertex_fans *f, cand_heap *heap, int *remap, long budget) {
   long removed = 0;
   while (removed + 1 < budget && heap->n > 0) {
-    int v = heap->v[0];
+    int v = heap->e[0].v;
     heap_remove(heap, v);
     /* its edges shortest first (ties: the lower vertex), the first allowed */
     int n = f->count[v], us[32], u = -1;
@@ -765,10 +774,11 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
   size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
   vertex_fans f = {0};
   double *length2 = malloc(np * sizeof *length2), *unslabbed = malloc(np * sizeof *unslabbed);
-  int *at = malloc(np * sizeof *at), *heap_v = malloc(np * sizeof *heap_v);
+  int *at = malloc(np * sizeof *at);
+  cand_item *items = malloc(np * sizeof *items);
   int *remap = malloc(np * sizeof *remap);
   double *lengths = malloc(np * sizeof *lengths);
-  if (!length2 || !unslabbed || !at || !heap_v || !remap || !lengths || fans_build(o, &f)) {
+  if (!length2 || !unslabbed || !at || !items || !remap || !lengths || fans_build(o, &f)) {
     removed = -1;
     goto done;
   }
@@ -797,18 +807,18 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
       }
       at[v] = -1;
     }
-    /* Each slab's heap in its own part of heap_v. */
+    /* Each slab's heap in its own part of items. */
     cand_heap heap[COARSEN_REGIONS];
     long in_region[COARSEN_REGIONS] = {0}, candidates = 0;
     for (int v = 0; v < o->npos; v++) in_region[f.region[v]]++;
     for (int r = 0, first = 0; r < COARSEN_REGIONS; r++) {
-      heap[r] = (cand_heap){.length2 = length2, .unslabbed = unslabbed, .at = at, .v = heap_v + first, .n = 0};
+      heap[r] = (cand_heap){.e = items + first, .unslabbed = unslabbed, .at = at, .n = 0};
       first += (int)in_region[r];
     }
     for (int v = 0; v < o->npos; v++)
-      if (length2[v] < INFINITY) heap_place(&heap[f.region[v]], heap[f.region[v]].n++, v);
+      if (length2[v] < INFINITY) heap_place(&heap[f.region[v]], heap[f.region[v]].n++, (cand_item){length2[v], v});
     for (int r = 0; r < COARSEN_REGIONS; r++) {
-      for (int i = heap[r].n / 2; i-- > 0;) heap_down(&heap[r], i);
+      for (int i = heap[r].n > 1 ? (heap[r].n - 2) / 4 + 1 : 0; i-- > 0;) heap_down(&heap[r], i, heap[r].e[i]);
       candidates += heap[r].n;
     }
     /* The first slabs leave the share of the vertices on their borders to
@@ -828,11 +838,11 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
        * over all would collapse first (a collapse takes two triangles). */
       long k = left / 2 < candidates ? left / 2 : candidates;
       for (long i = 0, r = 0; r < COARSEN_REGIONS; r++)
-        for (int j = 0; j < heap[r].n; j++) lengths[i++] = length2[heap[r].v[j]];
+        for (int j = 0; j < heap[r].n; j++) lengths[i++] = heap[r].e[j].length2;
       double cut = k > 0 ? ch_sort_select(lengths, candidates, k - 1) : -INFINITY;
       for (int r = 0; r < COARSEN_REGIONS; r++) {
         long below = 0;
-        for (int j = 0; j < heap[r].n; j++) below += length2[heap[r].v[j]] <= cut;
+        for (int j = 0; j < heap[r].n; j++) below += heap[r].e[j].length2 <= cut;
         share[r] = 2 * below;
         given += share[r];
       }
@@ -884,7 +894,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
     o->ntri = nt;
   }
 done:
-  free(length2), free(unslabbed), free(at), free(heap_v), free(remap), free(lengths);
+  free(length2), free(unslabbed), free(at), free(items), free(remap), free(lengths);
   fans_free(&f);
   return removed;
 }
