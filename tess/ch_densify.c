@@ -425,45 +425,52 @@ static void uv_areas(const ch_cut_out *o, int t, int k, const double uv[2], doub
  * u and v share exactly the two neighbours across edge u-v (the link
  * condition), and every triangle left keeps its UV orientation and turns
  * its normal by under 20 degrees. (The tests read only: the one that
- * fails most, the UV orientation, goes first.) */
-static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
+ * fails most, the UV orientation, goes first.) kv[i]: v's corner in its
+ * i-th triangle. Bit i of *on_edge: that triangle holds u (it would go);
+ * where the collapse is allowed, bit i of *held: u's triangles hold its
+ * next corner (not u). */
+static int collapse_ok(const ch_cut_out *o, const vertex_fans *f, int v, int u, const int *kv, uint32_t *on_edge,
+                       uint32_t *held) {
   int nv = f->count[v], nu = f->count[u], shared = 0;
   const int *tv = fan(f, v), *tu = fan(f, u);
   const double *uvu = NULL;
-  for (int i = 0; i < nv && !uvu; i++) {
-    int k = corner_of(o, tv[i], u);
-    if (k >= 0) uvu = ch_cut_out_uv(o, 3 * (size_t)tv[i] + (size_t)k);
+  *on_edge = 0;
+  for (int i = 0; i < nv; i++) {
+    const int *c = &o->tri[3 * (size_t)tv[i]];
+    int k = kv[i];
+    if (c[k == 2 ? 0 : k + 1] == u || c[k == 0 ? 2 : k - 1] == u) {
+      *on_edge |= (uint32_t)1 << i;
+      if (!uvu) uvu = ch_cut_out_uv(o, 3 * (size_t)tv[i] + (size_t)corner_of(o, tv[i], u));
+    }
   }
   if (!uvu) return 0;
   for (int i = 0; i < nv; i++) {
-    int t = tv[i];
-    if (corner_of(o, t, u) >= 0) continue; /* removed */
+    if (*on_edge >> i & 1) continue;
     double before, after;
-    uv_areas(o, t, corner_of(o, t, v), uvu, &before, &after);
+    uv_areas(o, tv[i], kv[i], uvu, &before, &after);
     if (!(after > 1e-3 * before)) return 0;
   }
   /* v's neighbours (its fan is closed: each is one triangle's next
    * corner), and how many of them u's triangles hold */
+  *held = 0;
   for (int i = 0; i < nv; i++) {
-    const int *c = &o->tri[3 * (size_t)tv[i]];
-    int w = c[c[0] == v ? 1 : c[1] == v ? 2 : 0];
+    int k = kv[i], w = o->tri[3 * (size_t)tv[i] + (size_t)(k == 2 ? 0 : k + 1)];
     if (w == u) continue;
     for (int j = 0; j < nu; j++) {
       const int *d = &o->tri[3 * (size_t)tu[j]];
       if (d[0] == w || d[1] == w || d[2] == w) {
         shared++;
+        *held |= (uint32_t)1 << i;
         break;
       }
     }
   }
   if (shared != 2) return 0;
   for (int i = 0; i < nv; i++) {
-    int t = tv[i];
-    if (corner_of(o, t, u) >= 0) continue;
-    int k = corner_of(o, t, v);
+    if (*on_edge >> i & 1) continue;
     double n0[3], n1[3];
-    tri_normal(o, t, -1, 0, n0);
-    tri_normal(o, t, k, u, n1);
+    tri_normal(o, tv[i], -1, 0, n0);
+    tri_normal(o, tv[i], kv[i], u, n1);
     if (!(ch_dot3(n0, n1) > 0.94 * sqrt(ch_dot3(n0, n0) * ch_dot3(n1, n1)))) return 0;
   }
   return 1;
@@ -555,25 +562,20 @@ static void fan_drop(vertex_fans *f, int w, int t) {
   f->count[w] = j;
 }
 
-/* How many fan entries collapse_apply appends for v into u: u's fan and
- * v's kept triangles, less the triangles on edge u-v (which leave u's fan
- * too). */
-static size_t collapse_appends(const ch_cut_out *o, const vertex_fans *f, int v, int u) {
-  int on_edge = 0;
-  const int *tv = fan(f, v);
-  for (int j = 0; j < f->count[v]; j++) on_edge += corner_of(o, tv[j], u) >= 0;
-  return (size_t)(f->count[u] - on_edge) + (size_t)(f->count[v] - on_edge);
-}
-
 /* Collapses v into u: the two triangles on edge u-v go (first corner -1,
  * out of their corners' fans), v's others take u (and its UV in this
  * chart) in v's place and join u's fan, in triangle order, in u's slab's
- * store. Returns the triangles removed, -1 when out of memory. Touches
- * only v's fan, its triangles and its neighbours' fans. */
-static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
+ * store. kv and on_edge: collapse_ok's. Returns the triangles removed, -1
+ * when out of memory. Touches only v's fan, its triangles and its
+ * neighbours' fans. */
+static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u, const int *kv, uint32_t on_edge) {
   int in = (f->phase & 1) * COARSEN_REGIONS + f->region[u];
   fan_store *store = &f->more[in];
-  size_t need = collapse_appends(o, f, v, u), at = store->len;
+  int nv = f->count[v], ne = 0;
+  for (int j = 0; j < nv; j++) ne += on_edge >> j & 1;
+  /* u's fan and v's kept triangles, less those on edge u-v (which leave
+   * u's fan too) */
+  size_t need = (size_t)(f->count[u] - ne) + (size_t)(nv - ne), at = store->len;
   if (at + need > store->cap) { /* (before any pointer into the store is taken) */
     size_t cap = (at + need) + (at + need) / 2 + 1024;
     if (f->len + cap >= INT32_MAX) return -1;
@@ -582,20 +584,18 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
     store->tri = p;
     store->cap = cap;
   }
-  int nv = f->count[v], removed = 0;
+  int removed = 0;
   const int *tv = fan(f, v);
-  int ref = 0, found = 0; /* u's UV in this chart: its corner_uv entry */
-  for (int j = 0; j < nv && !found; j++) {
-    int k = corner_of(o, tv[j], u);
-    if (k >= 0) {
-      ref = o->corner_uv[3 * (size_t)tv[j] + (size_t)k];
-      found = 1;
+  int ref = 0; /* u's UV in this chart: its corner_uv entry */
+  for (int j = 0; j < nv; j++)
+    if (on_edge >> j & 1) {
+      ref = o->corner_uv[3 * (size_t)tv[j] + (size_t)corner_of(o, tv[j], u)];
+      break;
     }
-  }
   int kept[32], nk = 0;
   for (int j = 0; j < nv; j++) {
     int t = tv[j];
-    if (corner_of(o, t, u) >= 0) {
+    if (on_edge >> j & 1) {
       for (int a = 0; a < 3; a++) {
         int w = o->tri[3 * (size_t)t + a];
         if (w != v) fan_drop(f, w, t);
@@ -604,9 +604,8 @@ static int collapse_apply(ch_cut_out *o, vertex_fans *f, int v, int u) {
       removed++;
       continue;
     }
-    int k = corner_of(o, t, v);
-    o->tri[3 * (size_t)t + k] = u;
-    o->corner_uv[3 * (size_t)t + (size_t)k] = ref;
+    o->tri[3 * (size_t)t + kv[j]] = u;
+    o->corner_uv[3 * (size_t)t + (size_t)kv[j]] = ref;
     kept[nk++] = t;
   }
   /* u's fan and v's kept triangles, merged in triangle order */
@@ -714,49 +713,54 @@ static long coarsen_region(ch_cut_out *o, vertex_fans *f, cand_heap *heap, int *
   while (removed + 1 < budget && heap->n > 0) {
     int v = heap->e[0].v;
     heap_remove(heap, v);
-    /* its edges shortest first (ties: the lower vertex), the first allowed */
-    int n = f->count[v], us[32], u = -1;
+    /* its edges shortest first (ties: the lower vertex), the first
+     * allowed; ia: where each is in v's fan, kv: v's corner there */
+    int n = f->count[v], us[32], ia[32], kv[32], u = -1;
+    uint32_t on_edge = 0, held = 0;
     double ls[32];
     const int *tv = fan(f, v);
     for (int a = 0; a < n; a++) {
       const int *c = &o->tri[3 * (size_t)tv[a]];
-      us[a] = c[c[0] == v ? 1 : c[1] == v ? 2 : 0];
+      kv[a] = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+      us[a] = c[kv[a] == 2 ? 0 : kv[a] + 1];
       ls[a] = dist2(&o->pos[3 * (size_t)v], &o->pos[3 * (size_t)us[a]]);
+      ia[a] = a;
     }
     for (int a = 1; a < n; a++)
       for (int b = a; b > 0 && (ls[b] < ls[b - 1] || (ls[b] == ls[b - 1] && us[b] < us[b - 1])); b--) {
         double tl = ls[b];
-        int tu = us[b];
-        ls[b] = ls[b - 1], us[b] = us[b - 1];
-        ls[b - 1] = tl, us[b - 1] = tu;
+        int tu = us[b], ti = ia[b];
+        ls[b] = ls[b - 1], us[b] = us[b - 1], ia[b] = ia[b - 1];
+        ls[b - 1] = tl, us[b - 1] = tu, ia[b - 1] = ti;
       }
     for (int a = 0; a < n && u < 0; a++)
-      if (collapse_ok(o, f, v, us[a])) u = us[a];
+      if (collapse_ok(o, f, v, us[a], kv, &on_edge, &held)) u = us[a];
     if (u < 0) continue; /* (weighed again if its fan changes) */
-    /* v's neighbours in none of u's triangles keep their triangles, UVs
-     * and fan structure, with u in v's place (a name they did not hold):
-     * of candidate() only their edges change */
-    unsigned char renamed[32];
-    const int *tu = fan(f, u);
-    for (int a = 0; a < n; a++) {
-      int w = us[a], held = w == u;
-      for (int j = 0; j < f->count[u] && !held; j++) {
-        const int *c = &o->tri[3 * (size_t)tu[j]];
-        held = c[0] == w || c[1] == w || c[2] == w;
-      }
-      renamed[a] = !held;
-    }
-    int gone = collapse_apply(o, f, v, u);
+    int gone = collapse_apply(o, f, v, u, kv, on_edge);
     if (gone < 0) return -1;
     removed += gone;
     remap[v] = -1;
     heap->unslabbed[v] = INFINITY; /* (its fan is empty) */
-    /* v's neighbours (u among them): their fans or edges changed */
+    /* v's neighbours (u among them): their fans or edges changed. Those
+     * in none of u's triangles (collapse_ok's *held) keep their
+     * triangles, UVs and fan structure, with u in v's place (a name they
+     * did not hold): of candidate() only their edges change, and only
+     * their edge to v (v is the next corner of one of their triangles:
+     * each is the previous corner of one of v's), now to u. */
     for (int a = 0; a < n; a++) {
       int w = us[a], cross;
       double l = heap->unslabbed[w];
-      if (renamed[a] && !isnan(l)) {
+      if (w != u && !(held >> ia[a] & 1) && !isnan(l)) {
         if (!(l < INFINITY)) continue; /* (no candidate before, none now) */
+        const double *pw = &o->pos[3 * (size_t)w];
+        if (heap->at[w] >= 0 && l < dist2(pw, &o->pos[3 * (size_t)v])) {
+          /* (in the heap: its slab holds its neighbours) the shortest is
+           * another edge, still there */
+          double d = dist2(pw, &o->pos[3 * (size_t)u]);
+          l = heap->unslabbed[w] = d < l ? d : l;
+          heap_set(heap, w, l);
+          continue;
+        }
         l = heap->unslabbed[w] = shortest_edge(o, f, w, &cross);
         heap_set(heap, w, cross ? INFINITY : l);
       } else {
