@@ -777,6 +777,65 @@ static long coarsen_region(ch_cut_out *o, vertex_fans *f, cand_heap *heap, int *
   return removed;
 }
 
+/* The triangles' blocks in the compaction: each gathers its kept ones from
+ * where those of the blocks before it end (the same on any number of
+ * threads). */
+enum { COMPACT_BLOCKS = 256 };
+
+static size_t block_at(size_t n, int b) { return (size_t)b * n / COMPACT_BLOCKS; }
+
+/* Drops the removed vertices (remap < 0) and triangles (first corner < 0),
+ * keeping the order; remap becomes the vertices' new indices. Each in
+ * place on one thread, side by side: the vertices (ch_cut_out_move_vertex),
+ * and the triangles' groups and UV references with where each block's
+ * kept triangles start; then all threads gather the triangles, their
+ * corners renumbered, into the fans' array (a gather in place on several
+ * threads would overwrite what another has still to read). Two parallel
+ * regions: on a busy machine each costs about a time slice. */
+static void compact(ch_cut_out *o, vertex_fans *f, int *remap) {
+  size_t np = (size_t)o->npos, nt = (size_t)o->ntri;
+  int nv = 0, toff[COMPACT_BLOCKS + 1];
+#pragma omp parallel sections
+  {
+#pragma omp section
+    for (size_t v = 0; v < np; v++)
+      if (remap[v] >= 0) {
+        remap[v] = nv;
+        ch_cut_out_move_vertex(o, nv++, (int)v);
+      }
+#pragma omp section
+    {
+      size_t to = 0;
+      toff[0] = 0;
+      for (int b = 0; b < COMPACT_BLOCKS; b++) {
+        for (size_t t = block_at(nt, b); t < block_at(nt, b + 1); t++) {
+          if (o->tri[3 * t] < 0) continue;
+          if (to != t) {
+            o->group[to] = o->group[t];
+            memcpy(&o->corner_uv[3 * to], &o->corner_uv[3 * t], 3 * sizeof *o->corner_uv);
+          }
+          to++;
+        }
+        toff[b + 1] = (int)to;
+      }
+    }
+  }
+  int *tri = f->tri;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < COMPACT_BLOCKS; b++)
+    for (size_t t = block_at(nt, b), to = (size_t)toff[b]; t < block_at(nt, b + 1); t++)
+      if (o->tri[3 * t] >= 0) {
+        for (int k = 0; k < 3; k++) tri[3 * to + (size_t)k] = remap[o->tri[3 * t + (size_t)k]];
+        to++;
+      }
+  free(o->tri);
+  o->tri = tri;
+  f->tri = NULL;        /* (now o's) */
+  o->cap_tri = o->ntri; /* (what the fans' array holds) */
+  o->npos = nv;
+  o->ntri = toff[COMPACT_BLOCKS];
+}
+
 long ch_cut_coarsen(ch_cut_out *o, long fewer) {
   long removed = 0;
   size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
@@ -881,27 +940,7 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
       removed += got;
     }
   }
-  {
-    /* Compact: vertices in order, triangles in order. */
-    int nv = 0;
-    for (int v = 0; v < o->npos; v++) {
-      if (remap[v] < 0) continue;
-      remap[v] = nv;
-      ch_cut_out_move_vertex(o, nv++, v);
-    }
-    int nt = 0;
-    for (int t = 0; t < o->ntri; t++) {
-      if (o->tri[3 * (size_t)t] < 0) continue;
-      for (int k = 0; k < 3; k++) o->tri[3 * (size_t)nt + k] = remap[o->tri[3 * (size_t)t + k]];
-      if (nt != t) {
-        o->group[nt] = o->group[t];
-        memcpy(&o->corner_uv[3 * (size_t)nt], &o->corner_uv[3 * (size_t)t], 3 * sizeof *o->corner_uv);
-      }
-      nt++;
-    }
-    o->npos = nv;
-    o->ntri = nt;
-  }
+  compact(o, &f, remap);
 done:
   free(length2), free(unslabbed), free(at), free(items); /* (at: and remap) */
   fans_free(&f);
