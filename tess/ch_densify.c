@@ -916,6 +916,12 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
       }
       if (given > left) /* (ties at the cut) */
         for (int r = 0; r < COARSEN_REGIONS; r++) share[r] = (long)((double)share[r] * (double)left / (double)given);
+      /* A slab takes nothing below two triangles, and then neither would
+       * the next pass (the same shares): no parallel region for none (on
+       * a busy machine one waits for a time slice) */
+      int some = 0;
+      for (int r = 0; r < COARSEN_REGIONS; r++) some |= share[r] >= 2;
+      if (!some) break;
 #pragma omp parallel for schedule(dynamic, 1) reduction(| : oom)
       for (int r = 0; r < COARSEN_REGIONS; r++) {
         got[r] = coarsen_region(o, &f, &heap[r], remap, share[r]);
