@@ -1187,13 +1187,14 @@ int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int
    * through that edge and out through another between two of its samples
    * (missed there), or in and out again; either way the chord runs along
    * the edge and cuts off a piece of no area (relief's roof near its
-   * corner: walls along the edge, edges of three faces). Where h jumps
-   * there, split down to the junction size, as at a step corner; below,
-   * and where h is continuous (a sliver, removed with the short edges),
-   * it is cut as it is: splitting on left pieces no cut resolves. */
+   * corner: walls along the edge, edges of three faces). Where h is
+   * continuous too: a rivet or a slot crossing an edge twice left the same
+   * chord in both triangles beside it, each with slivers hanging from it,
+   * and the edge in four faces (plane + panels at 15000 triangles: 8 such
+   * edges). Split down to the junction size, as at a step corner; below
+   * it is cut as it is (splitting on left pieces no cut resolves). */
   for (int i = 0; i < m; i++)
     if (nodes[i].corner < 0 && nodes[i].pair > i && nodes[nodes[i].pair].edge == nodes[i].edge &&
-        !(fabs(nodes[i].hprev - nodes[i].hnext) <= lb->wall_tol) &&
         longest > lb->junction_size * ch_label_local_factor(lb, nodes[i].uv))
       return 1;
   if (only_uncut) return 0;
