@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "ch_bezier.h"
+#include "ch_math.h"
 
 void ch_curves_free(ch_curve_set *set) {
   free(set->curves);
@@ -42,16 +43,11 @@ void ch_segment_point(const ch_segment *s, double t, double out[2]) {
 }
 
 void ch_segment_box(const ch_segment *s, double r, double box[4]) {
-  /* (comparisons, not fmin/fmax: the control points are finite, and gcc
-   * calls libm for those, four times a box, in the step labels' inner
-   * loop) */
+  /* (ch_min3/ch_max3, not fmin/fmax: the step labels call this for every
+   * segment of a cell's list, and gcc makes fmin/fmax libm calls) */
   for (int k = 0; k < 2; k++) {
-    double a = s->p[0][k], b = s->p[1][k], c = s->p[2][k];
-    double lo = a < b ? a : b, hi = a < b ? b : a;
-    lo = c < lo ? c : lo;
-    hi = c > hi ? c : hi;
-    box[k] = lo - r;
-    box[2 + k] = hi + r;
+    box[k] = ch_min3(s->p[0][k], s->p[1][k], s->p[2][k]) - r;
+    box[2 + k] = ch_max3(s->p[0][k], s->p[1][k], s->p[2][k]) + r;
   }
 }
 

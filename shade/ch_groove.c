@@ -11,16 +11,6 @@
 #include "ch_bezier.h"
 #include "ch_math.h"
 
-static double min3(double a, double b, double c) {
-  double m = a < b ? a : b;
-  return m < c ? m : c;
-}
-
-static double max3(double a, double b, double c) {
-  double m = a > b ? a : b;
-  return m > c ? m : c;
-}
-
 /* Whether segment s is certainly farther from q than best (a squared
  * distance): its control points' box (which holds the curve) is, with the
  * segment tree's relative slack and 1e-13 more for the rounding of the
@@ -31,8 +21,8 @@ static int farther_than(const ch_segment *s, const double q[2], double best) {
   /* (comparisons, not fmin/fmax: those are library calls without
    * -ffinite-math-only, a fifth of this test's time; the control points
    * are finite) */
-  double lo0 = min3(s->p[0][0], s->p[1][0], s->p[2][0]), hi0 = max3(s->p[0][0], s->p[1][0], s->p[2][0]);
-  double lo1 = min3(s->p[0][1], s->p[1][1], s->p[2][1]), hi1 = max3(s->p[0][1], s->p[1][1], s->p[2][1]);
+  double lo0 = ch_min3(s->p[0][0], s->p[1][0], s->p[2][0]), hi0 = ch_max3(s->p[0][0], s->p[1][0], s->p[2][0]);
+  double lo1 = ch_min3(s->p[0][1], s->p[1][1], s->p[2][1]), hi1 = ch_max3(s->p[0][1], s->p[1][1], s->p[2][1]);
   double dx = q[0] < lo0 ? lo0 - q[0] : q[0] > hi0 ? q[0] - hi0 : 0.0;
   double dy = q[1] < lo1 ? lo1 - q[1] : q[1] > hi1 ? q[1] - hi1 : 0.0;
   return dx * dx + dy * dy > best * (1.0 + 1e-9) + 1e-26;

@@ -520,8 +520,7 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
    * weight of its vertex's, and a normal that rounding decides: it would
    * tilt that vertex's normal by tens of degrees for the real triangles
    * around it. */
-  double lu = ch_dot3(u, u), lw = ch_dot3(w, w), le = ch_dot3(e, e);
-  double longest = sqrt(lu > lw ? (lu > le ? lu : le) : (lw > le ? lw : le)); /* (no NaN here: fmax's call) */
+  double longest = sqrt(ch_max3(ch_dot3(u, u), ch_dot3(w, w), ch_dot3(e, e)));
   double weight = 0.0;
   if (fl >= thin * longest && fl > 0.0) weight = atan2(fl, ch_dot3(u, w)) / fl;
   for (int i = 0; i < 3; i++) out[i] = f[i] * weight;
