@@ -1192,11 +1192,18 @@ int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int
    * chord in both triangles beside it, each with slivers hanging from it,
    * and the edge in four faces (plane + panels at 15000 triangles: 8 such
    * edges). Split down to the junction size, as at a step corner; below
-   * it is cut as it is (splitting on left pieces no cut resolves). */
+   * it is cut as it is (splitting on left pieces no cut resolves). Across
+   * a wall, down to a sixteenth of it: a step corner 2e-4 across an edge
+   * at the junction size (relief's roof at 20000 triangles, with the
+   * base's finer edges nearest the curves) left that chord in both
+   * triangles beside the edge, each standing a wall on it, and the edge
+   * in four faces; smaller triangles put the corner's two lines on
+   * different edges. */
   for (int i = 0; i < m; i++)
-    if (nodes[i].corner < 0 && nodes[i].pair > i && nodes[nodes[i].pair].edge == nodes[i].edge &&
-        longest > lb->junction_size * ch_label_local_factor(lb, nodes[i].uv))
-      return 1;
+    if (nodes[i].corner < 0 && nodes[i].pair > i && nodes[nodes[i].pair].edge == nodes[i].edge) {
+      int wall = !(fabs(nodes[i].hprev - nodes[i].hnext) <= lb->wall_tol);
+      if (longest > (wall ? 1.0 / 16.0 : 1.0) * lb->junction_size * ch_label_local_factor(lb, nodes[i].uv)) return 1;
+    }
   if (only_uncut) return 0;
   /* Junctions are placed by estimate: keep their triangles small. */
   for (int i = 0; i < m; i++)
