@@ -831,8 +831,21 @@ typedef struct target_runs {
    * does not, the closest is run again from its request. */
   ch_count_request best_request;
   int best_dropped;
+  ch_segtree curves; /* for edge_priority */
   ch_error *err;
 } target_runs;
+
+/* The base's edges that are raised first where many jump together
+ * (ch_tess_desc.edge_priority): the nearest the curves, so that the finer
+ * rate goes where the features are (the margin of the full runs below
+ * asks for the same, and takes the rest back where h is smooth). */
+static double edge_priority(void *ctx, const double a[2], const double b[2]) {
+  const target_runs *r = ctx;
+  const double mid[2] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])};
+  double d2 = INFINITY, t;
+  ch_segtree_closest(&r->curves, r->height->set, 0, r->curves.num_leaves, mid, INFINITY, &d2, &t);
+  return d2;
+}
 
 static void target_drop_current(target_runs *r) {
   ch_tess_free(&r->cur_tess);
@@ -882,7 +895,12 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
    * whose edges share one length (the plane's) the counts jump 10% a step
    * at 520k, and a few percent in the count model's estimate moved the
    * base that far. The warp places its own. */
-  ch_tess_desc td = {.target_triangles = rq->base, .warp = r->d.warp, .corner_st = 1, .closest = !r->d.warp};
+  ch_tess_desc td = {.target_triangles = rq->base,
+                     .warp = r->d.warp,
+                     .corner_st = 1,
+                     .closest = !r->d.warp,
+                     .edge_priority = r->d.warp || !r->curves.num_leaves ? NULL : edge_priority,
+                     .edge_priority_ctx = r};
   if ((st = ch_tess_build(r->surface, &td, &r->cur_tess, r->err))) return st;
   if (!(r->pilot.reference_edge > 0.0)) {
     /* The mean UV edge at the target's density, from this run's area. */
@@ -993,6 +1011,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
                       .take_back = r.d.warp ? 0.0 : COARSEN_SHARE,
                       .feature_margin = r.d.warp ? 0.0 : 0.12};
   ch_count_result res;
+  if (!r.d.warp && (st = ch_segtree_build(&r.curves, height->set, err))) return st;
   st = ch_count_search(&cd, target_run, &r, &res);
   if (!st && r.best_dropped) { /* a later run missed more: the closest again */
     ch_count_reply again = {0};
@@ -1004,6 +1023,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
     }
   }
   target_drop_current(&r);
+  ch_segtree_free(&r.curves);
   if (passes) *passes = res.runs;
   if (st) {
     ch_tess_free(&r.best_tess);

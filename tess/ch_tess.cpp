@@ -164,16 +164,27 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const doub
   if (std::labs(best - target) <= 0.05 * target && !desc->closest) return CH_OK;
 
   /* Many edges of one length jump together at d: raise them one by one,
-   * spread over the mesh (edge index times the golden ratio, mod 1). */
+   * by the caller's priority, spread over the mesh (edge index times the
+   * golden ratio, mod 1) among equals. */
   std::vector<int> jump;
   for (int e = 0; e < ne; e++)
     if (rhi[e] != rlo[e]) jump.push_back(e);
-  std::vector<double> key(ne);
+  std::vector<double> key(ne), priority(ne, 0.0);
   for (int e : jump) {
     double x = e * 0.6180339887498949;
     key[e] = x - std::floor(x);
+    if (desc->edge_priority) {
+      priority[e] = std::numeric_limits<double>::infinity();
+      for (int i = S->edge_face_start[e]; i < S->edge_face_start[e + 1]; i++) {
+        const double *a, *b;
+        face_edge_uv(S, S->edge_face[i], S->edge_corner[i], &a, &b);
+        priority[e] = std::min(priority[e], desc->edge_priority(desc->edge_priority_ctx, a, b));
+      }
+    }
   }
-  std::stable_sort(jump.begin(), jump.end(), [&](int a, int b) { return key[a] < key[b]; });
+  std::stable_sort(jump.begin(), jump.end(), [&](int a, int b) {
+    return priority[a] < priority[b] || (priority[a] == priority[b] && key[a] < key[b]);
+  });
   auto count_k = [&](size_t k, std::vector<int> &r) {
     r = rlo;
     for (size_t i = 0; i < k; i++) r[jump[i]] = rhi[jump[i]];

@@ -33,6 +33,11 @@ typedef struct ch_tess_desc {
   int closest;   /* with target_triangles: the count closest to it that
                     raising edges one by one gives, even where one
                     density's rates land within 5% */
+  /* NULL, or which edges are raised first where edges of one length jump
+   * together: those of the lowest priority (an edge on a UV seam: the
+   * lower of its sides'), ties spread over the mesh. */
+  double (*edge_priority)(void *ctx, const double uv_a[2], const double uv_b[2]);
+  void *edge_priority_ctx;
 } ch_tess_desc;
 
 /* Rates for target_triangles: the rate of a base edge is max(1, round(d *
