@@ -227,6 +227,14 @@ for c in "plane panels 15000" "plane panels 20000" "tablet ornament 15000" "tabl
   expect 0 "$chisel" info "$tmp/coarse.obj" && grep -q "edges .* 0 non-manifold; 0 non-manifold vertices" "$tmp/stdout" ||
     fail "$1 + $2 at $3 not manifold"
 done
+# A step corner poking through an edge at the junction size (relief's roof, with the base's finer edges nearest the
+# curves): both triangles beside the edge stood a wall on the same chord before such triangles were split further.
+for n in 20000 21000 23000; do
+  expect 0 "$chisel" displace "$models/plane.obj" "$models/curves/relief.svg" -o "$tmp/coarse.obj" --res 32 \
+    --target-tris $n -q || true
+  expect 0 "$chisel" info "$tmp/coarse.obj" && grep -q "edges .* 0 non-manifold; 0 non-manifold vertices" "$tmp/stdout" ||
+    fail "plane + relief at $n (--res 32) not manifold"
+done
 # The square's glyphs on the tablet: they cross the front's edges into the side columns, so the UV charts that
 # meet there hold different curves.
 for n in 130000 520000; do
