@@ -285,19 +285,21 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
   return CH_OK;
 }
 
-ch_status ch_geomimage_to_image(const ch_geomimage *gi, ch_image *out, ch_error *err) {
-  const char *names[] = {"P.x", "P.y", "P.z", "N.x", "N.y", "N.z", "face.X", "s", "t"};
-  ch_status st = ch_image_init(out, gi->width, gi->height, 9, names, err);
-  if (st) return st;
-  size_t n = (size_t)gi->width * gi->height;
-  for (size_t i = 0; i < n; i++) {
+const char *const ch_geomimage_channel_names[CH_GEOMIMAGE_CHANNELS] = {"P.x", "P.y", "P.z", "N.x", "N.y",
+                                                                        "N.z", "face.X", "s", "t"};
+
+void ch_geomimage_fill(const ch_geomimage *gi, ch_image *img, int first) {
+  long n = (long)gi->width * gi->height;
+  float *p[CH_GEOMIMAGE_CHANNELS];
+  for (int k = 0; k < CH_GEOMIMAGE_CHANNELS; k++) p[k] = ch_image_plane(img, first + k);
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < n; i++) {
     for (int k = 0; k < 3; k++) {
-      ch_image_plane(out, k)[i] = gi->position[3 * i + k];
-      ch_image_plane(out, 3 + k)[i] = gi->normal[3 * i + k];
+      p[k][i] = gi->position[3 * i + k];
+      p[3 + k][i] = gi->normal[3 * i + k];
     }
-    ch_image_plane(out, 6)[i] = (float)gi->face[i];
-    ch_image_plane(out, 7)[i] = gi->st[2 * i];
-    ch_image_plane(out, 8)[i] = gi->st[2 * i + 1];
+    p[6][i] = (float)gi->face[i];
+    p[7][i] = gi->st[2 * i];
+    p[8][i] = gi->st[2 * i + 1];
   }
-  return CH_OK;
 }

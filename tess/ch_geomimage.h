@@ -46,11 +46,18 @@ ch_status ch_geomimage_build_warped(const ch_surface *surface, int width, int he
                                     const struct ch_warp *warp, ch_geomimage *out, ch_error *err);
 void ch_geomimage_free(ch_geomimage *gi);
 
-/* The geometry image as EXR layers: P.x P.y P.z, N.x N.y N.z, face.X
- * (the base face, -1 outside the charts; a one-channel layer, as Blender
- * names its index passes, since Blender's multilayer reader refuses a
- * channel name of more than one letter without a layer), s, t. */
-ch_status ch_geomimage_to_image(const ch_geomimage *gi, ch_image *out, ch_error *err);
+/* The geometry image as EXR layers, CH_GEOMIMAGE_CHANNELS of them named
+ * ch_geomimage_channel_names: P.x P.y P.z, N.x N.y N.z, face.X (the base
+ * face, -1 outside the charts; a one-channel layer, as Blender names its
+ * index passes, since Blender's multilayer reader refuses a channel name
+ * of more than one letter without a layer), s, t. */
+enum { CH_GEOMIMAGE_CHANNELS = 9 };
+extern const char *const ch_geomimage_channel_names[CH_GEOMIMAGE_CHANNELS];
+/* Writes them into channels first .. first + 8 of img, an image of the
+ * geometry image's size made by the caller with the others it needs (no
+ * copy of the layers in between: at --res 4096 that was 600 MB more at
+ * the peak). */
+void ch_geomimage_fill(const ch_geomimage *gi, ch_image *img, int first);
 
 /* Finds the (s, t) of face whose UV is uv. Returns CH_OK with st set, or
  * CH_ERR_INPUT if uv is not inside the face's UV patch (within 1e-9). */

@@ -144,31 +144,26 @@ static ch_status render_maps(const ch_surface *surface, const ch_height *height,
   ch_geomimage gi;
   st = ch_geomimage_build_warped(surface, res, res, NULL, warp, &gi, err);
   if (st) return st;
-  ch_image gimg = {0};
-  st = ch_geomimage_to_image(&gi, &gimg, err);
   int extra = warp ? 2 : 0; /* u v: each warped texel's original UV */
-  if (!st) {
-    const char *names[CH_IMAGE_MAX_CHANNELS];
-    names[0] = "h";
-    for (int c = 0; c < gimg.num_channels; c++) names[1 + c] = gimg.names[c];
-    names[1 + gimg.num_channels] = "u";
-    names[2 + gimg.num_channels] = "v";
-    st = ch_image_init(&out->maps, res, res, 1 + gimg.num_channels + extra, names, err);
-  }
+  const char *names[CH_IMAGE_MAX_CHANNELS];
+  names[0] = "h";
+  for (int c = 0; c < CH_GEOMIMAGE_CHANNELS; c++) names[1 + c] = ch_geomimage_channel_names[c];
+  names[1 + CH_GEOMIMAGE_CHANNELS] = "u";
+  names[2 + CH_GEOMIMAGE_CHANNELS] = "v";
+  st = ch_image_init(&out->maps, res, res, 1 + CH_GEOMIMAGE_CHANNELS + extra, names, err);
   if (!st) {
     size_t plane = (size_t)res * (size_t)res * sizeof(float);
     memcpy(ch_image_plane(&out->maps, 0), ch_image_plane(&out->height, 0), plane);
-    memcpy(ch_image_plane(&out->maps, 1), gimg.pixels, plane * (size_t)gimg.num_channels);
+    ch_geomimage_fill(&gi, &out->maps, 1);
     if (warp) {
-      float *pu = ch_image_plane(&out->maps, 1 + gimg.num_channels);
-      float *pv = ch_image_plane(&out->maps, 2 + gimg.num_channels);
+      float *pu = ch_image_plane(&out->maps, 1 + CH_GEOMIMAGE_CHANNELS);
+      float *pv = ch_image_plane(&out->maps, 2 + CH_GEOMIMAGE_CHANNELS);
       for (size_t i = 0; i < (size_t)res * (size_t)res; i++) {
         pu[i] = gi.uv[2 * i];
         pv[i] = gi.uv[2 * i + 1];
       }
     }
   }
-  ch_image_free(&gimg);
   ch_geomimage_free(&gi);
   return st;
 }
