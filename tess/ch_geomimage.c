@@ -156,10 +156,12 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
   patch *ps = malloc((size_t)(total > 0 ? total : 1) * sizeof *ps);
   int *first = malloc((size_t)(nf + 1) * sizeof *first);
   gi->face = ch_alloc_large(n, sizeof *gi->face, 0);
-  gi->st = ch_alloc_large(2 * n, sizeof *gi->st, 1);
+  /* (not zeroed here: each row's uncovered texels are, by the thread that
+   * fills the row, so the pages are first touched in parallel and once) */
+  gi->st = ch_alloc_large(2 * n, sizeof *gi->st, 0);
   gi->uv = ch_alloc_large(2 * n, sizeof *gi->uv, 0);
-  gi->position = ch_alloc_large(3 * n, sizeof *gi->position, 1);
-  gi->normal = ch_alloc_large(3 * n, sizeof *gi->normal, 1);
+  gi->position = ch_alloc_large(3 * n, sizeof *gi->position, 0);
+  gi->normal = ch_alloc_large(3 * n, sizeof *gi->normal, 0);
   if (!ps || !first || !gi->face || !gi->st || !gi->uv || !gi->position || !gi->normal) {
     free(ps);
     free(first);
@@ -272,6 +274,12 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
         covered++;
       }
     }
+    for (int x = 0; x < W; x++)
+      if (row_face[x] < 0) {
+        size_t i = (size_t)y * W + x;
+        gi->st[2 * i] = gi->st[2 * i + 1] = 0.0f;
+        for (int k = 0; k < 3; k++) gi->position[3 * i + k] = gi->normal[3 * i + k] = 0.0f;
+      }
     free(row_uv);
   }
   gi->covered = covered;
