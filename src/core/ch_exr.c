@@ -32,6 +32,7 @@
 #include "ch_exr.h"
 
 #include <errno.h>
+#include <math.h>
 #include <fcntl.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -829,11 +830,15 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
    * writing them one by one (zlib at 4096^2 x 12 channels was most of
    * the maps' write). */
   int nchunks = (img->height + lpc - 1) / lpc, nthreads = omp_get_max_threads();
-  int batch = 4 * (nthreads > 0 ? nthreads : 1);
+  if (nthreads < 1) nthreads = 1;
+  /* four chunks a thread, but no more than about 256 MB of them held at
+   * once where there are enough threads to fill that */
+  double chunk_bytes = (double)lpc * img->width * (img->num_channels + (lum >= 0)) * sizeof(float);
+  int batch = (int)fmin(4.0 * nthreads, fmax((double)nthreads, 256e6 / chunk_bytes));
   exr_chunk_info_t *info = malloc((size_t)batch * sizeof *info);
   encoded_chunk *out = calloc((size_t)batch, sizeof *out);
-  exr_encode_pipeline_t *enc = calloc((size_t)(nthreads > 0 ? nthreads : 1), sizeof *enc);
-  int *initialized = calloc((size_t)(nthreads > 0 ? nthreads : 1), sizeof *initialized);
+  exr_encode_pipeline_t *enc = calloc((size_t)nthreads, sizeof *enc);
+  int *initialized = calloc((size_t)nthreads, sizeof *initialized);
   ch_status st = CH_OK;
   if (!info || !out || !enc || !initialized) st = ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", io->name);
   for (int c0 = 0; c0 < nchunks && st == CH_OK; c0 += batch) {
