@@ -293,8 +293,8 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
   return CH_OK;
 }
 
-const char *const ch_geomimage_channel_names[CH_GEOMIMAGE_CHANNELS] = {"P.x", "P.y", "P.z", "N.x", "N.y",
-                                                                        "N.z", "face.X", "s", "t"};
+const char *const ch_geomimage_channel_names[CH_GEOMIMAGE_CHANNELS] = {"P.x", "P.y",    "P.z", "N.x", "N.y",
+                                                                       "N.z", "face.X", "s",   "t"};
 
 void ch_geomimage_fill(const ch_geomimage *gi, ch_image *img, int first) {
   long n = (long)gi->width * gi->height;

@@ -32,8 +32,8 @@
 #include "ch_exr.h"
 
 #include <errno.h>
-#include <math.h>
 #include <fcntl.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -873,8 +873,8 @@ static ch_status write_body(exr_context_t ctx, io_state *io, const ch_image *img
           o->rv = EXR_ERR_INVALID_ARGUMENT;
           break;
         }
-        ch->encode_from_ptr = (const uint8_t *)((is_y && y_plane ? y_plane : ch_image_plane(img, c)) +
-                                                (size_t)y * (size_t)img->width);
+        ch->encode_from_ptr =
+            (const uint8_t *)((is_y && y_plane ? y_plane : ch_image_plane(img, c)) + (size_t)y * (size_t)img->width);
         ch->user_pixel_stride = (int32_t)sizeof(float);
         ch->user_line_stride = (int32_t)(sizeof(float) * (size_t)img->width);
         ch->user_data_type = EXR_PIXEL_FLOAT;
