@@ -158,7 +158,9 @@ static ch_status render_maps(const ch_surface *surface, const ch_height *height,
     if (warp) {
       float *pu = ch_image_plane(&out->maps, 1 + CH_GEOMIMAGE_CHANNELS);
       float *pv = ch_image_plane(&out->maps, 2 + CH_GEOMIMAGE_CHANNELS);
-      for (size_t i = 0; i < (size_t)res * (size_t)res; i++) {
+      long n = (long)res * res;
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < n; i++) {
         pu[i] = gi.uv[2 * i];
         pv[i] = gi.uv[2 * i + 1];
       }
