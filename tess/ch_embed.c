@@ -68,9 +68,10 @@ double ch_embed_angle_deg(double reference_edge) { return fmin(10.0, fmax(1.0, 1
 #define SAMPLE_MIN_BASE 20000
 #define SAMPLE_QUARTER_BASE 80000
 
-/* Whether triangle T is in a sampled pilot's tiles (by its centroid). */
-static int sample_tile(const ch_refine_tri *T, int quarter) {
-  double u = (T->uv[0][0] + T->uv[1][0] + T->uv[2][0]) / 3.0, v = (T->uv[0][1] + T->uv[1][1] + T->uv[2][1]) / 3.0;
+/* Whether the triangle of corner UVs uv is in a sampled pilot's tiles (by
+ * its centroid). */
+static int sample_tile(const double *const uv[3], int quarter) {
+  double u = (uv[0][0] + uv[1][0] + uv[2][0]) / 3.0, v = (uv[0][1] + uv[1][1] + uv[2][1]) / 3.0;
   if (quarter) {
     long i = (long)floor(u * 2 * SAMPLE_TILES), j = (long)floor(v * 2 * SAMPLE_TILES);
     uint32_t h = (uint32_t)(i >> 1) * 0x9E3779B1u ^ (uint32_t)(j >> 1) * 0x85EBCA77u;
@@ -81,6 +82,57 @@ static int sample_tile(const ch_refine_tri *T, int quarter) {
   }
   long i = (long)floor(u * SAMPLE_TILES), j = (long)floor(v * SAMPLE_TILES);
   return ((i + j) & 1) == 0;
+}
+
+/* Whether working triangle t is in a sampled pilot's tiles. */
+static int tri_sampled(const ch_refine_mesh *w, int t, int quarter) {
+  const double *uv[3] = {w->tris[t].uv[0], w->tris[t].uv[1], w->tris[t].uv[2]};
+  return sample_tile(uv, quarter);
+}
+
+/* Base triangle t's corner UVs. */
+static void base_corner_uvs(const ch_mesh *m, int t, const double *uv[3]) {
+  for (int k = 0; k < 3; k++) uv[k] = &m->uvs[2 * (size_t)m->corner_uv[m->face_start[t] + k]];
+}
+
+/* The base's triangles far from every feature (see embed_run): out of the
+ * working mesh, copied by the cut in their place. The cut's order is the
+ * base's triangles, then those the refinement appended, as if the far
+ * ones were in the working mesh: the same output either way. */
+typedef struct far_set {
+  int nbase, nactive, nfar;
+  int *where; /* per base triangle: its index in the working mesh (whose
+                 first nactive are the base's near ones, in order), or
+                 -1 - f for far triangle f */
+  int *far_v; /* 3 per far triangle: its vertices */
+} far_set;
+
+/* Triangles in the cut's order. */
+static int far_order_count(const far_set *fs, const ch_refine_mesh *w) { return fs->nbase + (w->ntris - fs->nactive); }
+
+/* The t-th triangle of the cut's order: its index in the working mesh, or
+ * -1 - f for far triangle f. */
+static int far_order_slot(const far_set *fs, int t) {
+  return t < fs->nbase ? fs->where[t] : fs->nactive + (t - fs->nbase);
+}
+
+/* Cuts the t-th triangle of the cut's order into o. */
+static int cut_in_order(const ch_label_ctx *lb, const ch_refine_mesh *w, const far_set *fs, int t, double tol,
+                        ch_cut_out *o, ch_embed_stats *stats) {
+  int i = far_order_slot(fs, t);
+  if (i >= 0) return ch_cut_triangle(lb, w, i, tol, o, stats);
+  const int *v = &fs->far_v[3 * (size_t)(-1 - i)];
+  return ch_cut_out_tri(o, v[0], v[1], v[2], w->verts[v[0]].uv, w->verts[v[1]].uv, w->verts[v[2]].uv,
+                        w->verts[v[0]].label);
+}
+
+/* Whether the t-th triangle of the cut's order is in a sampled pilot's tiles. */
+static int in_order_sampled(const ch_refine_mesh *w, const far_set *fs, int t, int quarter) {
+  int i = far_order_slot(fs, t);
+  if (i >= 0) return tri_sampled(w, i, quarter);
+  const int *v = &fs->far_v[3 * (size_t)(-1 - i)];
+  const double *uv[3] = {w->verts[v[0]].uv, w->verts[v[1]].uv, w->verts[v[2]].uv};
+  return sample_tile(uv, quarter);
 }
 
 /* Thinning pays where the target is coarse (measured on the plane's sets:
@@ -97,7 +149,8 @@ static int thins(const ch_embed_desc *desc, double reference_edge) {
  * (as the cut numbers them), then the triangles in its tiles cut into
  * parts that count and store nothing (the cut's own count: the same code
  * decides it). Returns the triangles those tiles' cut makes. */
-static long count_sampled_cut(const ch_label_ctx *lb, ch_refine_mesh *w, const int *first, double tol, int quarter) {
+static long count_sampled_cut(const ch_label_ctx *lb, ch_refine_mesh *w, const far_set *fs, const int *first,
+                              double tol, int quarter) {
 #pragma omp parallel for schedule(dynamic, 1024)
   for (int i = 0; i < w->nedges; i++) {
     ch_refine_edge *e = &w->edges[i];
@@ -110,15 +163,15 @@ static long count_sampled_cut(const ch_label_ctx *lb, ch_refine_mesh *w, const i
     }
   }
   enum { COUNT_CHUNK = 4096 };
-  int nchunks = (w->ntris + COUNT_CHUNK - 1) / COUNT_CHUNK;
+  int n = far_order_count(fs, w), nchunks = (n + COUNT_CHUNK - 1) / COUNT_CHUNK;
   long tris = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : tris)
   for (int c = 0; c < nchunks; c++) {
     ch_cut_out part = {.count_only = 1};
     ch_embed_stats ps = {0};
-    int t1 = (c + 1) * COUNT_CHUNK < w->ntris ? (c + 1) * COUNT_CHUNK : w->ntris;
+    int t1 = (c + 1) * COUNT_CHUNK < n ? (c + 1) * COUNT_CHUNK : n;
     for (int t = c * COUNT_CHUNK; t < t1; t++)
-      if (sample_tile(&w->tris[t], quarter)) ch_cut_triangle(lb, w, t, tol, &part, &ps);
+      if (in_order_sampled(w, fs, t, quarter)) cut_in_order(lb, w, fs, t, tol, &part, &ps);
     tris += part.ntri;
   }
   return tris;
@@ -319,59 +372,38 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   int *split_edges = NULL, cap_split = 0; /* a round's: the edges given midpoints */
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
+  far_set far = {0};
   ch_status st = CH_OK;
 
-  /* The working mesh: the tessellation, each corner with its (s,t) in its face. */
-  /* With room for a quarter more: the refinement adds 5-15% at large
-   * counts, and growing the arrays then copies them whole (1.7 GB of
-   * triangles at 20M, while both copies live); untouched room costs no
-   * memory. */
+  /* The working mesh: the tessellation's vertices, and its triangles near
+   * the features (far ones are set aside below), each corner with its
+   * (s,t) in its face. */
   w.nverts = tm->num_positions;
-  w.ntris = tm->num_faces;
   w.cap_verts = w.nverts + w.nverts / 4 + 1024;
-  w.cap_tris = w.ntris + w.ntris / 4 + 1024;
   w.verts = ch_alloc_large((size_t)w.cap_verts, sizeof *w.verts, 0);
-  w.tris = ch_alloc_large((size_t)w.cap_tris, sizeof *w.tris, 0);
-  if (!w.verts || !w.tris) goto nomem;
+  if (!w.verts) goto nomem;
   double uv_area = 0.0, longest_edge = 0.0;
-  int failed = 0;
-#pragma omp parallel for schedule(static) reduction(| : failed) reduction(max : longest_edge)
-  for (int t = 0; t < w.ntris; t++) {
-    ch_refine_tri *T = &w.tris[t];
-    T->face = tess->triangle_face[t];
-    for (int k = 0; k < 3; k++) {
-      int c = tm->face_start[t] + k, v = tm->corner_position[c];
-      T->v[k] = v;
-      memcpy(T->uv[k], &tm->uvs[2 * (size_t)tm->corner_uv[c]], sizeof T->uv[k]);
-      if (tess->corner_st) {
-        memcpy(T->st[k], &tess->corner_st[6 * (size_t)t + 2 * k], sizeof T->st[k]);
-      } else if (tess->vertex_face[v] == T->face) {
-        memcpy(T->st[k], &tess->vertex_st[2 * (size_t)v], sizeof T->st[k]);
-      } else if (ch_surface_locate(surface, T->face, T->uv[k], T->st[k])) {
-        failed = 1;
-      }
-    }
+#pragma omp parallel for schedule(static) reduction(max : longest_edge)
+  for (int t = 0; t < base_faces; t++) {
+    const double *uv[3];
+    base_corner_uvs(tm, t, uv);
     for (int k = 0; k < 3; k++)
-      longest_edge =
-          fmax(longest_edge, hypot(T->uv[(k + 1) % 3][0] - T->uv[k][0], T->uv[(k + 1) % 3][1] - T->uv[k][1]));
+      longest_edge = fmax(longest_edge, hypot(uv[(k + 1) % 3][0] - uv[k][0], uv[(k + 1) % 3][1] - uv[k][1]));
   }
   int sampled = pilot->count_only && !pilot->full && pilot->sampled;
-  int quarter = sampled && w.ntris >= SAMPLE_QUARTER_BASE; /* (see sample_tile) */
+  int quarter = sampled && base_faces >= SAMPLE_QUARTER_BASE; /* (see sample_tile) */
   double sampled_area = 0.0;
   long sampled_base = 0;
-  for (int t = 0; t < w.ntris; t++) { /* in order: the same sum for any thread count */
-    const ch_refine_tri *T = &w.tris[t];
-    double a = 0.5 * fabs((T->uv[1][0] - T->uv[0][0]) * (T->uv[2][1] - T->uv[0][1]) -
-                          (T->uv[2][0] - T->uv[0][0]) * (T->uv[1][1] - T->uv[0][1]));
+  for (int t = 0; t < base_faces; t++) { /* in order: the same sum for any thread count */
+    const double *uv[3];
+    base_corner_uvs(tm, t, uv);
+    double a =
+        0.5 * fabs((uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[2][0] - uv[0][0]) * (uv[1][1] - uv[0][1]));
     uv_area += a;
-    if (sampled && sample_tile(T, quarter)) {
+    if (sampled && sample_tile(uv, quarter)) {
       sampled_area += a;
       sampled_base++;
     }
-  }
-  if (failed) {
-    st = ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a tessellation corner is outside its face's UV");
-    goto done;
   }
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < w.nverts; v++) {
@@ -379,7 +411,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     memcpy(w.verts[v].st, &tess->vertex_st[2 * (size_t)v], sizeof w.verts[v].st);
     ch_surface_eval_uv(surface, w.verts[v].face, w.verts[v].st[0], w.verts[v].st[1], w.verts[v].uv);
   }
-  double mean_edge = sqrt(2.0 * uv_area / (w.ntris > 0 ? w.ntris : 1));
+  double mean_edge = sqrt(2.0 * uv_area / (base_faces > 0 ? base_faces : 1));
   double radius = desc && desc->step_radius > 0.0 ? desc->step_radius : 4.0 * mean_edge;
   /* A warped mesh's edges vary about the mean by the warp's slopes: every
    * corner of a triangle a step curve crosses must still see the curve. */
@@ -414,6 +446,89 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     edge_grid = malloc(CH_CUT_EDGE_GRID * CH_CUT_EDGE_GRID * sizeof *edge_grid);
     if (!edge_grid || ch_cut_edge_grid(tess, longest_edge, edge_grid)) goto nomem;
   }
+  if ((st = ch_label_init(&lb, height, desc ? desc->warp : NULL, radius, curve_tolerance, angle, object_scale,
+                          reference_edge, longest_edge, err)))
+    goto done;
+  /* Far triangles: no cell within one longest edge of their corners is
+   * touched by a feature, so neither they nor their neighbours (which lie
+   * within that edge) are ever refined (ch_refine_needed leaves triangles
+   * with quiet corners alone, and a split reaches a triangle only across
+   * an edge of one refined), their edges cross nothing, and the cut would
+   * copy them whole. They stay out of the working mesh, its edges and its
+   * rounds (at 2.1M triangles most of the base, and most of the
+   * embedding's memory traffic), and the cut copies them in their place
+   * (far_set). A vertex whose corners' UVs are not all its own (a seam, or
+   * rounding) keeps its triangles in. */
+  if (!(far.where = malloc((size_t)(base_faces > 0 ? base_faces : 1) * sizeof *far.where))) goto nomem;
+  far.nbase = base_faces;
+  {
+    unsigned char *odd = calloc((size_t)(w.nverts > 0 ? w.nverts : 1), 1);
+    if (!odd) goto nomem;
+#pragma omp parallel for schedule(static)
+    for (int t = 0; t < base_faces; t++)
+      for (int k = 0; k < 3; k++) {
+        int c = tm->face_start[t] + k, v = tm->corner_position[c];
+        const double *uv = &tm->uvs[2 * (size_t)tm->corner_uv[c]];
+        if (uv[0] != w.verts[v].uv[0] || uv[1] != w.verts[v].uv[1]) {
+#pragma omp atomic write
+          odd[v] = 1;
+        }
+      }
+#pragma omp parallel for schedule(static)
+    for (int t = 0; t < base_faces; t++) {
+      const double *uv[3];
+      base_corner_uvs(tm, t, uv);
+      const int *v = &tm->corner_position[tm->face_start[t]];
+      double lo[2], hi[2];
+      for (int i = 0; i < 2; i++) {
+        lo[i] = fmin(uv[0][i], fmin(uv[1][i], uv[2][i])) - longest_edge;
+        hi[i] = fmax(uv[0][i], fmax(uv[1][i], uv[2][i])) + longest_edge;
+      }
+      far.where[t] =
+          !(desc && desc->keep_far) && !odd[v[0]] && !odd[v[1]] && !odd[v[2]] && ch_label_box_quiet(&lb, lo, hi) ? -1
+                                                                                                                 : 0;
+    }
+    free(odd);
+  }
+  for (int t = 0; t < base_faces; t++) /* numbered in base order */
+    far.where[t] = far.where[t] < 0 ? -1 - far.nfar++ : far.nactive++;
+  /* With room for a quarter of the base more: the refinement adds 5-15%
+   * at large counts, and growing the arrays then copies them whole (1.7 GB
+   * of triangles at 20M, while both copies live); untouched room costs no
+   * memory. */
+  w.ntris = far.nactive;
+  stats.far_triangles = far.nfar;
+  w.cap_tris = far.nactive + base_faces / 4 + 1024;
+  w.tris = ch_alloc_large((size_t)w.cap_tris, sizeof *w.tris, 0);
+  far.far_v = malloc(3 * (size_t)(far.nfar > 0 ? far.nfar : 1) * sizeof *far.far_v);
+  if (!w.tris || !far.far_v) goto nomem;
+  int failed = 0;
+#pragma omp parallel for schedule(static) reduction(| : failed)
+  for (int t = 0; t < base_faces; t++) {
+    int i = far.where[t];
+    if (i < 0) {
+      memcpy(&far.far_v[3 * (size_t)(-1 - i)], &tm->corner_position[tm->face_start[t]], 3 * sizeof *far.far_v);
+      continue;
+    }
+    ch_refine_tri *T = &w.tris[i];
+    T->face = tess->triangle_face[t];
+    for (int k = 0; k < 3; k++) {
+      int c = tm->face_start[t] + k, v = tm->corner_position[c];
+      T->v[k] = v;
+      memcpy(T->uv[k], &tm->uvs[2 * (size_t)tm->corner_uv[c]], sizeof T->uv[k]);
+      if (tess->corner_st) {
+        memcpy(T->st[k], &tess->corner_st[6 * (size_t)t + 2 * k], sizeof T->st[k]);
+      } else if (tess->vertex_face[v] == T->face) {
+        memcpy(T->st[k], &tess->vertex_st[2 * (size_t)v], sizeof T->st[k]);
+      } else if (ch_surface_locate(surface, T->face, T->uv[k], T->st[k])) {
+        failed = 1;
+      }
+    }
+  }
+  if (failed) {
+    st = ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a tessellation corner is outside its face's UV");
+    goto done;
+  }
   /* All the run needs of the tessellation is read: where the caller does
    * not keep it (ch_embed_to_target's), it goes before the run's peak. */
   if (pilot->release_tess) {
@@ -424,9 +539,6 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     free(*pilot->release_corner_st);
     *pilot->release_corner_st = NULL;
   }
-  if ((st = ch_label_init(&lb, height, desc ? desc->warp : NULL, radius, curve_tolerance, angle, object_scale,
-                         reference_edge, longest_edge, err)))
-    goto done;
   lb.junction_size = mean_edge / 8.0;
   lb.cap_angle = 4.0 * angle;
   stats.seconds_setup = omp_get_wtime() - t0;
@@ -470,7 +582,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       memset(es, 0, (size_t)w.nedges);
 #pragma omp parallel for schedule(static)
       for (int t = 0; t < w.ntris; t++)
-        if (sample_tile(&w.tris[t], quarter))
+        if (tri_sampled(&w, t, quarter))
           for (int k = 0; k < 3; k++) {
 #pragma omp atomic write
             es[w.tri_edge[3 * (size_t)t + k]] = 1;
@@ -507,7 +619,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 #pragma omp parallel for schedule(dynamic, 256)
     for (int t = 0; t < w.ntris; t++)
       refine[t] =
-          (unsigned char)((!fresh || fresh[t]) && (!sampled || sample_tile(&w.tris[t], quarter)) &&
+          (unsigned char)((!fresh || fresh[t]) && (!sampled || tri_sampled(&w, t, quarter)) &&
                           (finishing ? ch_refine_uncut(&lb, &w, t) : ch_refine_needed(&lb, &w, t, round >= 8, round)));
     double te = omp_get_wtime();
     stats.seconds_classify += te - td;
@@ -527,7 +639,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     free(refine);
     ch_refine_locate_new(&w, first_new);
     if (!split) break;
-    if ((double)w.ntris + 2.0 * split > cap) {
+    if ((double)(w.ntris + far.nfar) + 2.0 * split > cap) {
       st = over_cap(err, pilot, cap, "refinement round", round + 1, base_faces);
       goto done;
     }
@@ -560,7 +672,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     if (sampled) {
       /* What the tiles' cut adds over their base triangles, scaled by the
        * area (as are the crossings and splits by level). */
-      long tris = count_sampled_cut(&lb, &w, first, tol, quarter);
+      long tris = count_sampled_cut(&lb, &w, &far, first, tol, quarter);
       free(first);
       double scale = sampled_area > 0.0 ? uv_area / sampled_area : 1.0;
       stats.triangles = base_faces + llround(scale * (double)(tris - sampled_base));
@@ -633,7 +745,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
    * joined in chunk order, so the bytes do not depend on the threads. */
   {
     enum { CUT_CHUNK = 4096 };
-    int nchunks = (w.ntris + CUT_CHUNK - 1) / CUT_CHUNK, shared = o.npos, oom = 0, over = 0;
+    int norder = far_order_count(&far, &w), nchunks = (norder + CUT_CHUNK - 1) / CUT_CHUNK, shared = o.npos, oom = 0,
+        over = 0;
     ch_cut_out *part = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *part);
     ch_embed_stats *pstats = calloc((size_t)(nchunks > 0 ? nchunks : 1), sizeof *pstats);
     if (!part || !pstats) {
@@ -645,15 +758,18 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     for (int c = 0; c < nchunks; c++) {
       part[c].npos = part[c].first_pos = shared;
       part[c].shared_uv = shared_uv;
-      int t1 = (c + 1) * CUT_CHUNK < w.ntris ? (c + 1) * CUT_CHUNK : w.ntris;
+      int t1 = (c + 1) * CUT_CHUNK < norder ? (c + 1) * CUT_CHUNK : norder;
       for (int t = c * CUT_CHUNK; t < t1 && !oom; t++)
-        oom |= ch_cut_triangle(&lb, &w, t, tol, &part[c], &pstats[c]) != 0;
+        oom |= cut_in_order(&lb, &w, &far, t, tol, &part[c], &pstats[c]) != 0;
       ch_cut_out_shrink(&part[c]); /* all parts live until the join: not twice their size */
     }
     /* The working mesh is done with once the parts are cut: its memory goes
      * before the join makes the output's arrays (it was a third of the
      * peak, the join's, when it went after). */
     free_working_mesh(&w);
+    free(far.where);
+    free(far.far_v);
+    far.where = far.far_v = NULL;
     /* Joined in chunk order: each part's vertices and triangles land at
      * offsets known from the counts, so the copy runs in parallel into
      * arrays allocated once (appending them one by one grew the arrays by
@@ -788,6 +904,8 @@ done:
   free(edge_grid);
   free(edge_sampled);
   free(split_edges);
+  free(far.where);
+  free(far.far_v);
   ch_cut_out_free(&o);
   ch_label_free(&lb);
   free_working_mesh(&w);

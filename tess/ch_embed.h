@@ -75,6 +75,10 @@ typedef struct ch_embed_desc {
   const ch_progress *progress; /* NULL, or where the runs, refinement rounds
                               and their stages are reported (from the
                               calling thread) */
+  int keep_far;                /* refine and cut every base triangle, those far
+                              from the features too (by default they are
+                              copied without entering the refinement: the
+                              same mesh, which this checks) */
 } ch_embed_desc;
 
 enum { CH_EMBED_LEVELS = 16 };
@@ -98,6 +102,8 @@ typedef struct ch_embed_stats {
                               (negative: removed there) */
   double angle_deg;        /* the angle step of the u lines the run used */
   int base_triangles;      /* of the tessellation the run embedded into */
+  int far_triangles;       /* of them, those far from every feature, copied
+                              without entering the refinement */
   long triangles;          /* output triangles (a pilot of ch_embed_to_target
                               counts before the cleanup, which removes a
                               fraction of a percent) */

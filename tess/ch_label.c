@@ -893,6 +893,18 @@ int ch_label_quiet(const ch_label_ctx *lb, const double uv[2]) {
   return !lb->busy[(size_t)fy * lb->mask_res + (size_t)fx];
 }
 
+int ch_label_box_quiet(const ch_label_ctx *lb, const double lo[2], const double hi[2]) {
+  double r = lb->mask_res;
+  if (!(lo[0] >= 0.0 && lo[1] >= 0.0 && hi[0] < 1.0 && hi[1] < 1.0)) return 0;
+  int x0 = (int)(lo[0] * r), x1 = (int)(hi[0] * r), y0 = (int)(lo[1] * r), y1 = (int)(hi[1] * r);
+  x1 = x1 < lb->mask_res ? x1 : lb->mask_res - 1;
+  y1 = y1 < lb->mask_res ? y1 : lb->mask_res - 1;
+  for (int y = y0; y <= y1; y++)
+    for (int x = x0; x <= x1; x++)
+      if (lb->busy[(size_t)y * lb->mask_res + x]) return 0;
+  return 1;
+}
+
 /* The break lines of groove c at level L (the finer sets of u grooves). */
 const double *ch_label_lines_of(const ch_label_ctx *lb, int c, int L, int *nb) {
   if (L == 0 || !lb->level_t) {

@@ -124,6 +124,9 @@ const double *ch_label_lines_of(const ch_label_ctx *lb, int c, int L, int *nb);
 /* Whether uv lies in a quiet cell (label 0 within the longest mesh edge
  * around it: see the labeler's busy mask). */
 int ch_label_quiet(const ch_label_ctx *lb, const double uv[2]);
+/* Whether every cell meeting the box [lo, hi] is quiet (so is every point
+ * in it). */
+int ch_label_box_quiet(const ch_label_ctx *lb, const double lo[2], const double hi[2]);
 
 /* h in a given piece at a point on its boundary: h_step read at `inside`
  * (a point of the piece within rounding of `at`), plus the groove of the

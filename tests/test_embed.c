@@ -1077,6 +1077,59 @@ static void test_coarsen(void) {
   scene_free(&s);
 }
 
+static int same_mesh(const ch_mesh *a, const ch_mesh *b) {
+  return a->num_positions == b->num_positions && a->num_faces == b->num_faces && a->num_uvs == b->num_uvs &&
+         a->num_normals == b->num_normals && a->num_corners == b->num_corners &&
+         !memcmp(a->positions, b->positions, 3 * sizeof(double) * (size_t)a->num_positions) &&
+         !memcmp(a->corner_position, b->corner_position, sizeof(int) * (size_t)a->num_corners) &&
+         !memcmp(a->corner_uv, b->corner_uv, sizeof(int) * (size_t)a->num_corners) &&
+         !memcmp(a->corner_normal, b->corner_normal, sizeof(int) * (size_t)a->num_corners) &&
+         !memcmp(a->normals, b->normals, 3 * sizeof(double) * (size_t)a->num_normals) &&
+         !memcmp(a->uvs, b->uvs, 2 * sizeof(double) * (size_t)a->num_uvs);
+}
+
+/* The base triangles far from every feature are copied without entering
+ * the refinement: the mesh must be the one refining and cutting them gives
+ * (their neighbours are never split, their edges cross nothing), over a
+ * plane, over the tablet's charts and seams, in a full run and in a sampled
+ * pilot's count. */
+static void test_far_triangles(void) {
+  const char *models[] = {"plane", "tablet", "vase"}, *sets[] = {"glyphs", "ornament", "relief"};
+  for (int i = 0; i < 3; i++) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/curves/%s.svg", CHISEL_MODELS, sets[i]);
+    scene s;
+    REQUIRE(scene_load(&s, models[i], NULL, path, i ? CH_SCHEME_CATMARK : CH_SCHEME_BILINEAR, 80000));
+    ch_mesh m[2];
+    ch_embed_stats stats[2];
+    for (int k = 0; k < 2; k++) {
+      ch_error err = {0};
+      ch_embed_desc d = {.keep_far = k};
+      CHECK_MSG(ch_embed_build(s.surface, &s.tess, &s.height, &d, &m[k], &stats[k], &err) == CH_OK, "%s", err.message);
+    }
+    int base = s.tess.mesh.num_faces;
+    printf("  %s + %s: %d of %d base triangles far from the features, %d triangles\n", models[i], sets[i],
+           stats[0].far_triangles, base, m[0].num_faces);
+    CHECK_MSG(stats[0].far_triangles > base / 10 && stats[0].far_triangles < base, "%d far of %d",
+              stats[0].far_triangles, base);
+    CHECK(stats[1].far_triangles == 0);
+    CHECK_MSG(same_mesh(&m[0], &m[1]), "%s + %s: the mesh differs with the far triangles refined", models[i], sets[i]);
+    ch_mesh_free(&m[0]);
+    ch_mesh_free(&m[1]);
+    long counted[2];
+    for (int k = 0; k < 2; k++) {
+      ch_error err = {0};
+      ch_embed_desc d = {.keep_far = k};
+      ch_embed_pilot pilot = {.count_only = 1, .reference_edge = 0.0014, .run = 1, .sampled = 1};
+      REQUIRE(ch_embed_run(s.surface, &s.tess, &s.height, &d, &pilot, &m[k], &stats[k], &err) == CH_OK);
+      counted[k] = stats[k].triangles;
+      ch_mesh_free(&m[k]);
+    }
+    CHECK_MSG(counted[0] == counted[1], "sampled pilot: %ld against %ld", counted[0], counted[1]);
+    scene_free(&s);
+  }
+}
+
 int main(void) {
   RUN(test_densify);
   RUN(test_coarsen);
@@ -1085,6 +1138,7 @@ int main(void) {
   RUN(test_straight_features_are_edges);
   RUN(test_torus_closed);
   RUN(test_deterministic);
+  RUN(test_far_triangles);
   RUN(test_u_lines_follow_normals);
   RUN(test_v_crease_on_base_edges);
   RUN(test_thinning);
