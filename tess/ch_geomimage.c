@@ -135,42 +135,37 @@ ch_status ch_geomimage_build(const ch_surface *s, int W, int H, const double rec
   return ch_geomimage_build_warped(s, W, H, rect_in, NULL, gi, err);
 }
 
-ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const double rect_in[4],
-                                    const ch_warp *warp, ch_geomimage *gi, ch_error *err) {
-  memset(gi, 0, sizeof *gi);
-  double rect[4] = {0, 0, 1, 1};
-  if (rect_in) memcpy(rect, rect_in, sizeof rect);
-  if (warp && (rect[0] != 0.0 || rect[1] != 0.0 || rect[2] != 1.0 || rect[3] != 1.0))
-    return ch_error_set(err, CH_ERR_INPUT, "a warped geometry image covers the unit square, not %g,%g,%g,%g",
-                        rect[0], rect[1], rect[2], rect[3]);
-  if (W < 1 || H < 1 || W > CH_IMAGE_MAX_SIDE || H > CH_IMAGE_MAX_SIDE || !(rect[2] > rect[0]) ||
-      !(rect[3] > rect[1]))
-    return ch_error_set(err, CH_ERR_INPUT, "geometry image %dx%d over %g,%g,%g,%g is empty or too large", W, H,
-                        rect[0], rect[1], rect[2], rect[3]);
+/* Where the rasteriser puts each texel's values: channel k of texel i at
+ * value[k][i * stride[k]] (channels in ch_geomimage_channel_names' order,
+ * then u and v; NULL: not kept), and its face, -1 where none, in face (an
+ * int array) or as the float of value[6]. */
+enum { SINK_CHANNELS = CH_GEOMIMAGE_CHANNELS + 2, FACE_CHANNEL = 6 };
+typedef struct sink {
+  float *value[SINK_CHANNELS];
+  size_t stride[SINK_CHANNELS];
+  int *face;
+} sink;
+
+static void sink_put(const sink *k, int c, size_t i, double x) {
+  if (k->value[c]) k->value[c][i * k->stride[c]] = (float)x;
+}
+
+/* The geometry image's texels into out (see ch_geomimage_build_warped);
+ * *covered: the texels with a face. */
+static ch_status rasterise(const ch_surface *s, int W, int H, const double rect[4], const ch_warp *warp,
+                           const sink *out, long *covered_out, ch_error *err) {
   int nf = ch_surface_num_faces(s), total = 0;
   for (int f = 0; f < nf; f++) {
     int n = ch_surface_face_size(s, f);
     total += n == 4 ? 1 : n;
   }
-  size_t n = (size_t)W * H;
   patch *ps = malloc((size_t)(total > 0 ? total : 1) * sizeof *ps);
   int *first = malloc((size_t)(nf + 1) * sizeof *first);
-  gi->face = ch_alloc_large(n, sizeof *gi->face, 0);
-  /* (not zeroed here: each row's uncovered texels are, by the thread that
-   * fills the row, so the pages are first touched in parallel and once) */
-  gi->st = ch_alloc_large(2 * n, sizeof *gi->st, 0);
-  gi->uv = ch_alloc_large(2 * n, sizeof *gi->uv, 0);
-  gi->position = ch_alloc_large(3 * n, sizeof *gi->position, 0);
-  gi->normal = ch_alloc_large(3 * n, sizeof *gi->normal, 0);
-  if (!ps || !first || !gi->face || !gi->st || !gi->uv || !gi->position || !gi->normal) {
+  if (!ps || !first) {
     free(ps);
     free(first);
-    ch_geomimage_free(gi);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d geometry image", W, H);
   }
-  gi->width = W;
-  gi->height = H;
-  memcpy(gi->rect, rect, sizeof rect);
   first[0] = 0;
   for (int f = 0; f < nf; f++) first[f + 1] = first[f] + (ch_surface_face_size(s, f) == 4 ? 1 : ch_surface_face_size(s, f));
   int failed = 0;
@@ -180,7 +175,6 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
   free(first);
   if (failed) {
     free(ps);
-    ch_geomimage_free(gi);
     return ch_error_set(err, CH_ERR_INTERNAL, "geometry image: a face could not be evaluated");
   }
   if (warp) /* texels of warped UV: a patch's texels lie in the warped box
@@ -195,7 +189,6 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
   int *row_count = calloc((size_t)H + 1, sizeof *row_count);
   if (!row_count) {
     free(ps);
-    ch_geomimage_free(gi);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a geometry image");
   }
 #define ROW_RANGE(p, y0, y1)                                                                     \
@@ -216,7 +209,6 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
     free(fill);
     free(row_count);
     free(ps);
-    ch_geomimage_free(gi);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a geometry image");
   }
   memcpy(fill, row_count, (size_t)H * sizeof *fill);
@@ -231,15 +223,19 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
 #pragma omp parallel for schedule(dynamic, 4) reduction(+ : covered) reduction(| : out_of_memory)
   for (int y = 0; y < H; y++) {
     double v = rect[3] - (y + 0.5) * tv;
-    int *row_face = gi->face + (size_t)y * W;
-    for (int x = 0; x < W; x++) row_face[x] = -1;
-    /* The UV of the row's texel centres, taken back through the warp once
-     * (patches overlap in their boxes: a texel is tried by several). */
+    size_t row = (size_t)y * W;
+    /* The row's faces, and the UV of its texel centres taken back through
+     * the warp once (patches overlap in their boxes: a texel is tried by
+     * several). */
+    int *row_face = out->face ? out->face + row : malloc((size_t)W * sizeof *row_face);
     double *row_uv = warp ? malloc(2 * (size_t)W * sizeof *row_uv) : NULL;
-    if (warp && !row_uv) {
+    if (!row_face || (warp && !row_uv)) {
+      if (!out->face) free(row_face);
+      free(row_uv);
       out_of_memory = 1;
       continue;
     }
+    for (int x = 0; x < W; x++) row_face[x] = -1;
     for (int x = 0; x < W; x++) {
       double q[2] = {rect[0] + (x + 0.5) * tu, v};
       if (warp) {
@@ -247,8 +243,8 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
         q[0] = row_uv[2 * x];
         q[1] = row_uv[2 * x + 1];
       }
-      gi->uv[2 * ((size_t)y * W + x)] = (float)q[0];
-      gi->uv[2 * ((size_t)y * W + x) + 1] = (float)q[1];
+      sink_put(out, SINK_CHANNELS - 2, row + x, q[0]);
+      sink_put(out, SINK_CHANNELS - 1, row + x, q[1]);
     }
     for (int it = row_count[y]; it < row_count[y + 1]; it++) {
       const patch *p = &ps[row_items[it]];
@@ -263,51 +259,94 @@ ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const dou
         double st2[2] = {p->origin[0] + p->scale * ab[0], p->origin[1] + p->scale * ab[1]};
         ch_surface_point sp;
         if (ch_surface_eval(s, p->face, st2[0], st2[1], &sp) != CH_OK) continue;
-        size_t i = (size_t)y * W + x;
+        size_t i = row + x;
         row_face[x] = p->face;
-        gi->st[2 * i] = (float)st2[0];
-        gi->st[2 * i + 1] = (float)st2[1];
         for (int k = 0; k < 3; k++) {
-          gi->position[3 * i + k] = (float)sp.position[k];
-          gi->normal[3 * i + k] = (float)sp.normal[k];
+          sink_put(out, k, i, sp.position[k]);
+          sink_put(out, 3 + k, i, sp.normal[k]);
         }
+        sink_put(out, 7, i, st2[0]);
+        sink_put(out, 8, i, st2[1]);
         covered++;
       }
     }
-    for (int x = 0; x < W; x++)
-      if (row_face[x] < 0) {
-        size_t i = (size_t)y * W + x;
-        gi->st[2 * i] = gi->st[2 * i + 1] = 0.0f;
-        for (int k = 0; k < 3; k++) gi->position[3 * i + k] = gi->normal[3 * i + k] = 0.0f;
-      }
+    for (int x = 0; x < W; x++) {
+      size_t i = row + x;
+      sink_put(out, FACE_CHANNEL, i, row_face[x]);
+      if (row_face[x] < 0)
+        for (int c = 0; c < CH_GEOMIMAGE_CHANNELS; c++)
+          if (c != FACE_CHANNEL) sink_put(out, c, i, 0.0);
+    }
+    if (!out->face) free(row_face);
     free(row_uv);
   }
-  gi->covered = covered;
   free(row_items);
   free(row_count);
   free(ps);
-  if (out_of_memory) {
-    ch_geomimage_free(gi);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a warped geometry image");
-  }
+  if (out_of_memory) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a geometry image's rows");
+  *covered_out = covered;
   return CH_OK;
+}
+
+/* Checks a geometry image's size and rectangle (NULL: the unit square),
+ * which it copies to rect. */
+static ch_status check_size(int W, int H, const double rect_in[4], const ch_warp *warp, double rect[4], ch_error *err) {
+  rect[0] = rect[1] = 0.0;
+  rect[2] = rect[3] = 1.0;
+  if (rect_in) memcpy(rect, rect_in, 4 * sizeof *rect);
+  if (warp && (rect[0] != 0.0 || rect[1] != 0.0 || rect[2] != 1.0 || rect[3] != 1.0))
+    return ch_error_set(err, CH_ERR_INPUT, "a warped geometry image covers the unit square, not %g,%g,%g,%g", rect[0],
+                        rect[1], rect[2], rect[3]);
+  if (W < 1 || H < 1 || W > CH_IMAGE_MAX_SIDE || H > CH_IMAGE_MAX_SIDE || !(rect[2] > rect[0]) || !(rect[3] > rect[1]))
+    return ch_error_set(err, CH_ERR_INPUT, "geometry image %dx%d over %g,%g,%g,%g is empty or too large", W, H, rect[0],
+                        rect[1], rect[2], rect[3]);
+  return CH_OK;
+}
+
+ch_status ch_geomimage_build_warped(const ch_surface *s, int W, int H, const double rect_in[4], const ch_warp *warp,
+                                    ch_geomimage *gi, ch_error *err) {
+  memset(gi, 0, sizeof *gi);
+  double rect[4];
+  ch_status st = check_size(W, H, rect_in, warp, rect, err);
+  if (st) return st;
+  size_t n = (size_t)W * H;
+  /* (not zeroed here: each row's uncovered texels are, by the thread that
+   * fills the row, so the pages are first touched in parallel and once) */
+  gi->face = ch_alloc_large(n, sizeof *gi->face, 0);
+  gi->st = ch_alloc_large(2 * n, sizeof *gi->st, 0);
+  gi->uv = ch_alloc_large(2 * n, sizeof *gi->uv, 0);
+  gi->position = ch_alloc_large(3 * n, sizeof *gi->position, 0);
+  gi->normal = ch_alloc_large(3 * n, sizeof *gi->normal, 0);
+  if (!gi->face || !gi->st || !gi->uv || !gi->position || !gi->normal) {
+    ch_geomimage_free(gi);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d geometry image", W, H);
+  }
+  gi->width = W;
+  gi->height = H;
+  memcpy(gi->rect, rect, sizeof rect);
+  sink out = {.value = {gi->position, gi->position + 1, gi->position + 2, gi->normal, gi->normal + 1, gi->normal + 2,
+                        NULL, gi->st, gi->st + 1, gi->uv, gi->uv + 1},
+              .stride = {3, 3, 3, 3, 3, 3, 1, 2, 2, 2, 2},
+              .face = gi->face};
+  if ((st = rasterise(s, W, H, rect, warp, &out, &gi->covered, err))) ch_geomimage_free(gi);
+  return st;
+}
+
+ch_status ch_geomimage_build_planes(const ch_surface *s, int W, int H, const ch_warp *warp,
+                                    float *const planes[CH_GEOMIMAGE_CHANNELS + 2], long *covered, ch_error *err) {
+  double rect[4];
+  ch_status st = check_size(W, H, NULL, warp, rect, err);
+  if (st) return st;
+  sink out = {.face = NULL};
+  for (int c = 0; c < SINK_CHANNELS; c++) {
+    out.value[c] = planes[c];
+    out.stride[c] = 1;
+  }
+  long n = 0;
+  st = rasterise(s, W, H, rect, warp, &out, &n, err);
+  if (!st && covered) *covered = n;
+  return st;
 }
 
 const char *const ch_geomimage_channel_names[CH_GEOMIMAGE_CHANNELS] = {"P.x", "P.y",    "P.z", "N.x", "N.y",
                                                                        "N.z", "face.X", "s",   "t"};
-
-void ch_geomimage_fill(const ch_geomimage *gi, ch_image *img, int first) {
-  long n = (long)gi->width * gi->height;
-  float *p[CH_GEOMIMAGE_CHANNELS];
-  for (int k = 0; k < CH_GEOMIMAGE_CHANNELS; k++) p[k] = ch_image_plane(img, first + k);
-#pragma omp parallel for schedule(static)
-  for (long i = 0; i < n; i++) {
-    for (int k = 0; k < 3; k++) {
-      p[k][i] = gi->position[3 * i + k];
-      p[3 + k][i] = gi->normal[3 * i + k];
-    }
-    p[6][i] = (float)gi->face[i];
-    p[7][i] = gi->st[2 * i];
-    p[8][i] = gi->st[2 * i + 1];
-  }
-}

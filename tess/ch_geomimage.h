@@ -53,11 +53,15 @@ void ch_geomimage_free(ch_geomimage *gi);
  * of more than one letter without a layer), s, t. */
 enum { CH_GEOMIMAGE_CHANNELS = 9 };
 extern const char *const ch_geomimage_channel_names[CH_GEOMIMAGE_CHANNELS];
-/* Writes them into channels first .. first + 8 of img, an image of the
- * geometry image's size made by the caller with the others it needs (no
- * copy of the layers in between: at --res 4096 that was 600 MB more at
- * the peak). */
-void ch_geomimage_fill(const ch_geomimage *gi, ch_image *img, int first);
+/* The geometry image over the unit square (of warped UV where warp is not
+ * NULL) straight into the caller's float planes, of width * height each:
+ * planes[0..8] the channels above (face.X -1.0 outside the charts), then
+ * planes[9], planes[10] each texel centre's UV (u, v); any may be NULL (not
+ * written). The same values as ch_geomimage_build_warped, without its
+ * arrays (44 bytes a texel: 740 MB at 4096^2 for maps that are EXR planes
+ * anyway). *covered (may be NULL): the texels with a face. */
+ch_status ch_geomimage_build_planes(const ch_surface *surface, int width, int height, const struct ch_warp *warp,
+                                    float *const planes[CH_GEOMIMAGE_CHANNELS + 2], long *covered, ch_error *err);
 
 /* Finds the (s, t) of face whose UV is uv. Returns CH_OK with st set, or
  * CH_ERR_INPUT if uv is not inside the face's UV patch (within 1e-9). */

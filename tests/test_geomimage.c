@@ -2,6 +2,7 @@
  * the base surface (checked against shapes known in closed form), overlaps
  * and gaps are handled, and ch_surface_locate inverts the UV map. */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ch_geomimage.h"
@@ -127,9 +128,48 @@ static void test_locate(void) {
   ch_mesh_free(&mesh);
 }
 
+/* The planes (ch_geomimage_build_planes, what the maps' EXR holds) carry
+ * exactly the geometry image's values, channel by channel, on a mesh with
+ * several charts and texels outside them (the tablet); a NULL plane is
+ * left alone. */
+static void test_planes(void) {
+  ch_mesh mesh;
+  ch_surface *s = load(CHISEL_MODELS "/tablet.obj", CH_SCHEME_BILINEAR, &mesh);
+  REQUIRE(s);
+  enum { W = 200, H = 150 };
+  ch_geomimage gi;
+  ch_error err = {0};
+  REQUIRE(ch_geomimage_build(s, W, H, NULL, &gi, &err) == CH_OK);
+  size_t n = (size_t)W * H;
+  float *planes[CH_GEOMIMAGE_CHANNELS + 2], *store = malloc((CH_GEOMIMAGE_CHANNELS + 2) * n * sizeof *store);
+  REQUIRE(store);
+  for (size_t i = 0; i < (CH_GEOMIMAGE_CHANNELS + 2) * n; i++) store[i] = 12345.0f;
+  for (int c = 0; c < CH_GEOMIMAGE_CHANNELS + 2; c++) planes[c] = store + (size_t)c * n;
+  planes[CH_GEOMIMAGE_CHANNELS + 1] = NULL; /* v: not asked for */
+  long covered = 0;
+  REQUIRE(ch_geomimage_build_planes(s, W, H, NULL, planes, &covered, &err) == CH_OK);
+  CHECK(covered == gi.covered && covered > 0 && covered < (long)n);
+  long differ = 0;
+  for (size_t i = 0; i < n; i++) {
+    const float want[CH_GEOMIMAGE_CHANNELS + 1] = {
+        gi.position[3 * i],   gi.position[3 * i + 1], gi.position[3 * i + 2], gi.normal[3 * i], gi.normal[3 * i + 1],
+        gi.normal[3 * i + 2], (float)gi.face[i],      gi.st[2 * i],           gi.st[2 * i + 1], gi.uv[2 * i]};
+    for (int c = 0; c <= CH_GEOMIMAGE_CHANNELS; c++) differ += memcmp(&planes[c][i], &want[c], sizeof(float)) != 0;
+  }
+  CHECK_MSG(differ == 0, "%ld values differ", differ);
+  long touched = 0;
+  for (size_t i = 0; i < n; i++) touched += store[(CH_GEOMIMAGE_CHANNELS + 1) * n + i] != 12345.0f;
+  CHECK(touched == 0);
+  free(store);
+  ch_geomimage_free(&gi);
+  ch_surface_destroy(s);
+  ch_mesh_free(&mesh);
+}
+
 int main(void) {
   RUN(test_plane);
   RUN(test_torus);
   RUN(test_locate);
+  RUN(test_planes);
   TEST_MAIN_END();
 }

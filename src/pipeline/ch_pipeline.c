@@ -141,33 +141,19 @@ static ch_status render_maps(const ch_surface *surface, const ch_height *height,
   if (st) return st;
   ch_height_render_warped(height, warp, res, 1, ch_image_plane(&out->height, 0));
   if (!(which & CH_DISPLACE_GEOMETRY_MAPS)) return CH_OK;
-  ch_geomimage gi;
-  st = ch_geomimage_build_warped(surface, res, res, NULL, warp, &gi, err);
-  if (st) return st;
   int extra = warp ? 2 : 0; /* u v: each warped texel's original UV */
   const char *names[CH_IMAGE_MAX_CHANNELS];
   names[0] = "h";
   for (int c = 0; c < CH_GEOMIMAGE_CHANNELS; c++) names[1 + c] = ch_geomimage_channel_names[c];
   names[1 + CH_GEOMIMAGE_CHANNELS] = "u";
   names[2 + CH_GEOMIMAGE_CHANNELS] = "v";
-  st = ch_image_init(&out->maps, res, res, 1 + CH_GEOMIMAGE_CHANNELS + extra, names, err);
-  if (!st) {
-    size_t plane = (size_t)res * (size_t)res * sizeof(float);
-    memcpy(ch_image_plane(&out->maps, 0), ch_image_plane(&out->height, 0), plane);
-    ch_geomimage_fill(&gi, &out->maps, 1);
-    if (warp) {
-      float *pu = ch_image_plane(&out->maps, 1 + CH_GEOMIMAGE_CHANNELS);
-      float *pv = ch_image_plane(&out->maps, 2 + CH_GEOMIMAGE_CHANNELS);
-      long n = (long)res * res;
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < n; i++) {
-        pu[i] = gi.uv[2 * i];
-        pv[i] = gi.uv[2 * i + 1];
-      }
-    }
-  }
-  ch_geomimage_free(&gi);
-  return st;
+  if ((st = ch_image_init(&out->maps, res, res, 1 + CH_GEOMIMAGE_CHANNELS + extra, names, err))) return st;
+  memcpy(ch_image_plane(&out->maps, 0), ch_image_plane(&out->height, 0), (size_t)res * (size_t)res * sizeof(float));
+  /* the geometry image straight into the maps' planes */
+  float *planes[CH_GEOMIMAGE_CHANNELS + 2];
+  for (int c = 0; c < CH_GEOMIMAGE_CHANNELS + 2; c++)
+    planes[c] = c < CH_GEOMIMAGE_CHANNELS + extra ? ch_image_plane(&out->maps, 1 + c) : NULL;
+  return ch_geomimage_build_planes(surface, res, res, warp, planes, NULL, err);
 }
 
 ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result *out, ch_error *err) {
