@@ -116,12 +116,15 @@ static int far_order_slot(const far_set *fs, int t) {
   return t < fs->nbase ? fs->where[t] : fs->nactive + (t - fs->nbase);
 }
 
+/* Far triangle f's vertices. */
+static const int *far_tri(const far_set *fs, int f) { return &fs->far_v[3 * (size_t)f]; }
+
 /* Cuts the t-th triangle of the cut's order into o. */
 static int cut_in_order(const ch_label_ctx *lb, const ch_refine_mesh *w, const far_set *fs, int t, double tol,
                         ch_cut_out *o, ch_embed_stats *stats) {
   int i = far_order_slot(fs, t);
   if (i >= 0) return ch_cut_triangle(lb, w, i, tol, o, stats);
-  const int *v = &fs->far_v[3 * (size_t)(-1 - i)];
+  const int *v = far_tri(fs, -1 - i);
   return ch_cut_out_tri(o, v[0], v[1], v[2], w->verts[v[0]].uv, w->verts[v[1]].uv, w->verts[v[2]].uv,
                         w->verts[v[0]].label);
 }
@@ -130,7 +133,7 @@ static int cut_in_order(const ch_label_ctx *lb, const ch_refine_mesh *w, const f
 static int in_order_sampled(const ch_refine_mesh *w, const far_set *fs, int t, int quarter) {
   int i = far_order_slot(fs, t);
   if (i >= 0) return tri_sampled(w, i, quarter);
-  const int *v = &fs->far_v[3 * (size_t)(-1 - i)];
+  const int *v = far_tri(fs, -1 - i);
   const double *uv[3] = {w->verts[v[0]].uv, w->verts[v[1]].uv, w->verts[v[2]].uv};
   return sample_tile(uv, quarter);
 }

@@ -139,7 +139,16 @@ ch_status ch_geomimage_build(const ch_surface *s, int W, int H, const double rec
  * value[k][i * stride[k]] (channels in ch_geomimage_channel_names' order,
  * then u and v; NULL: not kept), and its face, -1 where none, in face (an
  * int array) or as the float of value[6]. */
-enum { SINK_CHANNELS = CH_GEOMIMAGE_CHANNELS + 2, FACE_CHANNEL = 6 };
+enum {
+  P_CHANNEL = 0, /* P.x P.y P.z */
+  N_CHANNEL = 3, /* N.x N.y N.z */
+  FACE_CHANNEL = 6,
+  S_CHANNEL = 7,
+  T_CHANNEL = 8,
+  U_CHANNEL = CH_GEOMIMAGE_CHANNELS,
+  V_CHANNEL,
+  SINK_CHANNELS
+};
 typedef struct sink {
   float *value[SINK_CHANNELS];
   size_t stride[SINK_CHANNELS];
@@ -243,8 +252,8 @@ static ch_status rasterise(const ch_surface *s, int W, int H, const double rect[
         q[0] = row_uv[2 * x];
         q[1] = row_uv[2 * x + 1];
       }
-      sink_put(out, SINK_CHANNELS - 2, row + x, q[0]);
-      sink_put(out, SINK_CHANNELS - 1, row + x, q[1]);
+      sink_put(out, U_CHANNEL, row + x, q[0]);
+      sink_put(out, V_CHANNEL, row + x, q[1]);
     }
     for (int it = row_count[y]; it < row_count[y + 1]; it++) {
       const patch *p = &ps[row_items[it]];
@@ -262,11 +271,11 @@ static ch_status rasterise(const ch_surface *s, int W, int H, const double rect[
         size_t i = row + x;
         row_face[x] = p->face;
         for (int k = 0; k < 3; k++) {
-          sink_put(out, k, i, sp.position[k]);
-          sink_put(out, 3 + k, i, sp.normal[k]);
+          sink_put(out, P_CHANNEL + k, i, sp.position[k]);
+          sink_put(out, N_CHANNEL + k, i, sp.normal[k]);
         }
-        sink_put(out, 7, i, st2[0]);
-        sink_put(out, 8, i, st2[1]);
+        sink_put(out, S_CHANNEL, i, st2[0]);
+        sink_put(out, T_CHANNEL, i, st2[1]);
         covered++;
       }
     }
