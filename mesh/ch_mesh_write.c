@@ -5,6 +5,7 @@
  * decimal conversion was 80% of the time of writing a 2M-triangle mesh). */
 #include "ch_mesh.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -251,7 +252,9 @@ static void format_round(const obj_lines *L, long total, long b0, int n, char **
   }
 }
 
-static int write_obj_body(FILE *fp, const ch_mesh *m) {
+/* 0 when out of memory or a write failed (then *write_errno is its errno,
+ * taken on the thread that wrote: errno is per thread). */
+static int write_obj_body(FILE *fp, const ch_mesh *m, int *write_errno) {
   fputs("# chisel\n", fp);
   long nv = m->num_positions, nt = m->corner_uv ? m->num_uvs : 0, nn = m->corner_normal ? m->num_normals : 0;
   long largest = nv > nt ? (nv > nn ? nv : nn) : (nt > nn ? nt : nn); /* (the indices are 1-based) */
@@ -274,7 +277,10 @@ static int write_obj_body(FILE *fp, const ch_mesh *m) {
       int prev = (int)((r + 1) & 1) * per_round, cur = (int)(r & 1) * per_round;
 #pragma omp single nowait
       for (int j = 0; r > 0 && !write_failed && j < per_round; j++)
-        if (len[prev + j] && fwrite(buf[prev + j], 1, len[prev + j], fp) != len[prev + j]) write_failed = 1;
+        if (len[prev + j] && fwrite(buf[prev + j], 1, len[prev + j], fp) != len[prev + j]) {
+          write_failed = 1;
+          *write_errno = errno ? errno : EIO;
+        }
       if (r < rounds) format_round(&L, total, r * per_round, per_round, buf + cur, cap + cur, len + cur, &failed);
 #pragma omp barrier
     }
@@ -293,7 +299,8 @@ ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err
   ch_atomic_file f;
   st = ch_atomic_open(&f, path, err);
   if (st != CH_OK) return st;
-  if (!write_obj_body(f.fp, mesh)) /* a write error names itself (ch_atomic_fail) */
+  int write_errno = 0;
+  if (!write_obj_body(f.fp, mesh, &write_errno)) /* a write error names itself (ch_atomic_fail) */
     return ch_atomic_fail(&f, ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path), err);
   return ch_atomic_commit(&f, err);
 }
@@ -423,15 +430,19 @@ ch_status ch_mesh_write_ply(const char *path, const ch_mesh *mesh, ch_error *err
 ch_status ch_mesh_write_obj_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err) {
   ch_status st = check_writable(mesh, name, err);
   if (st != CH_OK) return st;
-  if (!write_obj_body(fp, mesh) || fflush(fp) != 0 || ferror(fp))
-    return ch_error_set(err, CH_ERR_IO, "%s: out of memory or write error", name);
+  int write_errno = 0;
+  if (!write_obj_body(fp, mesh, &write_errno) && !write_errno)
+    return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
+  if (!write_errno && (fflush(fp) != 0 || ferror(fp))) write_errno = errno ? errno : EIO;
+  if (write_errno) return ch_file_error(err, name, "cannot write", write_errno);
   return CH_OK;
 }
 
 ch_status ch_mesh_write_ply_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err) {
   ch_status st = check_writable(mesh, name, err);
   if (st != CH_OK) return st;
+  errno = 0; /* (a failed write inside sets it; the stream keeps only that it failed) */
   if (!write_ply_body(fp, mesh)) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
-  if (fflush(fp) != 0 || ferror(fp)) return ch_error_set(err, CH_ERR_IO, "%s: write error", name);
+  if (fflush(fp) != 0 || ferror(fp)) return ch_file_error(err, name, "cannot write", errno ? errno : EIO);
   return CH_OK;
 }

@@ -4,9 +4,11 @@
  * end in test_faults.sh. */
 #define _GNU_SOURCE
 #include <dirent.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -85,6 +87,35 @@ static void test_atomic(void) {
   /* a directory that does not exist: an I/O error naming the path */
   CHECK(ch_atomic_open(&f, at("no/such/b.txt"), &err) == CH_ERR_IO);
   CHECK(strstr(err.message, "no/such/b.txt: cannot create file: No such file or directory") != NULL);
+  CHECK(ch_status_exit_code(CH_ERR_IO) == 2);
+}
+
+/* A write the system fails part way (here over a file size limit: EFBIG,
+ * as a full disk's ENOSPC) is the system's failure, exit status 1, not
+ * the user's (2); nothing is left. In a child, so the limit stays there. */
+static void test_failed_write(void) {
+  put("big.txt", "old big");
+  pid_t pid = fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    signal(SIGXFSZ, SIG_IGN);
+    struct rlimit lim = {16384, 16384};
+    if (setrlimit(RLIMIT_FSIZE, &lim) != 0) _exit(10);
+    ch_error err = {0};
+    ch_atomic_file f;
+    if (ch_atomic_open(&f, at("big.txt"), &err) != CH_OK) _exit(11);
+    for (int i = 0; i < 10000; i++) fputs("0123456789", f.fp);
+    ch_status st = ch_atomic_commit(&f, &err);
+    if (st != CH_ERR_WRITE) _exit(12);
+    if (!strstr(err.message, "big.txt: cannot write: File too large")) _exit(13);
+    _exit(ch_status_exit_code(st) == 1 ? 0 : 14);
+  }
+  int status = 0;
+  REQUIRE(waitpid(pid, &status, 0) == pid);
+  CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) fprintf(stderr, "  child status %d\n", status);
+  CHECK(strcmp(text_of("big.txt"), "old big") == 0);
+  CHECK(count_temporaries() == 0);
 }
 
 static void test_staging(void) {
@@ -196,6 +227,7 @@ int main(void) {
     return 1;
   }
   RUN(test_atomic);
+  RUN(test_failed_write);
   RUN(test_staging);
   RUN(test_stale);
   RUN(test_remove_temporaries);

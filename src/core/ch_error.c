@@ -41,6 +41,8 @@ const char *ch_status_name(ch_status status) {
   case CH_ERR_IO: return "i/o error";
   case CH_ERR_NOMEM: return "out of memory";
   case CH_ERR_INTERNAL: return "internal error";
+  case CH_ERR_WRITE:
+    return "write error";
   }
   return "unknown status";
 }

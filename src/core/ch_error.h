@@ -11,9 +11,12 @@ extern "C" {
 typedef enum ch_status {
   CH_OK = 0,
   CH_ERR_INPUT,    /* malformed or unusable input: exit status 2 */
-  CH_ERR_IO,       /* a file cannot be opened, read or written: exit status 2 */
+  CH_ERR_IO,       /* a file cannot be opened, read or created: exit status 2 */
   CH_ERR_NOMEM,    /* allocation failed: exit status 1 */
-  CH_ERR_INTERNAL  /* a bug or a library failure: exit status 1 */
+  CH_ERR_INTERNAL, /* a bug or a library failure: exit status 1 */
+  CH_ERR_WRITE     /* the system failed a write (a full disk or quota, a file
+                      over the size limit, a device error): exit status 1,
+                      as nothing the user gave is wrong */
 } ch_status;
 
 enum { CH_ERROR_MESSAGE_MAX = 1024 };

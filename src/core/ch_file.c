@@ -66,14 +66,13 @@ static char *dup_string(const char *s) {
   return d;
 }
 
-/* "No space left on device (ENOSPC)": the reason, and its name for
- * scripts and searches. */
-static ch_status io_error(ch_error *err, const char *path, const char *what, int code) {
+ch_status ch_file_error(ch_error *err, const char *path, const char *what, int code) {
+  ch_status st = code == ENOSPC || code == EDQUOT || code == EFBIG || code == EIO ? CH_ERR_WRITE : CH_ERR_IO;
 #if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 32))
   const char *name = strerrorname_np(code);
-  if (name) return ch_error_set(err, CH_ERR_IO, "%s: %s: %s (%s)", path, what, strerror(code), name);
+  if (name) return ch_error_set(err, st, "%s: %s: %s (%s)", path, what, strerror(code), name);
 #endif
-  return ch_error_set(err, CH_ERR_IO, "%s: %s: %s", path, what, strerror(code));
+  return ch_error_set(err, st, "%s: %s: %s", path, what, strerror(code));
 }
 
 /* The cookie stream's write: the whole buffer, or 0 with the errno kept. */
@@ -196,7 +195,7 @@ ch_status ch_atomic_open(ch_atomic_file *f, const char *path, ch_error *err) {
   pthread_mutex_unlock(&list_lock);
   if (e->fd < 0) {
     free_entry(e);
-    return io_error(err, path, "cannot create file", code);
+    return ch_file_error(err, path, "cannot create file", code);
   }
   (void)flock(e->fd, LOCK_EX | LOCK_NB); /* tells a later run it is in use (see remove_stale) */
   (void)fchmod(e->fd, file_mode);        /* mkostemp creates 0600 */
@@ -235,7 +234,7 @@ ch_status ch_atomic_commit(ch_atomic_file *f, ch_error *err) {
   }
   memset(f, 0, sizeof *f);
   if (failed || e->write_errno) {
-    ch_status st = io_error(err, e->final_path, "cannot write", e->write_errno ? e->write_errno : EIO);
+    ch_status st = ch_file_error(err, e->final_path, "cannot write", e->write_errno ? e->write_errno : EIO);
     discard(e);
     return st;
   }
@@ -249,7 +248,7 @@ ch_status ch_atomic_commit(ch_atomic_file *f, ch_error *err) {
   if (r != 0) unlink(e->temp_path);
   list_remove(e);
   pthread_mutex_unlock(&list_lock);
-  ch_status st = r ? io_error(err, e->final_path, "cannot move the finished file into place", code) : CH_OK;
+  ch_status st = r ? ch_file_error(err, e->final_path, "cannot move the finished file into place", code) : CH_OK;
   free_entry(e);
   return st;
 }
@@ -262,7 +261,8 @@ void ch_atomic_abort(ch_atomic_file *f) {
 
 ch_status ch_atomic_fail(ch_atomic_file *f, ch_status st, ch_error *err) {
   if (f->fp) fflush(f->fp); /* a write error may still sit in the buffer */
-  if (f->temp && f->temp->write_errno) st = io_error(err, f->temp->final_path, "cannot write", f->temp->write_errno);
+  if (f->temp && f->temp->write_errno)
+    st = ch_file_error(err, f->temp->final_path, "cannot write", f->temp->write_errno);
   ch_atomic_abort(f);
   return st;
 }
@@ -336,7 +336,7 @@ ch_status ch_file_stage_commit(ch_error *err) {
                         "replaced or left beside their targets, e.g. %s)",
                         failed->final_path, strerror(code), lost, lost > 1 ? "s were" : " was", lost_name);
     else
-      st = io_error(err, failed->final_path, "cannot move the finished file into place", code);
+      st = ch_file_error(err, failed->final_path, "cannot move the finished file into place", code);
   }
   /* Every staged name left holds an old file (exchanged into it) or an
    * unused new one (or nothing: it was renamed away). */

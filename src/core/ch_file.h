@@ -43,6 +43,14 @@ typedef struct ch_atomic_file {
   ch_temp_entry *temp; /* its entry in the process-wide list */
 } ch_atomic_file;
 
+/* Records a failed create or write of path as "PATH: WHAT: reason (ENAME)"
+ * ("No space left on device (ENOSPC)": the name for scripts and searches).
+ * A full disk or quota, a file over the size limit and a device error are
+ * the system's failures (CH_ERR_WRITE, exit status 1); the rest (no such
+ * folder, no permission, a read-only file system) are the user's to fix
+ * (CH_ERR_IO, exit status 2). Returns the status. */
+ch_status ch_file_error(ch_error *err, const char *path, const char *what, int code);
+
 /* Removes stale temporaries of path's (see above), then creates a
  * temporary file in the target's directory. On failure fills err (CH_ERR_IO
  * naming the path and the reason) and leaves *f empty. */
