@@ -276,13 +276,43 @@ static void collapse_vertex(thin *th, int v, int *removed_count, unsigned char *
   }
 }
 
+/* Buckets the vertices with corners by tile of a side x side grid over
+ * UV shifted by `shift` tiles (0, or 1/2 for the grid whose tiles are
+ * centred on the other's corners): tile[v] (-1 for none), and each tile's
+ * vertices in index order, list[start[i] ..]. start has side^2 + 1
+ * entries. -1 when out of memory. */
+static int bucket_tiles(const thin *th, int nv, int side, double tiles, double shift, int *tile, int *start,
+                        int *list) {
+  int ntiles = side * side;
+  memset(start, 0, ((size_t)ntiles + 1) * sizeof *start);
+  for (int v = 0; v < nv; v++) {
+    tile[v] = -1;
+    if (th->head[v] < 0) continue;
+    const double *u = uv_at(th, th->head[v]);
+    /* clamped as by fmin(side - 1, fmax(0, .)), without their calls */
+    double fx = floor(u[0] * tiles + shift), fy = floor(u[1] * tiles + shift);
+    fx = fx > 0.0 ? fx : 0.0;
+    fy = fy > 0.0 ? fy : 0.0;
+    int tx = (int)(fx < side - 1 ? fx : side - 1), ty = (int)(fy < side - 1 ? fy : side - 1);
+    tile[v] = ty * side + tx;
+    start[tile[v] + 1]++;
+  }
+  for (int i = 0; i < ntiles; i++) start[i + 1] += start[i];
+  int *fill = calloc((size_t)ntiles, sizeof *fill);
+  if (!fill) return -1;
+  for (int v = 0; v < nv; v++)
+    if (tile[v] >= 0) list[start[tile[v]] + fill[tile[v]]++] = v;
+  free(fill);
+  return 0;
+}
+
 int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv, const double *vertex_uv,
                   const double *extra_uv, uint64_t *group, const ch_thin_rules *rules, unsigned char *removed) {
   int nv = num_vertices, nt = *num_triangles;
   if (nv <= 0 || nt <= 0) return 0;
   thin th = {.tri = tri, .corner_uv = corner_uv, .vertex_uv = vertex_uv, .extra_uv = extra_uv, .rules = rules};
   unsigned char *dirty = NULL, *visit = NULL;
-  int *tile_start = NULL, *tile_list = NULL;
+  int *tile_start = NULL, *tile_list = NULL, *tile2 = NULL, *tile2_start = NULL, *tile2_list = NULL;
   th.family = malloc((size_t)nt * sizeof *th.family);
   th.layer = malloc((size_t)nt * sizeof *th.layer);
   th.head = malloc((size_t)nv * sizeof *th.head);
@@ -354,14 +384,16 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
   /* Tiles of UV TILE_EDGES mean band edges wide (at most 64 a side),
    * coloured like a 2 x 2 checkerboard: tiles of one colour share no
    * triangle a collapse inside one of them touches, so they run side by
-   * side; a collapse reaching into another tile is deferred to a
-   * sequential sweep in index order. The result does not depend on the
-   * number of threads. A collapse reaches two rings out, so tiles 8 edges
-   * wide left most of the work to the sweep (plane + ornament at 130k:
-   * 45863 vertices deferred in the first pass, of 93655; the sweeps 131
-   * of the thinning's 221 ms); 32 edges wide, 13723 and 42 of 167 ms,
-   * with L1 and the normals within 0.1% on the bundled sets (which
-   * collapses win changes with the tiles' order). */
+   * side; a collapse reaching into another tile is deferred to the same
+   * on a second grid, whose tiles are centred on the first's corners, and
+   * what reaches beyond those too to a sequential sweep in index order.
+   * The result does not depend on the number of threads. A collapse
+   * reaches two rings out, so tiles 8 edges wide left most of the work to
+   * the sweep (plane + ornament at 130k: 45863 vertices deferred in the
+   * first pass, of 93655; the sweeps 131 of the thinning's 221 ms); 32
+   * edges wide, 13723 and 42 of 167 ms, with L1 and the normals within
+   * 0.1% on the bundled sets (which collapses win changes with the tiles'
+   * order). The second grid leaves 1161 of those 13723 to the sweep. */
   double sum = 0.0;
   long edges = 0;
   for (int t = 0; t < nt; t++)
@@ -371,36 +403,19 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
         sum += ch_dist2d(b[0] - a[0], b[1] - a[1]);
       }
   int tiles = (int)fmin(64.0, fmax(2.0, floor(edges > 0 ? (double)edges / (TILE_EDGES * sum) : 2.0)));
-  int ntiles = tiles * tiles;
-  tile_start = calloc((size_t)ntiles + 1, sizeof *tile_start);
+  int ntiles = tiles * tiles, side2 = tiles + 1, ntiles2 = side2 * side2;
+  tile_start = malloc(((size_t)ntiles + 1) * sizeof *tile_start);
   tile_list = malloc((size_t)nv * sizeof *tile_list);
-  if (!tile_start || !tile_list) {
+  tile2 = malloc((size_t)nv * sizeof *tile2);
+  tile2_start = malloc(((size_t)ntiles2 + 1) * sizeof *tile2_start);
+  tile2_list = malloc((size_t)nv * sizeof *tile2_list);
+  if (!tile_start || !tile_list || !tile2 || !tile2_start || !tile2_list ||
+      bucket_tiles(&th, nv, tiles, tiles, 0.0, th.tile, tile_start, tile_list) ||
+      bucket_tiles(&th, nv, side2, tiles, 0.5, tile2, tile2_start, tile2_list)) {
     count = -1;
     goto done;
   }
-  for (int v = 0; v < nv; v++) {
-    th.tile[v] = -1;
-    if (th.head[v] < 0) continue;
-    const double *u = uv_at(&th, th.head[v]);
-    /* clamped as by fmin(tiles - 1, fmax(0, .)), without their calls */
-    double fx = floor(u[0] * tiles), fy = floor(u[1] * tiles);
-    fx = fx > 0.0 ? fx : 0.0;
-    fy = fy > 0.0 ? fy : 0.0;
-    int tx = (int)(fx < tiles - 1 ? fx : tiles - 1), ty = (int)(fy < tiles - 1 ? fy : tiles - 1);
-    th.tile[v] = ty * tiles + tx;
-    tile_start[th.tile[v] + 1]++;
-  }
-  for (int i = 0; i < ntiles; i++) tile_start[i + 1] += tile_start[i];
-  {
-    int *fill = calloc((size_t)ntiles, sizeof *fill);
-    if (!fill) {
-      count = -1;
-      goto done;
-    }
-    for (int v = 0; v < nv; v++)
-      if (th.tile[v] >= 0) tile_list[tile_start[th.tile[v]] + fill[th.tile[v]]++] = v;
-    free(fill);
-  }
+  int *tile1 = th.tile;
   /* Later passes revisit only the vertices whose rings changed. */
   for (int pass = 0; pass < PASSES; pass++) {
     int before = count;
@@ -419,6 +434,27 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
       }
       count += added;
     }
+    /* The vertices whose collapse reached beyond their tile, again on the
+     * grid whose tiles are centred on the first's corners (where those
+     * vertices mostly lie), side by side the same way; the few reaching
+     * beyond these too go to the sequential sweep. */
+    th.tile = tile2;
+    for (int colour = 0; colour < 4; colour++) {
+      int added = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : added)
+      for (int i = 0; i < ntiles2; i++) {
+        int tx = i % side2, ty = i / side2;
+        if ((tx & 1) + 2 * (ty & 1) != colour) continue;
+        for (int k = tile2_start[i]; k < tile2_start[i + 1]; k++) {
+          int v = tile2_list[k];
+          if (!th.deferred[v]) continue;
+          th.deferred[v] = 0;
+          if (!removed[v]) collapse_vertex(&th, v, &added, removed, dirty, i);
+        }
+      }
+      count += added;
+    }
+    th.tile = tile1;
     for (int v = 0; v < nv; v++)
       if (th.deferred[v]) {
         th.deferred[v] = 0;
@@ -454,5 +490,8 @@ done:
   free(th.deferred);
   free(tile_start);
   free(tile_list);
+  free(tile2);
+  free(tile2_start);
+  free(tile2_list);
   return count;
 }

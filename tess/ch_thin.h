@@ -16,8 +16,9 @@
  * mesh made for them would (an anisotropic mesh by decimation).
  * In index order within tiles of UV, tiles of one colour of a 2 x 2
  * checkerboard side by side (OpenMP), collapses reaching beyond their tile
- * in a sequential sweep: the same bytes for any thread count. The rules'
- * callbacks are called from several threads at once, for vertices of
+ * again on a grid shifted by half a tile, and those reaching beyond that
+ * too in a sequential sweep: the same bytes for any thread count. The
+ * rules' callbacks are called from several threads at once, for vertices of
  * different tiles. */
 #ifndef CH_THIN_H
 #define CH_THIN_H
