@@ -28,7 +28,7 @@
 #include "ch_count.h"
 #include "ch_test.h"
 
-typedef enum { SQRT_MODEL, BUMPY, OVER, U_LINES } count_kind;
+typedef enum { SQRT_MODEL, BUMPY, OVER, U_LINES, CAPS } count_kind;
 
 typedef struct fake {
   count_kind kind;
@@ -42,6 +42,7 @@ typedef struct fake {
   double min_full; /* the fewest output triangles of any full run */
   double cap;      /* > 0: a run whose count would pass it stops there */
   int estimated;   /* pilots reply estimated counts (a sampled pilot: no cut to finish) */
+  int pilots;      /* PILOT requests */
 } fake;
 
 static double fake_base(long b) { return (double)b * (1.0 + 0.004 * sin((double)b)); }
@@ -56,6 +57,8 @@ static double fake_count(const fake *f, double b, int coarsenings) {
       return b + 200000.0;
     case U_LINES:
       return b + f->c1 / pow(1.5, coarsenings) * sqrt(b);
+    case CAPS: /* the angle step shapes only the caps of open ends: a little */
+      return b + f->c1 * (1.0 - 0.005 * coarsenings) * sqrt(b);
   }
   return 0.0;
 }
@@ -63,6 +66,7 @@ static double fake_count(const fake *f, double b, int coarsenings) {
 static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply *rp) {
   fake *f = ctx;
   f->calls++;
+  f->pilots += rq->kind == CH_COUNT_PILOT;
   switch (rq->kind) {
     case CH_COUNT_PILOT:
     case CH_COUNT_FULL:
@@ -111,7 +115,7 @@ static ch_count_result search(fake *f, long target, int can_coarsen, int has_u) 
   CHECK(r.runs >= 1 && r.runs <= 41);
   CHECK(f->kept >= 0.0 && r.count == f->kept); /* the result is the run kept */
   CHECK(r.coarsenings == f->kept_coarsenings);
-  static const char *names[] = {"sqrt model", "bumpy", "over", "u lines"};
+  static const char *names[] = {"sqrt model", "bumpy", "over", "u lines", "caps"};
   fprintf(stderr, "  %-10s target %7ld: %2d runs, kept %9.0f (%+.2f%%), base %7ld, %d coarsenings\n", names[f->kind],
           target, r.runs, r.count, 100.0 * (r.count - (double)target) / (double)target, r.base, r.coarsenings);
   return r;
@@ -246,6 +250,18 @@ static void test_u_lines(void) {
   CHECK_MSG(fabs(r.count - 100000.0) <= 5000.0, "%.0f", r.count);
 }
 
+/* Without u lines a coarser angle step changes little (the caps of open
+ * ends): b + 1033 (1 - 0.005 k) sqrt(b) is 67000 at the pilot's 3750 for a
+ * target of 60000, whose base (2770) is below 1/8 of it. The coarsest step
+ * at once: two pilots (steps 0 and 4), not five. */
+static void test_caps_only(void) {
+  fake f = {.kind = CAPS, .c1 = 1033.0};
+  ch_count_result r = search(&f, 60000, 1, 0);
+  CHECK_MSG(f.pilots == 2, "%d pilots", f.pilots);
+  CHECK(r.coarsenings == 4);
+  CHECK_MSG(fabs(r.count - 60000.0) <= 3000.0, "%.0f", r.count);
+}
+
 /* A cap on the runs' triangles: features alone at 200000 for a target of
  * 60000 pass a cap of 202000 at the first run (the pilot at base 3750):
  * the search starts again at a quarter of it (937, no pilot: 200937,
@@ -300,6 +316,7 @@ int main(void) {
   RUN(test_bumpy);
   RUN(test_out_of_reach);
   RUN(test_u_lines);
+  RUN(test_caps_only);
   RUN(test_error_stops);
   RUN(test_cap);
   TEST_MAIN_END();
