@@ -306,6 +306,32 @@ static int bucket_tiles(const thin *th, int nv, int side, double tiles, double s
   return 0;
 }
 
+/* One pass over a grid of side x side tiles (start and list as
+ * bucket_tiles makes them, th->tile its tiles), the tiles of one colour
+ * of a 2 x 2 checkerboard side by side, colour after colour: each tile's
+ * vertices marked in want, in index order (unmarked first where clear is
+ * set). Returns the vertices removed. */
+static int sweep_tiles(thin *th, int side, const int *start, const int *list, unsigned char *want, int clear,
+                       unsigned char *removed, unsigned char *dirty) {
+  int count = 0;
+  for (int colour = 0; colour < 4; colour++) {
+    int added = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : added)
+    for (int i = 0; i < side * side; i++) {
+      int tx = i % side, ty = i / side;
+      if ((tx & 1) + 2 * (ty & 1) != colour) continue;
+      for (int k = start[i]; k < start[i + 1]; k++) {
+        int v = list[k];
+        if (!want[v]) continue;
+        if (clear) want[v] = 0;
+        if (!removed[v]) collapse_vertex(th, v, &added, removed, dirty, i);
+      }
+    }
+    count += added;
+  }
+  return count;
+}
+
 int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv, const double *vertex_uv,
                   const double *extra_uv, uint64_t *group, const ch_thin_rules *rules, unsigned char *removed) {
   int nv = num_vertices, nt = *num_triangles;
@@ -421,39 +447,13 @@ int ch_thin_bands(int num_vertices, int *num_triangles, int *tri, int *corner_uv
     int before = count;
     memcpy(visit, dirty, (size_t)nv);
     memset(dirty, 0, (size_t)nv);
-    for (int colour = 0; colour < 4; colour++) {
-      int added = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : added)
-      for (int i = 0; i < ntiles; i++) {
-        int tx = i % tiles, ty = i / tiles;
-        if ((tx & 1) + 2 * (ty & 1) != colour) continue;
-        for (int k = tile_start[i]; k < tile_start[i + 1]; k++) {
-          int v = tile_list[k];
-          if (visit[v] && !removed[v]) collapse_vertex(&th, v, &added, removed, dirty, i);
-        }
-      }
-      count += added;
-    }
+    count += sweep_tiles(&th, tiles, tile_start, tile_list, visit, 0, removed, dirty);
     /* The vertices whose collapse reached beyond their tile, again on the
      * grid whose tiles are centred on the first's corners (where those
-     * vertices mostly lie), side by side the same way; the few reaching
-     * beyond these too go to the sequential sweep. */
+     * vertices mostly lie); the few reaching beyond these too go to the
+     * sequential sweep. */
     th.tile = tile2;
-    for (int colour = 0; colour < 4; colour++) {
-      int added = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : added)
-      for (int i = 0; i < ntiles2; i++) {
-        int tx = i % side2, ty = i / side2;
-        if ((tx & 1) + 2 * (ty & 1) != colour) continue;
-        for (int k = tile2_start[i]; k < tile2_start[i + 1]; k++) {
-          int v = tile2_list[k];
-          if (!th.deferred[v]) continue;
-          th.deferred[v] = 0;
-          if (!removed[v]) collapse_vertex(&th, v, &added, removed, dirty, i);
-        }
-      }
-      count += added;
-    }
+    count += sweep_tiles(&th, side2, tile2_start, tile2_list, th.deferred, 1, removed, dirty);
     th.tile = tile1;
     for (int v = 0; v < nv; v++)
       if (th.deferred[v]) {
