@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -274,6 +275,33 @@ static int same_file(const file_id *a, const file_id *b) {
   return a->dir_dev == b->dir_dev && a->dir_ino == b->dir_ino && !strcmp(a->name, b->name);
 }
 
+/* A file name whose extension is another format's than the one its option
+ * writes (--exr maps.png, --glb scene.gltf, a JSON glTF by convention): a
+ * warning, as the option decides the format and the name is the user's. */
+static void warn_mismatched_name(const cli_file *f) {
+  static const struct {
+    const char *option, *ext, *format;
+  } fixed[] = {{"--exr", "exr", "an OpenEXR file"},
+               {"--png", "png", "a PNG"},
+               {"--height-png", "png", "a PNG"},
+               {"--ply", "ply", "a binary PLY"},
+               {"--glb", "glb", "binary glTF (.glb)"}};
+  static const char *known[] = {"obj", "ply", "glb", "gltf", "exr", "png", "svg", "json"};
+  const char *slash = strrchr(f->path, '/'), *dot = strrchr(slash ? slash : f->path, '.');
+  if (!dot) return;
+  for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++) {
+    if (strcmp(f->option, fixed[i].option) || !strcasecmp(dot + 1, fixed[i].ext)) continue;
+    for (size_t k = 0; k < sizeof known / sizeof *known; k++)
+      if (!strcasecmp(dot + 1, known[k])) {
+        char message[640];
+        snprintf(message, sizeof message, "%s %s: writes %s, though the name says .%s", f->option, f->path,
+                 fixed[i].format, dot + 1);
+        print_warning(NULL, message);
+        return;
+      }
+  }
+}
+
 int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, const cli_file *outputs,
                     int num_outputs) {
   file_id *ids = calloc((size_t)(num_outputs > 0 ? num_outputs : 1), sizeof *ids);
@@ -299,6 +327,8 @@ int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, con
       }
     }
   }
+  for (int i = 0; i < num_outputs && !rc; i++) /* (only for a run that goes on) */
+    if (outputs[i].path) warn_mismatched_name(&outputs[i]);
   free(ids);
   return rc;
 }

@@ -327,6 +327,16 @@ no_file "$tmp/x.obj"
 expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/away.obj" --target-tris 40000 \
   --camera 0.5,0.5,1,0.5,0.5,2,40 -q && one_line_with "no warp"
 cmp -s "$tmp/away.obj" "$tmp/s.obj" || fail "displace --camera looking away: not the unwarped mesh"
+# an output named for another format than its option writes: a warning,
+# and the format the option names; an extension in capitals is the same
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/n.obj" --glb "$tmp/n.gltf" --target-tris 40000 -q &&
+  one_line_with "--glb $tmp/n.gltf: writes binary glTF (.glb), though the name says .gltf"
+checks=$((checks + 1))
+[ "$(head -c 4 "$tmp/n.gltf")" = glTF ] || fail "--glb n.gltf: not binary glTF"
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/n.obj" --glb "$tmp/n.GLB" --ply "$tmp/n.mesh" \
+  --target-tris 40000 -q
+checks=$((checks + 1))
+[ ! -s "$tmp/stderr" ] || fail "--glb n.GLB --ply n.mesh: a warning: $(cat "$tmp/stderr")"
 
 # ---- info ----
 expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
