@@ -276,21 +276,23 @@ static int same_file(const file_id *a, const file_id *b) {
 }
 
 /* A file name whose extension is another format's than the one its option
- * writes (--exr maps.png, --glb scene.gltf, a JSON glTF by convention): a
- * warning, as the option decides the format and the name is the user's. */
-static void warn_mismatched_name(const cli_file *f) {
+ * writes (--exr maps.png, chisel sample -o h.png, --glb scene.gltf: a
+ * .gltf is JSON by convention): a warning, as the option decides the
+ * format and the name is the user's. cmd NULL: any command. */
+static void warn_mismatched_name(const char *cmd, const cli_file *f) {
   static const struct {
-    const char *option, *ext, *format;
-  } fixed[] = {{"--exr", "exr", "an OpenEXR file"},
-               {"--png", "png", "a PNG"},
-               {"--height-png", "png", "a PNG"},
-               {"--ply", "ply", "a binary PLY"},
-               {"--glb", "glb", "binary glTF (.glb)"}};
+    const char *cmd, *option, *ext, *format;
+  } fixed[] = {{NULL, "--exr", "exr", "an OpenEXR file"},    {NULL, "--png", "png", "a PNG"},
+               {NULL, "--height-png", "png", "a PNG"},       {NULL, "--ply", "ply", "a binary PLY"},
+               {NULL, "--glb", "glb", "binary glTF (.glb)"}, {"sample", "-o", "exr", "an OpenEXR file"},
+               {"dci", "-o", "exr", "an OpenEXR file"},      {"featmap", "-o", "exr", "an OpenEXR file"}};
   static const char *known[] = {"obj", "ply", "glb", "gltf", "exr", "png", "svg", "json"};
   const char *slash = strrchr(f->path, '/'), *dot = strrchr(slash ? slash : f->path, '.');
   if (!dot) return;
   for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++) {
-    if (strcmp(f->option, fixed[i].option) || !strcasecmp(dot + 1, fixed[i].ext)) continue;
+    if ((fixed[i].cmd && strcmp(cmd, fixed[i].cmd)) || strcmp(f->option, fixed[i].option) ||
+        !strcasecmp(dot + 1, fixed[i].ext))
+      continue;
     for (size_t k = 0; k < sizeof known / sizeof *known; k++)
       if (!strcasecmp(dot + 1, known[k])) {
         char message[640];
@@ -328,7 +330,7 @@ int cli_check_files(const char *cmd, const cli_file *inputs, int num_inputs, con
     }
   }
   for (int i = 0; i < num_outputs && !rc; i++) /* (only for a run that goes on) */
-    if (outputs[i].path) warn_mismatched_name(&outputs[i]);
+    if (outputs[i].path) warn_mismatched_name(cmd, &outputs[i]);
   free(ids);
   return rc;
 }

@@ -86,6 +86,11 @@ checks=$((checks + 1))
 expect 0 "$chisel" sample "$svg" --res 64 -o "$tmp/h2.exr" --png "$tmp/h2.png" || true
 checks=$((checks + 1))
 cmp -s "$out" "$tmp/h2.exr" && cmp -s "$tmp/h.png" "$tmp/h2.png" || fail "same input gave different bytes"
+# -o writes EXR whatever the name: a .png name gets a warning, and the EXR
+expect 0 "$chisel" sample "$svg" --res 64 -o "$tmp/h3.png" -q &&
+  one_line_with "-o $tmp/h3.png: writes an OpenEXR file, though the name says .png"
+checks=$((checks + 1))
+cmp -s "$out" "$tmp/h3.png" || fail "sample -o h3.png: not the EXR"
 # Same bytes with one thread as with two.
 expect 0 env OMP_NUM_THREADS=1 "$chisel" sample "$svg" --res 64 -o "$tmp/h1.exr" || true
 checks=$((checks + 1))
