@@ -252,9 +252,9 @@ static void format_round(const obj_lines *L, long total, long b0, int n, char **
   }
 }
 
-/* 0 when out of memory or a write failed (then *write_errno is its errno,
- * taken on the thread that wrote: errno is per thread). */
-static int write_obj_body(FILE *fp, const ch_mesh *m, int *write_errno) {
+/* 0 on success, -1 when out of memory, else the failed write's errno
+ * (taken on the thread that wrote: errno is per thread). */
+static int write_obj_body(FILE *fp, const ch_mesh *m) {
   fputs("# chisel\n", fp);
   long nv = m->num_positions, nt = m->corner_uv ? m->num_uvs : 0, nn = m->corner_normal ? m->num_normals : 0;
   long largest = nv > nt ? (nv > nn ? nv : nn) : (nt > nn ? nt : nn); /* (the indices are 1-based) */
@@ -269,7 +269,7 @@ static int write_obj_body(FILE *fp, const ch_mesh *m, int *write_errno) {
   int per_round = 2 * omp_get_max_threads();
   char **buf = calloc(2 * (size_t)per_round, sizeof *buf);
   size_t *cap = calloc(2 * (size_t)per_round, sizeof *cap), *len = calloc(2 * (size_t)per_round, sizeof *len);
-  int failed = !buf || !cap || !len, write_failed = 0;
+  int failed = !buf || !cap || !len, write_failed = 0; /* (write_failed: the errno) */
   long rounds = (nblocks + per_round - 1) / per_round;
   if (!failed) {
 #pragma omp parallel
@@ -277,10 +277,8 @@ static int write_obj_body(FILE *fp, const ch_mesh *m, int *write_errno) {
       int prev = (int)((r + 1) & 1) * per_round, cur = (int)(r & 1) * per_round;
 #pragma omp single nowait
       for (int j = 0; r > 0 && !write_failed && j < per_round; j++)
-        if (len[prev + j] && fwrite(buf[prev + j], 1, len[prev + j], fp) != len[prev + j]) {
-          write_failed = 1;
-          *write_errno = errno ? errno : EIO;
-        }
+        if (len[prev + j] && fwrite(buf[prev + j], 1, len[prev + j], fp) != len[prev + j])
+          write_failed = errno ? errno : EIO;
       if (r < rounds) format_round(&L, total, r * per_round, per_round, buf + cur, cap + cur, len + cur, &failed);
 #pragma omp barrier
     }
@@ -290,7 +288,7 @@ static int write_obj_body(FILE *fp, const ch_mesh *m, int *write_errno) {
   free(buf);
   free(cap);
   free(len);
-  return !failed && !write_failed;
+  return write_failed ? write_failed : failed ? -1 : 0;
 }
 
 ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err) {
@@ -299,8 +297,7 @@ ch_status ch_mesh_write_obj(const char *path, const ch_mesh *mesh, ch_error *err
   ch_atomic_file f;
   st = ch_atomic_open(&f, path, err);
   if (st != CH_OK) return st;
-  int write_errno = 0;
-  if (!write_obj_body(f.fp, mesh, &write_errno)) /* a write error names itself (ch_atomic_fail) */
+  if (write_obj_body(f.fp, mesh)) /* a write error names itself (ch_atomic_fail) */
     return ch_atomic_fail(&f, ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path), err);
   return ch_atomic_commit(&f, err);
 }
@@ -430,9 +427,8 @@ ch_status ch_mesh_write_ply(const char *path, const ch_mesh *mesh, ch_error *err
 ch_status ch_mesh_write_obj_stream(FILE *fp, const char *name, const ch_mesh *mesh, ch_error *err) {
   ch_status st = check_writable(mesh, name, err);
   if (st != CH_OK) return st;
-  int write_errno = 0;
-  if (!write_obj_body(fp, mesh, &write_errno) && !write_errno)
-    return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
+  int write_errno = write_obj_body(fp, mesh);
+  if (write_errno < 0) return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", name);
   if (!write_errno && (fflush(fp) != 0 || ferror(fp))) write_errno = errno ? errno : EIO;
   if (write_errno) return ch_file_error(err, name, "cannot write", write_errno);
   return CH_OK;

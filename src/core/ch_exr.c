@@ -939,8 +939,7 @@ ch_status ch_exr_write(const char *path, const ch_image *img, const ch_exr_write
   rv = exr_finish(&ctx); /* writes the offset table */
   if (st == CH_OK && rv != EXR_ERR_SUCCESS)
     st = exr_fail(&io, err, rv, CH_ERR_INTERNAL, "cannot finish file");
-  if (st == CH_OK && io.os_errno)
-    st = ch_error_set(err, CH_ERR_IO, "%s: write error: %s", path, strerror(io.os_errno));
+  if (st == CH_OK && io.os_errno) st = ch_file_error(err, path, "cannot write", io.os_errno);
   if (st != CH_OK) return ch_atomic_fail(&f, st, err); /* a failed write names its errno */
   return ch_atomic_commit(&f, err);
 }
