@@ -1,7 +1,8 @@
 /* libFuzzer target: a mesh reader (our scanner where we have one, then
  * OpenMesh's reader through our importer), then validation of whatever it
  * accepted. Built once per format: CHISEL_FUZZ_FORMAT is "obj", "ply",
- * "off" or "stl". */
+ * "off", "stl", "glb" or "gltf" (glTF has a reader of our own,
+ * mesh/ch_mesh_gltf_read.c, with no scanner before it). */
 #include <stddef.h>
 #include <stdint.h>
 

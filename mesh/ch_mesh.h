@@ -35,7 +35,8 @@ typedef struct ch_mesh {
  * int offsets never overflow. */
 enum { CH_MESH_MAX_ELEMENTS = 1 << 28 };
 
-/* Reads OBJ, PLY, OFF or STL (chosen by extension) into out. Structural
+/* Reads OBJ, PLY, OFF, STL or glTF 2.0 (.glb, or .gltf with its buffers
+ * beside it: docs/spec.md §1) into out, chosen by extension. Structural
  * problems the file itself has (indices out of range, faces with fewer than
  * 3 corners, NaN/Inf coordinates, a face whose UV count does not match its
  * corners) give CH_ERR_INPUT naming the file and the element. Missing UVs
@@ -46,8 +47,9 @@ enum { CH_MESH_MAX_ELEMENTS = 1 << 28 };
  * Thread-safe, but reads are serialised (OpenMesh's readers are global). */
 ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err);
 
-/* The same from memory; format is "obj", "ply", "off" or "stl"; name is
- * used in messages. For the fuzz targets. OFF goes through a temporary file
+/* The same from memory; format is "obj", "ply", "off", "stl", "glb" or
+ * "gltf" (whose buffers can only be data: URIs here); name is used in
+ * messages. For the fuzz targets. OFF goes through a temporary file
  * in $TMPDIR (OpenMesh parses OFF headers only from files). */
 ch_status ch_mesh_read_memory(const void *data, size_t size, const char *format,
                               const char *name, ch_mesh *out, ch_error *err);

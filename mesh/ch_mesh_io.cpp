@@ -14,6 +14,7 @@
 // what the reader delivers. All readers are singletons with state, so reads
 // are serialised by a mutex.
 #include "ch_mesh.h"
+#include "ch_mesh_gltf_internal.h"
 #include "ch_mesh_scan.h"
 
 #include <OpenMesh/Core/IO/IOManager.hh>
@@ -631,7 +632,14 @@ ch_status guarded(const char *name, ch_mesh *out, ch_error *err, Fn fn) {
   }
 }
 
-const char kAccepted[] = ".obj, .ply, .off, .stl";
+const char kAccepted[] = ".obj, .ply, .off, .stl, .glb, .gltf";
+
+// glTF (1: binary, 0: JSON) by extension, or -1 for another format.
+int gltf_kind(const char *ext) {
+  std::string e = ext ? ext : "";
+  for (char &c : e) c = (char)tolower((unsigned char)c);
+  return e == "glb" ? 1 : e == "gltf" ? 0 : -1;
+}
 
 }  // namespace
 
@@ -639,6 +647,8 @@ extern "C" ch_status ch_mesh_read_memory(const void *data, size_t size, const ch
                                          const char *name, ch_mesh *out, ch_error *err) {
   memset(out, 0, sizeof *out);
   if (!name) name = "(memory)";
+  int gltf = gltf_kind(format);
+  if (gltf >= 0) return ch_mesh_read_gltf(data, size, gltf, nullptr, name, out, err);
   Format f;
   if (!parse_format(format, &f))
     return ch_error_set(err, CH_ERR_INPUT, "%s: unknown mesh format '%s' (accepted: %s)", name,
@@ -652,8 +662,9 @@ extern "C" ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err)
   memset(out, 0, sizeof *out);
   char ext[16];
   ch_path_extension(path, ext, sizeof ext);
+  int gltf = gltf_kind(ext);
   Format f;
-  if (!parse_format(ext, &f)) {
+  if (gltf < 0 && !parse_format(ext, &f)) {
     if (!ext[0])
       return ch_error_set(err, CH_ERR_INPUT, "%s: no file extension (accepted: %s)", path, kAccepted);
     return ch_error_set(err, CH_ERR_INPUT, "%s: unknown mesh format '.%s' (accepted: %s)", path,
@@ -663,6 +674,15 @@ extern "C" ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err)
   size_t size = 0;
   ch_status st = ch_file_read_all(path, kMaxFileSize, &data, &size, err);
   if (st != CH_OK) return st;
+  if (gltf >= 0) {
+    // (its buffers' relative URIs are read from the file's folder)
+    std::string dir(path);
+    size_t slash = dir.find_last_of('/');
+    dir = slash == std::string::npos ? "." : slash == 0 ? "/" : dir.substr(0, slash);
+    st = ch_mesh_read_gltf(data, size, gltf, dir.c_str(), path, out, err);
+    free(data);
+    return st;
+  }
   st = guarded(path, out, err, [&] { read_buffer(data, size, f, path, out, err); });
   free(data);
   return st;

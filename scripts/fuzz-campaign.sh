@@ -18,7 +18,7 @@ cd "$(dirname "$0")/.."
 runs=${1:-1000000}
 shift || true
 targets=("$@")
-all=(fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl fuzz_exr fuzz_dci fuzz_featmap fuzz_scene)
+all=(fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl fuzz_mesh_glb fuzz_mesh_gltf fuzz_exr fuzz_dci fuzz_featmap fuzz_scene)
 [ ${#targets[@]} -gt 0 ] || targets=("${all[@]}")
 max_len=${MAX_LEN:-8192}
 max_secs=${MAX_SECS:-0}

@@ -9,7 +9,7 @@ seconds=${1:-20}
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=Debug -DCMAKE_C_FLAGS_DEBUG="-g -O1" -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
   -DCHISEL_FUZZ=ON -DBUILD_TESTING=OFF >/dev/null
-cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl \
+cmake --build build-fuzz -j"$(nproc)" --target fuzz_svg fuzz_mesh_obj fuzz_mesh_ply fuzz_mesh_off fuzz_mesh_stl fuzz_mesh_glb fuzz_mesh_gltf \
   fuzz_exr fuzz_dci fuzz_featmap
 run() {
   local target=$1 seeds=$2 secs=${3:-$seconds}
@@ -31,7 +31,7 @@ mesh_seeds() {
 }
 run fuzz_svg tests/data/svg
 run fuzz_mesh_obj tests/data/mesh
-for format in ply off stl; do
+for format in ply off stl glb gltf; do
   run fuzz_mesh_$format "$(mesh_seeds $format)" $(( (seconds + 1) / 2 ))
 done
 run fuzz_exr tests/data/exr

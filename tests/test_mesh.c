@@ -336,7 +336,7 @@ static void test_read_errors(void) {
   expect_read_error("face_colors.off", CH_ERR_INPUT, "face 0 (line 6): values after the 3 indices");
   expect_read_error("does_not_exist.obj", CH_ERR_IO, "cannot open");
   expect_read_error("model.dae", CH_ERR_INPUT,
-                    "unknown mesh format '.dae' (accepted: .obj, .ply, .off, .stl)");
+                    "unknown mesh format '.dae' (accepted: .obj, .ply, .off, .stl, .glb, .gltf)");
 
   ch_mesh m;
   ch_error err = new_error(NULL);
