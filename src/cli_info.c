@@ -16,7 +16,7 @@
 static const char usage[] =
     "usage: chisel info FILE... [--json] [--fill-height H]\n"
     "\n"
-    "Describes each FILE: a base mesh (.obj .ply .off .stl: counts, bounds, UV\n"
+    "Describes each FILE: a base mesh (.obj .ply .off .stl .glb .gltf: counts, bounds, UV\n"
     "range and coverage, charts, boundary and manifoldness), a curve file (.svg:\n"
     "curves by kind and profile, segments, lengths, bounding box in UV) or an\n"
     "image (.exr: size, and per channel its range and how many values are not\n"
@@ -150,15 +150,21 @@ static int info_svg(const char *path, int json) {
   return 0;
 }
 
-/* Whether path is an OBJ chisel wrote (its first line is "# chisel"). */
-static int is_chisel_obj(const char *path, const char *ext) {
-  if (strcmp(ext, "obj") != 0) return 0;
+/* Whether path is a mesh chisel wrote: an OBJ whose first line is
+ * "# chisel", or a .glb whose JSON chunk starts as chisel's writer starts
+ * it (mesh/ch_mesh_gltf.c). */
+static int is_chisel_output(const char *path, const char *ext) {
+  int obj = !strcmp(ext, "obj");
+  if (!obj && strcmp(ext, "glb") != 0) return 0;
+  static const char glb_json[] = "{\"asset\":{\"version\":\"2.0\",\"generator\":\"chisel ";
   FILE *f = fopen(path, "rb");
   if (!f) return 0;
-  char line[16] = {0};
-  int yes = fgets(line, sizeof line, f) && !strcmp(line, "# chisel\n");
+  char head[128] = {0};
+  size_t n = fread(head, 1, sizeof head - 1, f);
   fclose(f);
-  return yes;
+  if (obj) return n >= 9 && !memcmp(head, "# chisel\n", 9);
+  return n >= 20 + sizeof glb_json - 1 && !memcmp(head, "glTF", 4) && !memcmp(head + 16, "JSON", 4) &&
+         !memcmp(head + 20, glb_json, sizeof glb_json - 1);
 }
 
 static int info_mesh(const char *path, const char *ext, int json) {
@@ -170,7 +176,7 @@ static int info_mesh(const char *path, const char *ext, int json) {
    * area, and zero-area ones where a wall's height falls to nothing
    * (docs/spec.md §4). Those are its design, not a base mesh's defects: its
    * report says so instead of warning (the other warnings stay). */
-  int output = is_chisel_obj(path, ext);
+  int output = is_chisel_output(path, ext);
   ch_status st = output ? ch_mesh_validate_displaced(&mesh, path, &r, &err) : ch_mesh_validate(&mesh, path, &r, &err);
   if (st && st != CH_ERR_INPUT) {
     ch_mesh_free(&mesh);

@@ -344,6 +344,17 @@ checks=$((checks + 1))
 [ ! -s "$tmp/stderr" ] || fail "--glb n.GLB --ply n.mesh: a warning: $(cat "$tmp/stderr")"
 
 # ---- info ----
+# glTF base meshes: Blender's .glb of the test plane carves; chisel's own
+# .glb reads back as a chisel output; broken ones are one line, exit 2
+expect 0 "$chisel" displace "$tests/data/mesh/plane.glb" "$svg" -o "$tmp/g.obj" --target-tris 60000 --json &&
+  python3 -c "import json,sys; d=json.load(open(sys.argv[1])); assert abs(d['triangles']-60000) <= 3000, d['triangles']" \
+    "$tmp/stdout" || fail "displace plane.glb: not within 5% of the target"
+expect 0 "$chisel" info "$tmp/n.GLB" && grep -q "a chisel output" "$tmp/stdout" || fail "info n.GLB: not a chisel output"
+head -c 40 "$tests/data/mesh/plane.glb" >"$tmp/cut.glb"
+expect 2 "$chisel" displace "$tmp/cut.glb" "$svg" -o "$tmp/x.obj" && one_line_with "cut.glb: truncated"
+no_file "$tmp/x.obj"
+printf '{"asset":{"version":"2.0"},"buffers":[{"byteLength":8,"uri":"gone.bin"}]}' >"$tmp/gone.gltf"
+expect 2 "$chisel" info "$tmp/gone.gltf" && one_line_with "gone.bin"
 expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
 expect 0 "$chisel" info "$models/plane.obj" && grep -q "UV charts *1" "$tmp/stdout" || fail "info plane.obj"
 expect 2 "$chisel" info "$tests/data/svg/bad/negative_width.svg" && one_line_with "negative data-width"

@@ -163,5 +163,32 @@ for d in lines["DISPLACE"]:
     assert abs(z1 - hi) < 2e-4 and abs(z0 - lo) < 2e-4, (d, lo, hi)
 EOF
 
+# ---- glTF base meshes from Blender ----
+# The tablet exported by Blender's glTF exporter (binary, and JSON with its
+# .bin beside it) is the same base mesh to chisel as the OBJ: its positions
+# (welded back at the UV seams and creases glTF splits), UVs, charts,
+# bounds, closed; only its quads come as triangle pairs. It carves like the
+# OBJ, closed.
+blender -b --factory-startup --python "$tests/tools/blender_check.py" -- \
+  "export:$models/tablet.obj:$tmp/tablet.glb" "export:$models/tablet.obj:$tmp/tablet.gltf" >"$tmp/export.txt" 2>&1 ||
+  fail "blender export: $(tail -5 "$tmp/export.txt")"
+checks=$((checks + 1))
+"$chisel" info --json "$models/tablet.obj" "$tmp/tablet.glb" "$tmp/tablet.gltf" >"$tmp/gltf_info.jsonl" 2>/dev/null &&
+  [ -f "$tmp/tablet.bin" ] &&
+  python3 - "$tmp/gltf_info.jsonl" <<'EOF' || fail "chisel's reading of Blender's glTF: $(cat "$tmp/gltf_info.jsonl")"
+import json, sys
+obj, glb, gltf = [json.loads(l) for l in open(sys.argv[1])]
+for g in (glb, gltf):
+    assert g["faces"] == g["triangles"] == 2 * obj["quads"], (g, obj)
+    for k in ("positions", "uvs", "uv_charts", "components", "boundary_edges", "nonmanifold_edges"):
+        assert g[k] == obj[k], (k, g[k], obj[k])
+    for k in ("bounds_min", "bounds_max", "uv_min", "uv_max"):
+        assert all(abs(a - b) < 1e-6 for a, b in zip(g[k], obj[k])), (k, g[k], obj[k])
+EOF
+checks=$((checks + 1))
+"$chisel" displace "$tmp/tablet.gltf" "$models/tablet_glyphs.svg" -o "$tmp/tg.obj" --target-tris 30000 -q 2>/dev/null &&
+  "$chisel" info "$tmp/tg.obj" 2>/dev/null | grep -q "0 boundary, 0 non-manifold" ||
+  fail "displace on Blender's .gltf of the tablet: not closed"
+
 echo "$checks checks, $failures failures"
 [ "$failures" = 0 ]

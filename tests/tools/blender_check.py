@@ -20,6 +20,10 @@ usage: blender -b --factory-startup --python blender_check.py -- CHECK...
                        a Displace modifier along the normals with MAP through
                        the UVs; prints `DISPLACE MAP zmin Z0 zmax Z1` of the
                        evaluated mesh
+  export:SRC:DST       import the OBJ SRC and export it as glTF 2.0 (DST .glb:
+                       binary; .gltf: JSON with a .bin beside it), as a user
+                       of a real-time engine would hand chisel a base mesh;
+                       prints `EXPORT DST`
 """
 import sys
 
@@ -138,6 +142,14 @@ def check_displace(base, image, mid, strength, levels):
     print("DISPLACE %s zmin %.9g zmax %.9g" % (image, min(zs), max(zs)), flush=True)
 
 
+def export_gltf(src, dst):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.wm.obj_import(filepath=src)
+    fmt = "GLB" if dst.lower().endswith(".glb") else "GLTF_SEPARATE"
+    bpy.ops.export_scene.gltf(filepath=dst, export_format=fmt)
+    print("EXPORT %s" % dst, flush=True)
+
+
 def main(args):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     for a in args:
@@ -151,6 +163,8 @@ def main(args):
             check_passes(rest)
         elif kind == "displace":
             check_displace(*parts)
+        elif kind == "export":
+            export_gltf(parts[0], parts[1])
         else:
             print("UNKNOWN %s" % a, flush=True)
 
