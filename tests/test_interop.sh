@@ -190,5 +190,43 @@ checks=$((checks + 1))
   "$chisel" info "$tmp/tg.obj" 2>/dev/null | grep -q "0 boundary, 0 non-manifold" ||
   fail "displace on Blender's .gltf of the tablet: not closed"
 
+# A scene's transforms, instancing, mirroring and primitives, against
+# Blender's own OBJ of it (transforms applied): the same bounds, UVs and
+# charts, every quad as two triangles, the same boundary; and, carved by
+# chisel (--no-snap), each monkey encloses the signed volume the OBJ's
+# does (a mirrored one read with its winding left as stored would turn
+# inside out: the sign flips).
+blender -b --factory-startup --python "$tests/tools/blender_check.py" -- \
+  "scene:$tmp/scene.glb:$tmp/scene.obj" >"$tmp/scene.txt" 2>&1 || fail "blender scene: $(tail -5 "$tmp/scene.txt")"
+checks=$((checks + 1))
+"$chisel" info --json "$tmp/scene.glb" "$tmp/scene.obj" >"$tmp/scene_info.jsonl" 2>/dev/null &&
+  "$chisel" displace "$tmp/scene.glb" "$models/curves/star.svg" -o "$tmp/scene_d.obj" --no-snap --target-tris 60000 \
+    -q 2>/dev/null &&
+  python3 - "$tmp" <<'EOF' || fail "chisel's reading of Blender's glTF scene: $(cat "$tmp/scene_info.jsonl")"
+import json, sys
+tmp = sys.argv[1]
+glb, obj = [json.loads(l) for l in open(tmp + "/scene_info.jsonl")]
+assert glb["triangles"] == 2 * obj["quads"] + obj["triangles"], (glb, obj)
+for k in ("uvs", "uv_charts", "boundary_edges"):
+    assert glb[k] == obj[k], (k, glb[k], obj[k])
+for k in ("bounds_min", "bounds_max"):
+    assert all(abs(a - b) < 1e-5 for a, b in zip(glb[k], obj[k])), (k, glb[k], obj[k])
+def volumes(path):
+    v, out = [], [0.0, 0.0]  # the monkey at the origin, the mirrored one beyond x = 1.8
+    for line in open(path):
+        t = line.split()
+        if t and t[0] == "v":
+            v.append(tuple(map(float, t[1:4])))
+        elif t and t[0] == "f":
+            f = [v[int(x.split("/")[0]) - 1] for x in t[1:]]
+            for k in range(1, len(f) - 1):
+                a, b, c = f[0], f[k], f[k + 1]
+                det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
+                out[(a[0] + b[0] + c[0]) / 3 > 1.8] += det / 6
+    return out
+want, got = volumes(tmp + "/scene.obj"), volumes(tmp + "/scene_d.obj")
+assert all(abs(g - w) < 0.02 * abs(w) for g, w in zip(got, want)), (got, want)
+EOF
+
 echo "$checks checks, $failures failures"
 [ "$failures" = 0 ]

@@ -24,6 +24,12 @@ usage: blender -b --factory-startup --python blender_check.py -- CHECK...
                        binary; .gltf: JSON with a .bin beside it), as a user
                        of a real-time engine would hand chisel a base mesh;
                        prints `EXPORT DST`
+  scene:GLB:OBJ        a scene glTF has to get right, written both as .glb and
+                       as Blender's OBJ (its transforms applied): a
+                       UV-unwrapped monkey with two materials (two
+                       primitives), and the same mesh again (one mesh, two
+                       nodes) mirrored under a rotated, moved and scaled
+                       parent; prints `SCENE GLB`
 """
 import sys
 
@@ -150,6 +156,31 @@ def export_gltf(src, dst):
     print("EXPORT %s" % dst, flush=True)
 
 
+def export_scene(glb, obj):
+    import math
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_monkey_add(size=1.0)
+    a = bpy.context.active_object
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project(island_margin=0.02)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    for name in ("m0", "m1"):
+        a.data.materials.append(bpy.data.materials.new(name))
+    for i, p in enumerate(a.data.polygons):
+        p.material_index = i % 2
+    parent = bpy.data.objects.new("parent", None)
+    bpy.context.scene.collection.objects.link(parent)
+    parent.location, parent.rotation_euler, parent.scale = (3, 1, 0.5), (0.3, 0.2, 1.1), (1.5, 1.5, 1.5)
+    twin = bpy.data.objects.new("twin", a.data)
+    bpy.context.scene.collection.objects.link(twin)
+    twin.parent, twin.location, twin.scale = parent, (1, 0, 0), (-1, 1, 1)
+    bpy.context.view_layer.update()
+    bpy.ops.export_scene.gltf(filepath=glb, export_format="GLB")
+    bpy.ops.wm.obj_export(filepath=obj, export_materials=False)
+    print("SCENE %s" % glb, flush=True)
+
+
 def main(args):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     for a in args:
@@ -163,6 +194,8 @@ def main(args):
             check_passes(rest)
         elif kind == "displace":
             check_displace(*parts)
+        elif kind == "scene":
+            export_scene(parts[0], parts[1])
         elif kind == "export":
             export_gltf(parts[0], parts[1])
         else:
