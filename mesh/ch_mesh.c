@@ -75,7 +75,8 @@ static ch_status check_structure(const ch_mesh *m, const char *name, ch_error *e
   }
   if (!m->uvs || !m->corner_uv || m->num_uvs <= 0)
     return ch_error_set(err, CH_ERR_INPUT,
-                        "%s: mesh has no texture coordinates (vt); chisel needs UVs in [0,1]", name);
+                        "%s: mesh has no texture coordinates (UVs: vt in OBJ, TEXCOORD_0 in glTF); chisel needs UVs in [0,1]",
+                        name);
   ch_status st = check_indices(m, m->corner_position, m->num_positions, "position", name, err);
   if (st == CH_OK) st = check_indices(m, m->corner_uv, m->num_uvs, "texture", name, err);
   if (st == CH_OK && m->corner_normal) {

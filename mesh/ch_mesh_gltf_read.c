@@ -324,13 +324,10 @@ static int load_buffers(gltf_reader *r) {
       }
       snprintf(path, n, "%s/%s", r->dir, rel);
       free(rel);
-      /* (its own message names the .bin file and the problem) */
-      ch_status st = ch_file_read_all(path, (size_t)1 << 31, &r->owned[i], &have, r->err);
+      ch_error file_err = {0};
+      ch_status st = ch_file_read_all(path, (size_t)1 << 31, &r->owned[i], &have, &file_err);
       free(path);
-      if (st) {
-        r->status = st;
-        return -1;
-      }
+      if (st) return fail(r, st, "%s: %s", what, file_err.message); /* (it names the file and the problem) */
       bytes = (const unsigned char *)r->owned[i];
     }
     if (have < length)

@@ -273,7 +273,7 @@ static void test_off(void) {
   ch_error err = new_error(NULL);
   CHECK(ch_mesh_validate(&m, "plane.off", &r, &err) == CH_ERR_INPUT);
   CHECK(strcmp(err.message,
-               "plane.off: mesh has no texture coordinates (vt); chisel needs UVs in [0,1]") == 0);
+               "plane.off: mesh has no texture coordinates (UVs: vt in OBJ, TEXCOORD_0 in glTF); chisel needs UVs in [0,1]") == 0);
   ch_mesh_free(&m);
 
   /* STOFF: per-vertex texture coordinates (lost by OpenMesh's stream reader). */
