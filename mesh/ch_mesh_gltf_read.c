@@ -54,7 +54,8 @@ typedef struct gltf_reader {
   const cJSON **accessor, **view, **mesh, **node;
   int num_accessors, num_views, num_meshes, num_nodes;
   int num_buffers;
-  const unsigned char **buffer; /* per buffer its bytes, and their count */
+  const cJSON *buffers_json;
+  const unsigned char **buffer; /* per buffer its bytes (NULL until a view needs them), and their count */
   size_t *buffer_size;
   char **owned; /* per buffer what was read or decoded for it */
   const unsigned char *bin;
@@ -275,66 +276,74 @@ static char *uri_path(const char *uri) {
   return p;
 }
 
-static int load_buffers(gltf_reader *r) {
-  const cJSON *buffers;
-  if (get_array(r, r->root, "buffers", &buffers)) return -1;
-  r->num_buffers = buffers ? cJSON_GetArraySize(buffers) : 0;
+/* The tables for the buffers, read only when a view needs them (a
+ * missing file that no mesh uses, such as images' own buffer, is no
+ * error). */
+static int init_buffers(gltf_reader *r) {
+  if (get_array(r, r->root, "buffers", &r->buffers_json)) return -1;
+  r->num_buffers = r->buffers_json ? cJSON_GetArraySize(r->buffers_json) : 0;
   if (r->num_buffers == 0) return 0;
   r->buffer = calloc((size_t)r->num_buffers, sizeof *r->buffer);
   r->buffer_size = calloc((size_t)r->num_buffers, sizeof *r->buffer_size);
   r->owned = calloc((size_t)r->num_buffers, sizeof *r->owned);
   if (!r->buffer || !r->buffer_size || !r->owned) return nomem(r);
-  int i = 0;
-  for (const cJSON *b = buffers->child; b; b = b->next, i++) {
-    char what[48];
-    snprintf(what, sizeof what, "buffer %d", i);
-    size_t length;
-    if (get_size(r, b, "byteLength", 9007199254740991.0, 1, 0, what, &length)) return -1;
-    const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
-    const unsigned char *bytes = NULL;
-    size_t have = 0;
-    if (!uri) {
-      if (i != 0 || !r->has_bin) return fail(r, CH_ERR_INPUT, "%s has no 'uri' and is not the GLB's BIN chunk", what);
-      bytes = r->bin;
-      have = r->bin_size;
-    } else if (!cJSON_IsString(uri)) {
-      return fail(r, CH_ERR_INPUT, "%s: 'uri' is not a string", what);
-    } else if (!strncmp(uri->valuestring, "data:", 5)) {
-      const char *comma = strstr(uri->valuestring, ";base64,");
-      if (!comma) return fail(r, CH_ERR_INPUT, "%s: a data: URI that is not base64", what);
-      int st = base64_decode(comma + 8, &r->owned[i], &have);
-      if (st < 0) return nomem(r);
-      if (st > 0) return fail(r, CH_ERR_INPUT, "%s: the data: URI's base64 has a character outside base64", what);
-      bytes = (const unsigned char *)r->owned[i];
-    } else {
-      char *rel = uri_path(uri->valuestring);
-      if (!rel)
-        return fail(r, CH_ERR_INPUT, "%s: uri '%.80s' is not a relative path to a file beside the .gltf", what,
-                    uri->valuestring);
-      if (!r->dir) {
-        free(rel);
-        return fail(r, CH_ERR_INPUT, "%s: uri '%.80s' names a file, which a glTF read from memory cannot have", what,
-                    uri->valuestring);
-      }
-      size_t n = strlen(r->dir) + strlen(rel) + 2;
-      char *path = malloc(n);
-      if (!path) {
-        free(rel);
-        return nomem(r);
-      }
-      snprintf(path, n, "%s/%s", r->dir, rel);
+  return 0;
+}
+
+/* Buffer i's bytes: the GLB's BIN chunk, a data: URI decoded, or a file
+ * beside the .gltf. */
+static int load_buffer(gltf_reader *r, int i) {
+  if (r->buffer[i]) return 0;
+  const cJSON *b = cJSON_GetArrayItem(r->buffers_json, i);
+  char what[48];
+  snprintf(what, sizeof what, "buffer %d", i);
+  size_t length;
+  if (get_size(r, b, "byteLength", 9007199254740991.0, 1, 0, what, &length)) return -1;
+  const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
+  const unsigned char *bytes = NULL;
+  size_t have = 0;
+  static const unsigned char none = 0;
+  if (!uri) {
+    if (i != 0 || !r->has_bin) return fail(r, CH_ERR_INPUT, "%s has no 'uri' and is not the GLB's BIN chunk", what);
+    bytes = r->bin_size ? r->bin : &none;
+    have = r->bin_size;
+  } else if (!cJSON_IsString(uri)) {
+    return fail(r, CH_ERR_INPUT, "%s: 'uri' is not a string", what);
+  } else if (!strncmp(uri->valuestring, "data:", 5)) {
+    const char *comma = strstr(uri->valuestring, ";base64,");
+    if (!comma) return fail(r, CH_ERR_INPUT, "%s: a data: URI that is not base64", what);
+    int st = base64_decode(comma + 8, &r->owned[i], &have);
+    if (st < 0) return nomem(r);
+    if (st > 0) return fail(r, CH_ERR_INPUT, "%s: the data: URI's base64 has a character outside base64", what);
+    bytes = (const unsigned char *)r->owned[i];
+  } else {
+    char *rel = uri_path(uri->valuestring);
+    if (!rel)
+      return fail(r, CH_ERR_INPUT, "%s: uri '%.80s' is not a relative path to a file beside the .gltf", what,
+                  uri->valuestring);
+    if (!r->dir) {
       free(rel);
-      ch_error file_err = {0};
-      ch_status st = ch_file_read_all(path, (size_t)1 << 31, &r->owned[i], &have, &file_err);
-      free(path);
-      if (st) return fail(r, st, "%s: %s", what, file_err.message); /* (it names the file and the problem) */
-      bytes = (const unsigned char *)r->owned[i];
+      return fail(r, CH_ERR_INPUT, "%s: uri '%.80s' names a file, which a glTF read from memory cannot have", what,
+                  uri->valuestring);
     }
-    if (have < length)
-      return fail(r, CH_ERR_INPUT, "%s: byteLength is %zu, but its data has %zu bytes", what, length, have);
-    r->buffer[i] = bytes;
-    r->buffer_size[i] = length;
+    size_t n = strlen(r->dir) + strlen(rel) + 2;
+    char *path = malloc(n);
+    if (!path) {
+      free(rel);
+      return nomem(r);
+    }
+    snprintf(path, n, "%s/%s", r->dir, rel);
+    free(rel);
+    ch_error file_err = {0};
+    ch_status st = ch_file_read_all(path, (size_t)1 << 31, &r->owned[i], &have, &file_err);
+    free(path);
+    if (st) return fail(r, st, "%s: %s", what, file_err.message); /* (it names the file and the problem) */
+    bytes = (const unsigned char *)r->owned[i];
   }
+  if (have < length)
+    return fail(r, CH_ERR_INPUT, "%s: byteLength is %zu, but its data has %zu bytes", what, length, have);
+  r->buffer[i] = bytes;
+  r->buffer_size[i] = length;
   return 0;
 }
 
@@ -399,6 +408,7 @@ static int view_span(gltf_reader *r, int view, size_t offset, size_t count, size
       get_size(r, v, "byteLength", 9007199254740991.0, 1, 0, vwhat, &vlen) ||
       get_size(r, v, "byteStride", 252, 0, 0, vwhat, &vstride))
     return -1;
+  if (load_buffer(r, buffer)) return -1;
   if (voff > r->buffer_size[buffer] || vlen > r->buffer_size[buffer] - voff)
     return fail(r, CH_ERR_INPUT, "%s: bytes %zu..%zu lie past buffer %d's %zu", vwhat, voff, voff + vlen, buffer,
                 r->buffer_size[buffer]);
@@ -841,7 +851,7 @@ static int read_all(gltf_reader *r, const void *data, size_t size, int binary) {
       get_array(r, r->root, "bufferViews", &r->views) || get_array(r, r->root, "meshes", &r->meshes) ||
       get_array(r, r->root, "nodes", &r->nodes) || items(r, r->accessors, &r->accessor, &r->num_accessors) ||
       items(r, r->views, &r->view, &r->num_views) || items(r, r->meshes, &r->mesh, &r->num_meshes) ||
-      items(r, r->nodes, &r->node, &r->num_nodes) || load_buffers(r) || walk_scene(r))
+      items(r, r->nodes, &r->node, &r->num_nodes) || init_buffers(r) || walk_scene(r))
     return -1;
   if (r->num_triangles == 0)
     return fail(r, CH_ERR_INPUT, "no triangles in its scene%s", r->left_out ? " (only points or lines)" : "");

@@ -353,7 +353,9 @@ expect 0 "$chisel" info "$tmp/n.GLB" && grep -q "a chisel output" "$tmp/stdout" 
 head -c 40 "$tests/data/mesh/plane.glb" >"$tmp/cut.glb"
 expect 2 "$chisel" displace "$tmp/cut.glb" "$svg" -o "$tmp/x.obj" && one_line_with "cut.glb: truncated"
 no_file "$tmp/x.obj"
-printf '{"asset":{"version":"2.0"},"buffers":[{"byteLength":8,"uri":"gone.bin"}]}' >"$tmp/gone.gltf"
+printf '%s' '{"asset":{"version":"2.0"},"buffers":[{"byteLength":12,"uri":"gone.bin"}],"bufferViews":[{"buffer":0,' \
+  '"byteLength":12}],"accessors":[{"bufferView":0,"componentType":5126,"count":1,"type":"VEC3"}],' \
+  '"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}' >"$tmp/gone.gltf"
 expect 2 "$chisel" info "$tmp/gone.gltf" && one_line_with "gone.bin"
 expect 0 "$chisel" info "$svg" && grep -q "SVG curve file" "$tmp/stdout" || fail "info svg"
 expect 0 "$chisel" info "$models/plane.obj" && grep -q "UV charts *1" "$tmp/stdout" || fail "info plane.obj"

@@ -289,7 +289,8 @@ static void test_round_trip(const char *dir) {
 }
 
 /* A .gltf beside its .bin, named with a space (percent-encoded in the URI),
- * and the .bin gone: CH_ERR_IO naming the .bin. */
+ * and a second buffer no view uses, whose file is not there (as images'
+ * can be): read. Then the first .bin gone: CH_ERR_IO naming it. */
 static void test_bin_file(const char *dir) {
   bytes b;
   square_bin(&b);
@@ -298,7 +299,8 @@ static void test_bin_file(const char *dir) {
   snprintf(views, sizeof views, square_views, 3, 5121, 3);
   snprintf(json, sizeof json,
            "{\"asset\":{\"version\":\"2.0\"},\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,"
-           "\"TEXCOORD_0\":1}, \"indices\":3}]}],%s\"buffers\":[{\"byteLength\":%zu,\"uri\":\"the%%20data.bin\"}]}",
+           "\"TEXCOORD_0\":1}, \"indices\":3}]}],%s\"buffers\":[{\"byteLength\":%zu,\"uri\":\"the%%20data.bin\"},"
+           "{\"byteLength\":10,\"uri\":\"images.bin\"}]}",
            views, b.n);
   snprintf(gltf, sizeof gltf, "%s/scene.gltf", dir);
   snprintf(bin, sizeof bin, "%s/the data.bin", dir);
@@ -402,10 +404,15 @@ static void test_errors(void) {
   n = make_glb("{\"asset\":{\"version\":\"2.0\"},", NULL, buf);
   expect_error(buf, n, "glb", "malformed");
   /* a file named in a glTF read from memory */
-  snprintf(json, sizeof json, "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":4,\"uri\":\"x.bin\"}]}");
+  /* (a buffer is read when a view of it is: a mesh uses this one) */
+  static const char uses[] = "\"bufferViews\":[{\"buffer\":0,\"byteLength\":12}],\"accessors\":[{\"bufferView\":0,\"componentType\":5126,"
+  "\"count\":1,\"type\":\"VEC3\"}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}]}";
+  snprintf(json, sizeof json, "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":12,\"uri\":\"x.bin\"}],%s",
+           uses);
   expect_error((const unsigned char *)json, strlen(json), "gltf", "cannot have");
   snprintf(json, sizeof json,
-           "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":4,\"uri\":\"https://example.com/x.bin\"}]}");
+           "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":12,\"uri\":\"https://example.com/x.bin\"}],%s",
+           uses);
   expect_error((const unsigned char *)json, strlen(json), "gltf", "not a relative path");
   /* NaN in a position */
   bytes nan = b;
