@@ -621,13 +621,17 @@ static int add_primitive(gltf_reader *r, const cJSON *prim, const double m[16], 
     nomem(r);
     goto done;
   }
-  /* normals go through the inverse transpose of m's 3 x 3 part (its
-   * cofactors: the same direction, the determinant's sign aside) */
-  double a[9] = {m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]}; /* columns */
-  double cof[9] = {a[4] * a[8] - a[5] * a[7], a[5] * a[6] - a[3] * a[8], a[3] * a[7] - a[4] * a[6],
-                   a[2] * a[7] - a[1] * a[8], a[0] * a[8] - a[2] * a[6], a[1] * a[6] - a[0] * a[7],
-                   a[1] * a[5] - a[2] * a[4], a[2] * a[3] - a[0] * a[5], a[0] * a[4] - a[1] * a[3]};
-  double det = a[0] * cof[0] + a[1] * cof[1] + a[2] * cof[2];
+  /* Normals go through the inverse transpose of m's 3 x 3 part A: its
+   * cofactor matrix C = det(A) A^-T, times the determinant's sign. */
+  double A[3][3], C[3][3];
+  for (int row = 0; row < 3; row++)
+    for (int col = 0; col < 3; col++) A[row][col] = m[col * 4 + row];
+  for (int row = 0; row < 3; row++)
+    for (int col = 0; col < 3; col++) {
+      int r1 = (row + 1) % 3, r2 = (row + 2) % 3, c1 = (col + 1) % 3, c2 = (col + 2) % 3;
+      C[row][col] = A[r1][c1] * A[r2][c2] - A[r1][c2] * A[r2][c1];
+    }
+  double det = A[0][0] * C[0][0] + A[0][1] * C[0][1] + A[0][2] * C[0][2];
   size_t count = has_i ? ni : np;
   for (size_t i = 0; i < ni; i++)
     if (!(idx[i] >= 0.0 && idx[i] < (double)np)) {
@@ -652,7 +656,7 @@ static int add_primitive(gltf_reader *r, const cJSON *prim, const double m[16], 
       const double *q2 = &n[3 * i];
       double s = det < 0.0 ? -1.0 : 1.0, v[3];
       for (int row = 0; row < 3; row++)
-        v[row] = s * (cof[row * 3] * q2[0] + cof[row * 3 + 1] * q2[1] + cof[row * 3 + 2] * q2[2]);
+        v[row] = s * (C[row][0] * q2[0] + C[row][1] * q2[1] + C[row][2] * q2[2]);
       double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
       if (len > 0.0) v[0] /= len, v[1] /= len, v[2] /= len;
       if ((nrm[i] = value_index(&r->normals, v)) < 0) goto full;

@@ -168,6 +168,37 @@ static void test_mirror(void) {
   ch_mesh_free(&m);
 }
 
+/* Normals under a rotation (90 degrees about z) of a non-uniform scale (2
+ * in x): the inverse transpose R S^-1, so (1, 1, 0) / sqrt 2 -> (0.5, 1, 0)
+ * -> (-1, 0.5, 0), normalised; positions by R S. */
+static void test_normals(void) {
+  bytes b;
+  square_bin(&b);
+  b.n = 64;
+  for (int i = 0; i < 4; i++) put_f32(&b, 0.70710678f), put_f32(&b, 0.70710678f), put_f32(&b, 0);
+  for (unsigned i = 0; i < 3; i++) put_u8(&b, i);
+  char json[2048], views[1024];
+  snprintf(views, sizeof views, square_views, 3, 5121, 3);
+  snprintf(json, sizeof json,
+           "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],"
+           "\"nodes\":[{\"rotation\":[0,0,0.70710678118654752,0.70710678118654752],\"scale\":[2,1,1],\"mesh\":0}],"
+           "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"NORMAL\":2},"
+           "\"indices\":3}]}],%s\"buffers\":[{\"byteLength\":%zu}]}",
+           views, b.n);
+  ch_mesh m;
+  ch_error err = quiet();
+  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
+  REQUIRE(m.num_faces == 1 && m.num_normals == 1);
+  double s5 = 1.0 / sqrt(5.0);
+  CHECK_NEAR(cnrm(&m, 0)[0], -2.0 * s5, 1e-7);
+  CHECK_NEAR(cnrm(&m, 0)[1], s5, 1e-7);
+  CHECK_NEAR(cnrm(&m, 0)[2], 0.0, 1e-12);
+  /* local (1, 0, 0) -> (2, 0, 0) -> (0, 2, 0) */
+  CHECK_NEAR(cpos(&m, 1)[0], 0.0, 1e-12);
+  CHECK_NEAR(cpos(&m, 1)[1], 2.0, 1e-12);
+  ch_mesh_free(&m);
+}
+
 /* Two primitives meeting along the diagonal with different UVs there (a
  * UV seam, as exporters split it): one position per point (4), the
  * diagonal an inner edge, 6 UVs in two charts. Without scenes or nodes the
@@ -452,6 +483,7 @@ int main(void) {
   }
   RUN(test_nodes_and_strip);
   RUN(test_mirror);
+  RUN(test_normals);
   RUN(test_welding);
   RUN(test_data_uri_and_sparse);
   test_round_trip(dir);
