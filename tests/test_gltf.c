@@ -103,6 +103,22 @@ static const char *square_views =
     "{\"bufferView\":2,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
     "{\"bufferView\":3,\"componentType\":%d,\"count\":%d,\"type\":\"SCALAR\"}],";
 
+/* The square of b (its indices: count of componentType ctype, taking
+ * index_bytes) drawn in `mode` by node 0 of `nodes` (the nodes array's
+ * JSON, node 0 the scene's root), read into m. */
+static ch_status read_square(const bytes *b, const char *nodes, int index_bytes, int ctype, int count, int mode,
+                             ch_mesh *m) {
+  char json[2048], views[1024];
+  snprintf(views, sizeof views, square_views, index_bytes, ctype, count);
+  snprintf(json, sizeof json,
+           "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":%s,"
+           "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"NORMAL\":2},"
+           "\"indices\":3,\"mode\":%d}]}],%s\"buffers\":[{\"byteLength\":%zu}]}",
+           nodes, mode, views, b->n);
+  ch_error err = quiet();
+  return read_glb(json, b, m, &err);
+}
+
 /* ---- tests --------------------------------------------------------------- */
 
 /* A strip of 4 vertices (two triangles) under a node rotated 90 degrees
@@ -112,18 +128,12 @@ static void test_nodes_and_strip(void) {
   bytes b;
   square_bin(&b);
   for (unsigned i = 0; i < 4; i++) put_u8(&b, i);
-  char json[2048], views[1024];
-  snprintf(views, sizeof views, square_views, 4, 5121, 4);
-  snprintf(json, sizeof json,
-           "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
-           "\"nodes\":[{\"translation\":[1,2,3],\"scale\":[2,2,2],\"children\":[1]},"
-           "{\"rotation\":[0,0,0.70710678118654752,0.70710678118654752],\"mesh\":0}],"
-           "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"NORMAL\":2},"
-           "\"indices\":3,\"mode\":5}]}],%s\"buffers\":[{\"byteLength\":%zu}]}",
-           views, b.n);
   ch_mesh m;
+  REQUIRE(read_square(&b,
+                      "[{\"translation\":[1,2,3],\"scale\":[2,2,2],\"children\":[1]},"
+                      "{\"rotation\":[0,0,0.70710678118654752,0.70710678118654752],\"mesh\":0}]",
+                      4, 5121, 4, 5, &m) == CH_OK);
   ch_error err = quiet();
-  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
   CHECK(m.num_faces == 2 && m.num_corners == 6 && m.num_positions == 4 && m.num_uvs == 4 && m.num_normals == 1);
   /* strip: (0, 1, 2), then (2, 1, 3) (every other one turned over) */
   static const int want[6] = {0, 1, 2, 2, 1, 3};
@@ -149,17 +159,9 @@ static void test_mirror(void) {
   square_bin(&b);
   for (unsigned i = 0; i < 3; i++) put_u16(&b, i);
   pad4(&b, 0);
-  char json[2048], views[1024];
-  snprintf(views, sizeof views, square_views, 6, 5123, 3);
-  snprintf(json, sizeof json,
-           "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],"
-           "\"nodes\":[{\"matrix\":[-1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1],\"mesh\":0}],"
-           "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"NORMAL\":2},"
-           "\"indices\":3}]}],%s\"buffers\":[{\"byteLength\":%zu}]}",
-           views, b.n);
   ch_mesh m;
-  ch_error err = quiet();
-  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
+  REQUIRE(read_square(&b, "[{\"matrix\":[-1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1],\"mesh\":0}]", 6, 5123, 3, 4, &m) ==
+          CH_OK);
   REQUIRE(m.num_faces == 1);
   /* (0, 1, 2) read as (0, 2, 1): local (0, 1, 0) then (1, 0, 0), mirrored */
   CHECK(cpos(&m, 1)[0] == 0.0 && cpos(&m, 1)[1] == 1.0 && cpos(&m, 2)[0] == -1.0 && cpos(&m, 2)[1] == 0.0);
@@ -177,17 +179,10 @@ static void test_normals(void) {
   b.n = 64;
   for (int i = 0; i < 4; i++) put_f32(&b, 0.70710678f), put_f32(&b, 0.70710678f), put_f32(&b, 0);
   for (unsigned i = 0; i < 3; i++) put_u8(&b, i);
-  char json[2048], views[1024];
-  snprintf(views, sizeof views, square_views, 3, 5121, 3);
-  snprintf(json, sizeof json,
-           "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],"
-           "\"nodes\":[{\"rotation\":[0,0,0.70710678118654752,0.70710678118654752],\"scale\":[2,1,1],\"mesh\":0}],"
-           "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1,\"NORMAL\":2},"
-           "\"indices\":3}]}],%s\"buffers\":[{\"byteLength\":%zu}]}",
-           views, b.n);
   ch_mesh m;
-  ch_error err = quiet();
-  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
+  REQUIRE(read_square(&b,
+                      "[{\"rotation\":[0,0,0.70710678118654752,0.70710678118654752],\"scale\":[2,1,1],\"mesh\":0}]",
+                      3, 5121, 3, 4, &m) == CH_OK);
   REQUIRE(m.num_faces == 1 && m.num_normals == 1);
   double s5 = 1.0 / sqrt(5.0);
   CHECK_NEAR(cnrm(&m, 0)[0], -2.0 * s5, 1e-7);
