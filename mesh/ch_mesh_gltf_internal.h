@@ -12,10 +12,10 @@ extern "C" {
 #endif
 
 /* Reads a glTF 2.0 scene's triangles into out (see ch_mesh_gltf_read.c):
- * binary a GLB container, else JSON. dir: the folder the file's relative
- * buffer URIs are read from (NULL: none are, as from memory). name is used
- * in messages. */
-ch_status ch_mesh_read_gltf(const void *data, size_t size, int binary, const char *dir, const char *name, ch_mesh *out,
+ * binary a GLB container, else JSON. path: the file, whose relative buffer
+ * URIs are read from beside it (NULL: none are, as from memory). name is
+ * used in messages. */
+ch_status ch_mesh_read_gltf(const void *data, size_t size, int binary, const char *path, const char *name, ch_mesh *out,
                             ch_error *err);
 
 #ifdef __cplusplus

@@ -45,7 +45,7 @@ typedef struct value_set {
 } value_set;
 
 typedef struct gltf_reader {
-  const char *name, *dir; /* dir NULL: no files beside it (from memory) */
+  const char *name, *path; /* path NULL: no files beside it (from memory) */
   ch_error *err;
   ch_status status; /* the first failure's */
   cJSON *root;
@@ -321,19 +321,14 @@ static int load_buffer(gltf_reader *r, int i) {
     if (!rel)
       return fail(r, CH_ERR_INPUT, "%s: uri '%.80s' is not a relative path to a file beside the .gltf", what,
                   uri->valuestring);
-    if (!r->dir) {
+    if (!r->path) {
       free(rel);
       return fail(r, CH_ERR_INPUT, "%s: uri '%.80s' names a file, which a glTF read from memory cannot have", what,
                   uri->valuestring);
     }
-    size_t n = strlen(r->dir) + strlen(rel) + 2;
-    char *path = malloc(n);
-    if (!path) {
-      free(rel);
-      return nomem(r);
-    }
-    snprintf(path, n, "%s/%s", r->dir, rel);
+    char *path = ch_path_beside(r->path, rel);
     free(rel);
+    if (!path) return nomem(r);
     ch_error file_err = {0};
     ch_status st = ch_file_read_all(path, (size_t)1 << 31, &r->owned[i], &have, &file_err);
     free(path);
@@ -894,10 +889,10 @@ static int to_mesh(gltf_reader *r, ch_mesh *out) {
   return 0;
 }
 
-ch_status ch_mesh_read_gltf(const void *data, size_t size, int binary, const char *dir, const char *name, ch_mesh *out,
+ch_status ch_mesh_read_gltf(const void *data, size_t size, int binary, const char *path, const char *name, ch_mesh *out,
                             ch_error *err) {
   memset(out, 0, sizeof *out);
-  gltf_reader r = {.name = name, .dir = dir, .err = err, .want_uvs = -1, .want_normals = -1};
+  gltf_reader r = {.name = name, .path = path, .err = err, .want_uvs = -1, .want_normals = -1};
   r.positions.width = 3;
   r.uvs.width = 2;
   r.normals.width = 3;

@@ -675,11 +675,7 @@ extern "C" ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err)
   ch_status st = ch_file_read_all(path, kMaxFileSize, &data, &size, err);
   if (st != CH_OK) return st;
   if (gltf >= 0) {
-    // (its buffers' relative URIs are read from the file's folder)
-    std::string dir(path);
-    size_t slash = dir.find_last_of('/');
-    dir = slash == std::string::npos ? "." : slash == 0 ? "/" : dir.substr(0, slash);
-    st = ch_mesh_read_gltf(data, size, gltf, dir.c_str(), path, out, err);
+    st = ch_mesh_read_gltf(data, size, gltf, path, path, out, err);
     free(data);
     return st;
   }

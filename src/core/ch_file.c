@@ -408,6 +408,16 @@ ch_status ch_file_read_all(const char *path, size_t max_size, char **data,
   return CH_OK;
 }
 
+char *ch_path_beside(const char *path, const char *rel) {
+  const char *slash = strrchr(path, '/');
+  size_t dir = rel[0] == '/' || !slash ? 0 : (size_t)(slash - path) + 1;
+  char *out = malloc(dir + strlen(rel) + 1);
+  if (!out) return NULL;
+  memcpy(out, path, dir);
+  strcpy(out + dir, rel);
+  return out;
+}
+
 void ch_path_extension(const char *path, char *out, size_t out_size) {
   if (out_size == 0) return;
   out[0] = '\0';

@@ -99,6 +99,11 @@ int ch_file_remove_temporaries(void);
 ch_status ch_file_read_all(const char *path, size_t max_size, char **data,
                            size_t *size, ch_error *err);
 
+/* rel read from beside the file at path: rel itself when it is absolute
+ * or path has no folder, else path's folder joined with rel. A new string
+ * (NULL without memory). */
+char *ch_path_beside(const char *path, const char *rel);
+
 /* The extension of a path, lower-cased, without the dot ("" if none),
  * written into out (at most out_size bytes). */
 void ch_path_extension(const char *path, char *out, size_t out_size);

@@ -10,21 +10,12 @@
 #include <string.h>
 
 #include "ch_featmap.h"
+#include "ch_file.h"
 #include "ch_featshade.h"
 #include "ch_gtex.h"
 #include "ch_math.h"
 #include "ch_relief.h"
 #include "ch_truth.h"
-
-static char *resolve(const char *scene_path, const char *rel) {
-  const char *slash = strrchr(scene_path, '/');
-  size_t dir = rel[0] == '/' || !slash ? 0 : (size_t)(slash - scene_path) + 1;
-  char *out = malloc(dir + strlen(rel) + 1);
-  if (!out) return NULL;
-  memcpy(out, scene_path, dir);
-  strcpy(out + dir, rel);
-  return out;
-}
 
 static int check_keys(const cJSON *obj, const char *const *keys, const char *where, const char *file, ch_error *err) {
   for (const cJSON *it = obj->child; it; it = it->next) {
@@ -221,7 +212,7 @@ ch_status ch_scene_parse(const char *file, const char *text, ch_scene *s, ch_err
     ch_error_set(err, CH_ERR_INPUT, "%s: \"methods\": expected an array", file);
     goto fail;
   }
-  if (!(s->curves_path = resolve(file, curves->valuestring))) goto nomem;
+  if (!(s->curves_path = ch_path_beside(file, curves->valuestring))) goto nomem;
   /* Views after orbits are expanded (an orbit's count is checked below). */
   s->num_views = 0;
   for (int i = 0; i < cJSON_GetArraySize(views); i++) {
@@ -330,7 +321,7 @@ ch_status ch_scene_parse(const char *file, const char *text, ch_scene *s, ch_err
       strcpy(mt->family, family->valuestring);
     }
     if (!parse_shader(m, mt, where, file, err)) goto fail;
-    if (!(mt->path = resolve(file, mesh->valuestring))) goto nomem;
+    if (!(mt->path = ch_path_beside(file, mesh->valuestring))) goto nomem;
   }
   cJSON_Delete(root);
   return CH_OK;
