@@ -5,6 +5,8 @@
 #define _GNU_SOURCE
 #include "ch_file.h"
 
+#include "ch_alloc.h"
+
 #include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
@@ -390,7 +392,7 @@ ch_status ch_file_read_all(const char *path, size_t max_size, char **data,
                         path, (long long)st.st_size, max_size);
   }
   size_t n = (size_t)st.st_size;
-  char *buf = malloc(n + 1);
+  char *buf = ch_alloc_large(n + 1, 1, 0); /* (a mesh of millions of faces: huge pages) */
   if (!buf) {
     fclose(fp);
     return ch_error_set(err, CH_ERR_NOMEM, "%s: out of memory", path);
