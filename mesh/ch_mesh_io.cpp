@@ -1,5 +1,12 @@
-// ch_mesh_io.cpp: reads OBJ, PLY, OFF and STL through OpenMesh into a
-// ch_mesh. The only file of chisel that includes OpenMesh.
+// ch_mesh_io.cpp: reads PLY, OFF and STL through OpenMesh into a ch_mesh,
+// and dispatches by extension (OBJ to ch_mesh_obj_read.c, glTF to
+// ch_mesh_gltf_read.c). The only file of chisel that includes OpenMesh.
+//
+// OBJ. Its scanner already parses every token as OpenMesh's OBJReader does;
+// the mesh is built from the values it keeps. OpenMesh's reader, three
+// times slower again through std::istream and a std::map per value, stays
+// here as the reference (ch_mesh_read_obj_openmesh) that test_mesh and the
+// OBJ fuzz target compare ours with.
 //
 // Design. OpenMesh's halfedge meshes drop non-manifold faces silently, so we
 // never build one: a BaseImporter of our own records what the reader
@@ -15,6 +22,7 @@
 // are serialised by a mutex.
 #include "ch_mesh.h"
 #include "ch_mesh_gltf_internal.h"
+#include "ch_mesh_obj_internal.h"
 #include "ch_mesh_scan.h"
 
 #include <OpenMesh/Core/IO/IOManager.hh>
@@ -655,7 +663,16 @@ extern "C" ch_status ch_mesh_read_memory(const void *data, size_t size, const ch
                         format ? format : "", kAccepted);
   static const char empty = '\0';
   const char *bytes = size ? (const char *)data : &empty;
+  if (f == Format::OBJ) return ch_mesh_read_obj(bytes, size, name, out, err);
   return guarded(name, out, err, [&] { read_buffer(bytes, size, f, name, out, err); });
+}
+
+extern "C" ch_status ch_mesh_read_obj_openmesh(const void *data, size_t size, const char *name, ch_mesh *out,
+                                               ch_error *err) {
+  memset(out, 0, sizeof *out);
+  static const char empty = '\0';
+  const char *bytes = size ? (const char *)data : &empty;
+  return guarded(name, out, err, [&] { read_buffer(bytes, size, Format::OBJ, name, out, err); });
 }
 
 extern "C" ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err) {
@@ -676,6 +693,11 @@ extern "C" ch_status ch_mesh_read(const char *path, ch_mesh *out, ch_error *err)
   if (st != CH_OK) return st;
   if (gltf >= 0) {
     st = ch_mesh_read_gltf(data, size, gltf, path, path, out, err);
+    free(data);
+    return st;
+  }
+  if (f == Format::OBJ) {
+    st = ch_mesh_read_obj(data, size, path, out, err);
     free(data);
     return st;
   }

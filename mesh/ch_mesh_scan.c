@@ -40,6 +40,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_alloc.h"
 #include "ch_mesh.h"
 
 #define MAX_ELEMENTS ((long long)CH_MESH_MAX_ELEMENTS)
@@ -60,6 +61,8 @@ typedef struct ctx {
   ply_elem *elems; /* PLY header */
   size_t num_elems, cap_elems;
   size_t cap_mtllib, cap_tex, cap_tex_first, cap_stripped;
+  int keep; /* OBJ: keep the values and corners (ch_mesh_scan_obj_values) */
+  size_t cap_obj_pos, cap_obj_tex, cap_obj_normal, cap_obj_faces, cap_obj_corners[3];
 } ctx;
 
 #if defined(__GNUC__)
@@ -85,10 +88,7 @@ static void reserve(ctx *c, void **p, size_t *cap, size_t need, size_t elem) {
   if (need <= *cap) return;
   size_t n = *cap ? *cap : 16;
   while (n < need) n *= 2;
-  if (n > SIZE_MAX / elem) fail_nomem(c);
-  void *q = realloc(*p, n * elem);
-  if (!q) fail_nomem(c);
-  *p = q;
+  if (ch_alloc_resize(p, *cap, n, elem)) fail_nomem(c); /* (huge pages for an OBJ's values) */
   *cap = n;
 }
 
@@ -126,13 +126,65 @@ static locale_t c_loc;
 static pthread_once_t c_loc_once = PTHREAD_ONCE_INIT;
 static void make_c_locale(void) { c_loc = newlocale(LC_ALL_MASK, "C", (locale_t)0); }
 
+/* A decimal token [+-]d*[.d*][(e|E)[+-]d+] with at least one mantissa
+ * digit, at most 19 significant digits whose value is at most 2^53 and a
+ * power of ten within 10^+-22, as the float strtof gives: the double
+ * m * 10^e (or m / 10^-e) is then correctly rounded (both operands are
+ * exact: Clinger's fast path, 1990), and rounding it to float again gives
+ * strtof's float unless the double lies exactly halfway between two
+ * floats (for x below a halfway point M, RN(x) <= M as M is a double).
+ * 0 where it does not apply (strtof decides). */
+static int fast_float_token(const char *p, const char *e, float *out) {
+  static const double pow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  int neg = 0;
+  if (p < e && (*p == '+' || *p == '-')) neg = *p++ == '-';
+  uint64_t m = 0;
+  int digits = 0, significant = 0, exp10 = 0;
+  for (; p < e && *p >= '0' && *p <= '9'; p++, digits++)
+    if (significant || *p != '0') {
+      if (++significant > 19) return 0;
+      m = m * 10 + (uint64_t)(*p - '0');
+    }
+  if (p < e && *p == '.')
+    for (p++; p < e && *p >= '0' && *p <= '9'; p++, digits++) {
+      exp10--;
+      if (significant || *p != '0') {
+        if (++significant > 19) return 0;
+        m = m * 10 + (uint64_t)(*p - '0');
+      }
+    }
+  if (digits == 0) return 0;
+  if (p < e && (*p == 'e' || *p == 'E')) {
+    p++;
+    int eneg = 0, edigits = 0, ev = 0;
+    if (p < e && (*p == '+' || *p == '-')) eneg = *p++ == '-';
+    for (; p < e && *p >= '0' && *p <= '9'; p++, edigits++)
+      if ((ev = ev * 10 + (*p - '0')) > 1000) return 0;
+    if (edigits == 0) return 0;
+    exp10 += eneg ? -ev : ev;
+  }
+  if (p != e || m > (UINT64_C(1) << 53) || exp10 < -22 || exp10 > 22) return 0;
+  double d = exp10 < 0 ? (double)m / pow10[-exp10] : (double)m * pow10[exp10];
+  /* halfway between two floats: the double's 29 bits below a normal
+   * float's 24 are 1 followed by zeros (subnormal floats: strtof decides) */
+  uint64_t bits;
+  memcpy(&bits, &d, sizeof bits);
+  if (d != 0.0 && (d < 1.2e-38 || (bits & ((UINT64_C(1) << 29) - 1)) == (UINT64_C(1) << 28))) return 0;
+  float f = (float)d;
+  if (!isfinite(f)) return 0;
+  *out = neg ? -f : f;
+  return 1;
+}
+
 /* True when operator>>(float&) reads the whole token [b,e) and gets a finite
  * value: libstdc++ collects only digits, sign, '.', 'e' (so no nan/inf/hex)
  * and fails on float overflow. out receives the value. */
 static int float_token(const char *b, const char *e, float *out) {
   if (b == e || e - b > 400) return 0;
+  if (fast_float_token(b, e, out)) return 1;
   for (const char *p = b; p < e; p++)
-    if (!strchr("0123456789+-.eE", *p)) return 0;
+    if (!((*p >= '0' && *p <= '9') || *p == '+' || *p == '-' || *p == '.' || *p == 'e' || *p == 'E')) return 0;
   char buf[408];
   memcpy(buf, b, (size_t)(e - b));
   buf[e - b] = '\0';
@@ -235,15 +287,20 @@ static int obj_keyword(const char *b, const char *e, tokens *t, const char **kb,
   return next_token(t, kb, ke);
 }
 
-static void obj_numbers(ctx *c, tokens t, int count, const char *what, long long index, size_t line,
-                        const char *need) {
+/* Checks the count values of element `index` (1-based) and, when the
+ * scan keeps values, appends them to *values (capacity *cap). */
+static void obj_numbers(ctx *c, tokens t, int count, const char *what, long long index, size_t line, const char *need,
+                        float **values, size_t *cap) {
+  float v[3];
   for (int i = 0; i < count; i++) {
     const char *tb, *te;
-    float v;
     if (!next_token(&t, &tb, &te)) fail(c, "%s %lld (line %zu): needs %s", what, index, line, need);
-    if (!float_token(tb, te, &v))
+    if (!float_token(tb, te, &v[i]))
       fail(c, "%s %lld (line %zu): %s is not a finite number", what, index, line, Q(tb, te));
   }
+  if (!c->keep) return;
+  reserve(c, (void **)values, cap, (size_t)index * (size_t)count, sizeof **values);
+  memcpy(*values + (size_t)(index - 1) * (size_t)count, v, (size_t)count * sizeof *v);
 }
 
 /* Resolves an OBJ index the way OpenMesh does (negative: relative to the
@@ -274,11 +331,12 @@ static void scan_obj(ctx *c, const char *d, size_t n) {
     const char *kb, *ke;
     if (!obj_keyword(b, e, &t, &kb, &ke)) continue;
     if (token_is(kb, ke, "v")) {
-      obj_numbers(c, t, 3, "vertex", ++s->num_vertices, line, "three coordinates x y z");
+      obj_numbers(c, t, 3, "vertex", ++s->num_vertices, line, "three coordinates x y z", &s->obj_pos, &c->cap_obj_pos);
     } else if (token_is(kb, ke, "vt")) {
-      obj_numbers(c, t, 2, "texture coordinate", ++s->num_texcoords, line, "two values u v");
+      obj_numbers(c, t, 2, "texture coordinate", ++s->num_texcoords, line, "two values u v", &s->obj_tex,
+                  &c->cap_obj_tex);
     } else if (token_is(kb, ke, "vn")) {
-      obj_numbers(c, t, 3, "normal", ++s->num_normals, line, "three values x y z");
+      obj_numbers(c, t, 3, "normal", ++s->num_normals, line, "three values x y z", &s->obj_normal, &c->cap_obj_normal);
     } else if (token_is(kb, ke, "mtllib")) {
       reserve(c, (void **)&s->mtllib_at, &c->cap_mtllib, s->num_mtllib + 1, sizeof *s->mtllib_at);
       s->mtllib_at[s->num_mtllib++] = (size_t)(kb - d);
@@ -288,6 +346,10 @@ static void scan_obj(ctx *c, const char *d, size_t n) {
   }
   /* Pass 2: faces, with indices resolved as OpenMesh's second pass does. */
   long long v_so_far = 0, t_so_far = 0, n_so_far = 0;
+  if (c->keep) {
+    reserve(c, (void **)&s->obj_face_start, &c->cap_obj_faces, 1, sizeof *s->obj_face_start);
+    s->obj_face_start[0] = 0;
+  }
   at = 0;
   line = 0;
   while (next_line(d, n, &at, &b, &e)) {
@@ -329,6 +391,16 @@ static void scan_obj(ctx *c, const char *d, size_t n) {
         with_uv++;
       }
       if (idx[2] != 0) obj_index(c, idx[2], n_so_far, s->num_normals, "normal", face, line);
+      if (c->keep) {
+        /* (the limits keep every index and count within int) */
+        size_t k = (size_t)(s->num_corners + corners);
+        reserve(c, (void **)&s->obj_corner_pos, &c->cap_obj_corners[0], k + 1, sizeof *s->obj_corner_pos);
+        reserve(c, (void **)&s->obj_corner_tex, &c->cap_obj_corners[1], k + 1, sizeof *s->obj_corner_tex);
+        reserve(c, (void **)&s->obj_corner_normal, &c->cap_obj_corners[2], k + 1, sizeof *s->obj_corner_normal);
+        s->obj_corner_pos[k] = (int)c->positions[num_positions - 1];
+        s->obj_corner_tex[k] = idx[1] == 0 ? -1 : (int)(idx[1] < 0 ? t_so_far + idx[1] : idx[1] - 1);
+        s->obj_corner_normal[k] = idx[2] == 0 ? -1 : (int)(idx[2] < 0 ? n_so_far + idx[2] : idx[2] - 1);
+      }
       corners++;
     }
     if (corners < 3)
@@ -345,6 +417,10 @@ static void scan_obj(ctx *c, const char *d, size_t n) {
     s->num_corners += corners;
     if (s->num_faces > MAX_ELEMENTS || s->num_corners > MAX_ELEMENTS)
       fail(c, "line %zu: too many faces (limit %lld corners)", line, MAX_ELEMENTS);
+    if (c->keep) {
+      reserve(c, (void **)&s->obj_face_start, &c->cap_obj_faces, (size_t)face + 1, sizeof *s->obj_face_start);
+      s->obj_face_start[face] = (int)s->num_corners;
+    }
   }
 }
 
@@ -933,16 +1009,24 @@ void ch_mesh_scan_free(ch_mesh_scan *scan) {
   free(scan->tex);
   free(scan->tex_first);
   free(scan->stripped);
+  free(scan->obj_pos);
+  free(scan->obj_tex);
+  free(scan->obj_normal);
+  free(scan->obj_face_start);
+  free(scan->obj_corner_pos);
+  free(scan->obj_corner_tex);
+  free(scan->obj_corner_normal);
   memset(scan, 0, sizeof *scan);
 }
 
 typedef void (*scanner)(ctx *c, const char *d, size_t n);
 
-static ch_status run(scanner fn, const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
+static ch_status run(scanner fn, int keep, const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
   memset(out, 0, sizeof *out);
   ctx *c = calloc(1, sizeof *c);
   if (!c) return ch_error_set(err, CH_ERR_NOMEM, "out of memory");
   c->s = out;
+  c->keep = keep;
   ch_status st = CH_OK;
   if (setjmp(c->jump) == 0) {
     fn(c, d, n);
@@ -958,17 +1042,21 @@ static ch_status run(scanner fn, const char *d, size_t n, ch_mesh_scan *out, ch_
 }
 
 ch_status ch_mesh_scan_obj(const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
-  return run(scan_obj, d, n, out, err);
+  return run(scan_obj, 0, d, n, out, err);
+}
+
+ch_status ch_mesh_scan_obj_values(const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
+  return run(scan_obj, 1, d, n, out, err);
 }
 
 ch_status ch_mesh_scan_ply(const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
-  return run(scan_ply, d, n, out, err);
+  return run(scan_ply, 0, d, n, out, err);
 }
 
 ch_status ch_mesh_scan_off(const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
-  return run(scan_off, d, n, out, err);
+  return run(scan_off, 0, d, n, out, err);
 }
 
 ch_status ch_mesh_scan_stl(const char *d, size_t n, ch_mesh_scan *out, ch_error *err) {
-  return run(scan_stl, d, n, out, err);
+  return run(scan_stl, 0, d, n, out, err);
 }

@@ -3,7 +3,9 @@
  * error names the element and what is wrong (OpenMesh's readers trust their
  * input: what they do with unchecked input is listed at the top of
  * ch_mesh_scan.c). The OpenMesh shim (ch_mesh_io.cpp) runs a scanner, then
- * the reader, and compares the counts. Plain C, no OpenMesh.
+ * the reader, and compares the counts; for OBJ the scanner keeps the values
+ * and ch_mesh_obj_read.c builds the mesh from them instead. Plain C, no
+ * OpenMesh.
  *
  * Every scanner: d[0..n) is the whole file (not NUL-terminated); out is
  * zeroed first and filled with the counts (and for PLY the face texture
@@ -48,6 +50,13 @@ typedef struct ch_mesh_scan {
   /* STL: binary (the size matches the triangle count), and the triangles
    * (facets) in the file, degenerate ones included */
   long long triangles;
+  /* OBJ read with ch_mesh_scan_obj_values: the values as OpenMesh's reader
+   * parses them (floats), 3 per `v`, 2 per `vt`, 3 per `vn`, and every
+   * face's corners (face_start[f] .. face_start[f + 1] - 1) with their
+   * indices resolved to 0-based (corner_tex and corner_normal -1 where the
+   * corner has none) */
+  float *obj_pos, *obj_tex, *obj_normal;
+  int *obj_face_start, *obj_corner_pos, *obj_corner_tex, *obj_corner_normal;
 } ch_mesh_scan;
 
 /* OBJ: the totals and the syntax of v, vt, vn (finite numbers), then every
@@ -55,6 +64,10 @@ typedef struct ch_mesh_scan {
  * relative to the elements so far), at least 3 distinct positions, UVs on
  * all corners or none. No NUL bytes. */
 ch_status ch_mesh_scan_obj(const char *d, size_t n, ch_mesh_scan *out, ch_error *err);
+
+/* The same checks, keeping the values and the resolved corners (the obj_
+ * fields above): what ch_mesh_read builds an OBJ's mesh from. */
+ch_status ch_mesh_scan_obj_values(const char *d, size_t n, ch_mesh_scan *out, ch_error *err);
 
 /* PLY: OpenMesh's header parser token by token (format line, elements,
  * properties, end_header and where OpenMesh will start reading the body),

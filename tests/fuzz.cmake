@@ -27,3 +27,7 @@ foreach(format obj ply off stl glb gltf)
   ch_add_replay(fuzz_mesh_${format} fuzz_mesh.c chisel_mesh)
   target_compile_definitions(replay_fuzz_mesh_${format} PRIVATE CHISEL_FUZZ_FORMAT="${format}")
 endforeach()
+# The OBJ target also holds our reader to OpenMesh's: on the test meshes and
+# the bundled models too.
+file(GLOB obj_meshes ${CHISEL_TEST_DATA}/mesh/*.obj ${PROJECT_SOURCE_DIR}/models/*.obj)
+add_test(NAME replay_fuzz_mesh_obj_models COMMAND replay_fuzz_mesh_obj ${obj_meshes})

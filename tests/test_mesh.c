@@ -4,12 +4,14 @@
  * comments of those files. */
 #define _POSIX_C_SOURCE 200809L
 #include <fcntl.h>
+#include <float.h>
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include "ch_mesh.h"
+#include "ch_mesh_obj_internal.h"
 #include "ch_mesh_scan.h"
 #include "ch_test.h"
 
@@ -317,6 +319,80 @@ static void test_float_precision(void) {
   REQUIRE(ch_mesh_read_memory(text, strlen(text), "obj", "p", &m, &err) == CH_OK);
   CHECK(m.positions[0] == (double)0.1f);
   ch_mesh_free(&m);
+}
+
+/* The OBJ reader's numbers are strtof's (what OpenMesh's operator>> gives),
+ * including where its fast path must step aside: decimals whose nearest
+ * double is halfway between two floats but which are not (found by a search
+ * with exact fractions), subnormals, more than 19 digits; and exact
+ * halfway decimals (16777217, 8388608.5: ties to even), the top of the
+ * float range. And OpenMesh's own
+ * reading of the same file agrees. */
+static void test_obj_floats_as_strtof(void) {
+  static const char *fixed[] = {"16777217", "16777219", "8388608.5", "8388609.5", "-0", "0.1", "+.5", "5.", "1e-38",
+                                "1e-45", "3.4028235e38", "-3.4028235e38", "123456789012345678901",
+                                "0.000000000000000000000000000001234", "1E5", "-2.5e-3", "7e+22", "7e23",
+                                /* their nearest double is halfway between two floats, they are not */
+                                "4.077673673629761", "8.028053760528564", "1.90711909532547", "6.517818908691406e2",
+                                "1.687670648097992"};
+  enum { NFIXED = sizeof fixed / sizeof *fixed, N = 3 * 40000 };
+  char(*tok)[48] = malloc(sizeof *tok * N);
+  REQUIRE(tok);
+  uint64_t state = 99;
+  for (int i = 0; i < N; i++) {
+    if (i < NFIXED) {
+      snprintf(tok[i], sizeof tok[i], "%s", fixed[i]);
+      continue;
+    }
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    int digits = 1 + (int)((state >> 20) % 20), point = (int)((state >> 30) % (digits + 1)),
+        form = (int)((state >> 40) % 4), e = (int)((state >> 45) % 61) - 30;
+    if (e + point > 38) e = 38 - point; /* (within the float range) */
+    char mant[32];
+    uint64_t r = state;
+    for (int k = 0; k < digits; k++) {
+      r = r * 6364136223846793005ull + 1442695040888963407ull;
+      mant[k] = (char)('0' + (r >> 33) % 10);
+    }
+    mant[digits] = '\0';
+    const char *sign = (state >> 50) % 3 == 0 ? "-" : "";
+    if (form == 0) /* an integer */
+      snprintf(tok[i], sizeof tok[i], "%s%s", sign, mant);
+    else if (form == 1) /* digits with a point */
+      snprintf(tok[i], sizeof tok[i], "%s%.*s.%s", sign, point, mant, mant + point);
+    else /* with an exponent */
+      snprintf(tok[i], sizeof tok[i], "%s%.*s.%se%d", sign, point, mant, mant + point, e);
+  }
+  size_t cap = (size_t)N * 52 + 64, len = 0;
+  char *text = malloc(cap);
+  REQUIRE(text);
+  for (int v = 0; v < N / 3; v++)
+    len += (size_t)snprintf(text + len, cap - len, "v %s %s %s\n", tok[3 * v], tok[3 * v + 1], tok[3 * v + 2]);
+  len += (size_t)snprintf(text + len, cap - len, "f 1 2 3\n");
+  ch_mesh m, ref;
+  ch_error err = new_error(NULL);
+  CHECK_MSG(ch_mesh_read_memory(text, len, "obj", "floats.obj", &m, &err) == CH_OK, "%s", err.message);
+  REQUIRE(err.status == CH_OK);
+  REQUIRE(ch_mesh_read_obj_openmesh(text, len, "floats.obj", &ref, &err) == CH_OK);
+  REQUIRE(m.num_positions == N / 3 && ref.num_positions == N / 3);
+  int differ = 0, differ_om = 0;
+  for (int i = 0; i < N; i++) {
+    float want = strtof(tok[i], NULL);
+    if (m.positions[i] != (double)want || !signbit(m.positions[i]) != !signbit(want)) {
+      if (differ++ < 5) fprintf(stderr, "'%s': read %.9g, strtof %.9g\n", tok[i], m.positions[i], want);
+    }
+    differ_om += memcmp(&m.positions[i], &ref.positions[i], sizeof(double)) != 0;
+  }
+  CHECK_MSG(differ == 0, "%d of %d numbers are not strtof's", differ, N);
+  CHECK_MSG(differ_om == 0, "%d of %d numbers differ from OpenMesh's", differ_om, N);
+  CHECK(m.positions[0] == 16777216.0 && m.positions[1] == 16777220.0); /* ties to even */
+  CHECK(m.positions[2] == 8388608.0 && m.positions[3] == 8388610.0);
+  CHECK(signbit(m.positions[4]) && m.positions[4] == 0.0);
+  CHECK(m.positions[10] == (double)FLT_MAX && m.positions[11] == -(double)FLT_MAX);
+  ch_mesh_free(&m);
+  ch_mesh_free(&ref);
+  free(text);
+  free(tok);
 }
 
 static void test_read_errors(void) {
@@ -1086,6 +1162,7 @@ int main(void) {
   RUN(test_off);
   RUN(test_stl);
   RUN(test_float_precision);
+  RUN(test_obj_floats_as_strtof);
   RUN(test_read_errors);
   RUN(test_hostile_inputs);
   RUN(test_scanners);
