@@ -1103,11 +1103,7 @@ ch_status ch_embed_to_target(const ch_surface *surface, const ch_height *height,
   r.default_angle = r.d.normal_tolerance_deg;
   ch_status st;
   /* The fewest triangles the base mesh gives (every edge at rate 1). */
-  ch_tess_desc one = {.uniform_rate = 1};
-  if ((st = ch_tess_build(surface, &one, &r.cur_tess, err))) return st;
-  long fewest = r.cur_tess.mesh.num_faces;
-  ch_tess_free(&r.cur_tess);
-  memset(&r.cur_tess, 0, sizeof r.cur_tess);
+  long fewest = ch_tess_fewest_triangles(surface);
   if (target < fewest) r.target = target = fewest;
   /* The angle step shapes only grooves (their u lines, the caps of open
    * ends, the thinning's normals): with step curves alone a coarser one

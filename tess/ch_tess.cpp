@@ -537,3 +537,8 @@ extern "C" void ch_tess_free(ch_tess_result *r) {
   std::free(r->edge_vertices);
   std::memset(r, 0, sizeof *r);
 }
+
+extern "C" long ch_tess_fewest_triangles(const ch_surface *S) {
+  std::vector<int> ones((size_t)S->num_edges, 1);
+  return count_triangles(S, ones.data());
+}

@@ -91,6 +91,10 @@ ch_status ch_tess_build(const ch_surface *surface, const ch_tess_desc *desc,
 /* Releases every array of result and zeroes it. Safe on a zeroed struct. */
 void ch_tess_free(ch_tess_result *result);
 
+/* The triangles ch_tess_build gives at rate 1 on every edge: the fewest a
+ * tessellation of surface has (counted, nothing evaluated). */
+long ch_tess_fewest_triangles(const ch_surface *surface);
+
 /* The cage of the view-dependent warp (ch_warp_cage's arrays): the surface
  * tessellated at the uniform rate (at most 64) that gives at least
  * min_triangles, per triangle its corners' UV (6) and positions (9). */

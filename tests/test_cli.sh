@@ -266,8 +266,12 @@ expect 2 "$chisel" displace "$models/plane.obj" "$tests/data/svg/bad/negative_wi
   && one_line_with "negative data-width"
 no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --target-tris 0 && one_line_with "--target-tris 0"
-expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --target-tris 10 --no-snap \
-  && one_line_with "target"
+# Below what the base gives at rate 1 (a dense base mesh): rate 1, as with the
+# embedding, and a warning naming the count (the plane's 256 quads: 512).
+expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --target-tris 10 --no-snap \
+  && grep -q "512 triangles: the closest to --target-tris 10" "$tmp/stderr" && [ "$(grep -c '^f ' "$tmp/x.obj")" = 512 ] \
+  || fail "--no-snap below rate 1: not the rate-1 mesh with a warning"
+rm -f "$tmp/x.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --res 99999999 && one_line_with "--res"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --scheme loop && one_line_with "unknown scheme 'loop'"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" && one_line_with "missing -o"

@@ -654,6 +654,14 @@ static void test_targets(void) {
     REQUIRE(load_model(models[i], &m));
     ch_surface *S = surface_of(&m, CH_SCHEME_BILINEAR);
     REQUIRE(S);
+    { /* the count at rate 1 is the rate-1 tessellation's (the obelisk mixes triangles and quads) */
+      ch_tess_result r;
+      ch_error err = {0};
+      REQUIRE(ch_tess_build(S, &(ch_tess_desc){.uniform_rate = 1}, &r, &err) == CH_OK);
+      CHECK_MSG(ch_tess_fewest_triangles(S) == r.mesh.num_faces, "%s: %ld, rate 1 gave %d", models[i],
+                ch_tess_fewest_triangles(S), r.mesh.num_faces);
+      ch_tess_free(&r);
+    }
     for (int k = 0; k < ntargets; k++) {
       ch_tess_result r;
       ch_error err = {0};
@@ -859,6 +867,7 @@ static void test_bad_input(void) {
   CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 3}, &r, &err) == CH_ERR_INPUT); /* rate 1 gives 12 */
   CHECK(strstr(err.message, "below") != NULL);
   CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 12}, &r, &err) == CH_OK && r.mesh.num_faces == 12);
+  CHECK(ch_tess_fewest_triangles(S) == 12);
   ch_tess_free(&r);
   CHECK(ch_tess_build(S, &(ch_tess_desc){.target_triangles = 1L << 40}, &r, &err) == CH_ERR_INPUT);
   CHECK(r.mesh.positions == NULL && r.edge_rates == NULL);

@@ -239,7 +239,10 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
   if (!st) {
     if (desc->no_snap) {
       ch_progress_reportf(progress, -1.0, "tessellating and displacing");
-      ch_tess_desc td = {.target_triangles = target, .warp = warp};
+      /* Below what rate 1 gives (a dense base mesh), rate 1: the closest
+       * to the target there is, as the embedding does (warned below). */
+      long fewest = ch_tess_fewest_triangles(surface);
+      ch_tess_desc td = {.target_triangles = target > fewest ? target : fewest, .warp = warp};
       st = ch_tess_build(surface, &td, &tess, err);
       double t_d = omp_get_wtime();
       ch_displace_stats dstats = {0};
