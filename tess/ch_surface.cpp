@@ -15,10 +15,8 @@
  * weights as the position) and normalised: docs/spec.md §1's N. */
 #include "ch_surface.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <memory>
 #include <mutex>
 #include <new>
 #include <string>
@@ -146,42 +144,21 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
     return ch_error_set(err, CH_ERR_INPUT, "base mesh: OpenSubdiv rejects the topology: %s",
                         far_message.empty() ? "no reason given" : far_message.c_str());
 
-  /* Bfr surfaces and patch points, face by face: one factory per thread
-   * (a factory's cache shares irregular patches between faces and is not
-   * thread-safe; a surface keeps its own reference to what it uses). A
-   * base of millions of faces spent seconds here on one core. */
+  /* Bfr surfaces and patch points, face by face (the factory's cache
+   * shares irregular patches between faces; it is not thread-safe). */
   Bfr::RefinerSurfaceFactory<>::Options fopts;
   fopts.SetDefaultFVarID(0);
+  Bfr::RefinerSurfaceFactory<> factory(*refiner, fopts);
   S->pos.resize(nf);
   S->tex.resize(nf);
   S->pos_off.resize(nf + 1);
   S->tex_off.resize(nf + 1);
-  int failed = nf, thrown = 0; /* the first face without a surface; an exception in a thread */
-#pragma omp parallel reduction(min : failed) reduction(| : thrown)
-  {
-    /* (an exception must not leave a parallel region, nor skip its loop) */
-    std::unique_ptr<Bfr::RefinerSurfaceFactory<>> factory;
-    try {
-      factory.reset(new Bfr::RefinerSurfaceFactory<>(*refiner, fopts));
-    } catch (...) {
-      thrown = 1;
-    }
-#pragma omp for schedule(dynamic, 4096)
-    for (int f = 0; f < nf; f++) {
-      if (!factory) continue;
-      try {
-        if (!factory->InitSurfaces(f, &S->pos[f], &S->tex[f]) || !S->pos[f].IsValid() || !S->tex[f].IsValid())
-          failed = std::min(failed, f);
-      } catch (...) {
-        thrown = 1;
-      }
-    }
-  }
-  if (thrown) throw std::bad_alloc();
-  if (failed < nf)
-    return ch_error_set(err, CH_ERR_INPUT, "base mesh: face %d: OpenSubdiv cannot build its surface", failed);
   size_t npos = 0, ntex = 0;
   for (int f = 0; f < nf; f++) {
+    if (!factory.InitSurfaces(f, &S->pos[f], &S->tex[f]) || !S->pos[f].IsValid() ||
+        !S->tex[f].IsValid())
+      return ch_error_set(err, CH_ERR_INPUT, "base mesh: face %d: OpenSubdiv cannot build its surface",
+                          f);
     S->pos_off[f] = npos;
     S->tex_off[f] = ntex;
     npos += S->pos[f].GetNumPatchPoints();
@@ -191,7 +168,6 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
   S->tex_off[nf] = ntex;
   S->pos_pts.resize(3 * npos);
   S->tex_pts.resize(2 * ntex);
-#pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; f++) {
     S->pos[f].PreparePatchPoints(mesh->positions, PD(3), &S->pos_pts[3 * S->pos_off[f]], PD(3));
     S->tex[f].PreparePatchPoints(mesh->uvs, PD(2), &S->tex_pts[2 * S->tex_off[f]], PD(2));
@@ -227,7 +203,6 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
                             v);
     }
     S->nrm_pts.resize(3 * npos);
-#pragma omp parallel for schedule(static)
     for (int f = 0; f < nf; f++)
       S->pos[f].PreparePatchPoints(vn.data(), PD(3), &S->nrm_pts[3 * S->pos_off[f]], PD(3));
   }
@@ -327,7 +302,6 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
   }
   S->patch_uv.assign(8 * (size_t)S->patch_start[nf], 0.0);
   static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-#pragma omp parallel for schedule(static)
   for (int f = 0; f < nf; f++)
     for (int k = 0; k < S->patch_start[f + 1] - S->patch_start[f]; k++) {
       double origin[2] = {0.0, 0.0}, scale = 1.0;
