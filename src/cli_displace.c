@@ -161,7 +161,7 @@ static int run(int argc, char **argv) {
   const char *cmd = "displace";
   const char *base = NULL, *svg = NULL, *out = NULL, *exr = NULL, *png = NULL, *ply = NULL, *png16 = NULL;
   const char *glb = NULL;
-  long target = 520000, res = 1024, max_tris = 0;
+  long target = 0, res = 1024, max_tris = 0; /* (target 0: the library's default, named so in its warnings) */
   int scheme = CH_SCHEME_BILINEAR, no_snap = 0, stats = 0, snap_to = CH_RECON_EXACT, has_camera = 0, warp_dci = 0;
   int json = 0;
   ch_svg_desc svg_desc = {0};
@@ -234,8 +234,9 @@ static int run(int argc, char **argv) {
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
   if (cli_is_stdout(glb)) return cli_refuse_stdout(cmd, "--glb", "a glTF binary");
   if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
-  if (max_tris && max_tris < target)
-    return cli_usage_error(cmd, "--max-tris %ld is below --target-tris %ld", max_tris, target);
+  if (max_tris && max_tris < (target ? target : CH_DISPLACE_DEFAULT_TARGET))
+    return cli_usage_error(cmd, "--max-tris %ld is below --target-tris %ld", max_tris,
+                           target ? target : (long)CH_DISPLACE_DEFAULT_TARGET);
   /* Standard output takes one mesh, OBJ or PLY; EXR and PNG need seeks or
    * are not what a pipe expects. */
   if (cli_is_stdout(exr)) return cli_refuse_stdout(cmd, "--exr", "an EXR");

@@ -272,6 +272,17 @@ expect 0 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --target-
   && grep -q "512 triangles: the closest to --target-tris 10" "$tmp/stderr" && [ "$(grep -c '^f ' "$tmp/x.obj")" = 512 ] \
   || fail "--no-snap below rate 1: not the rate-1 mesh with a warning"
 rm -f "$tmp/x.obj"
+# A base denser than the default target (a 540 x 540 grid of quads: 583200
+# triangles at rate 1), no --target-tris: rate 1, and the warning says the
+# 520000 it could not meet is the default.
+awk 'BEGIN { n = 540
+  for (j = 0; j <= n; j++) for (i = 0; i <= n; i++) { printf "v %g %g 0\n", i / n, j / n; printf "vt %g %g\n", i / n, j / n }
+  for (j = 0; j < n; j++) for (i = 0; i < n; i++) { a = j * (n + 1) + i + 1; b = a + 1; c = b + n + 1; d = a + n + 1
+    printf "f %d/%d %d/%d %d/%d %d/%d\n", a, a, b, b, c, c, d, d } }' >"$tmp/dense.obj"
+expect 0 "$chisel" displace "$tmp/dense.obj" "$svg" -o "$tmp/x.obj" --no-snap \
+  && grep -q "583200 triangles: the closest to --target-tris 520000 (the default)" "$tmp/stderr" \
+  || fail "a dense base at the default target: not rate 1 with the default named"
+rm -f "$tmp/x.obj" "$tmp/dense.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --res 99999999 && one_line_with "--res"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" -o "$tmp/x.obj" --scheme loop && one_line_with "unknown scheme 'loop'"
 expect 2 "$chisel" displace "$models/plane.obj" "$svg" && one_line_with "missing -o"

@@ -275,8 +275,8 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
   out->seconds.tessellate = omp_get_wtime() - t_tess;
   if (!st && is_udim) ch_udim_from_atlas(&out->mesh, &udim);
   if (!st && labs((long)out->mesh.num_faces - target) > target / 20)
-    ch_warn(err, "%d triangles: the closest to --target-tris %ld that the base mesh and the features allow",
-            out->mesh.num_faces, target);
+    ch_warn(err, "%d triangles: the closest to --target-tris %ld%s that the base mesh and the features allow",
+            out->mesh.num_faces, target, desc->target_triangles > 0 ? "" : " (the default)");
   if (!st && out->snapped && out->embed.unresolved > 0) {
     const ch_embed_stats *e = &out->embed;
     int seams = e->unresolved_at_seams, thin = e->unresolved - seams;
