@@ -234,9 +234,9 @@ static int run(int argc, char **argv) {
   if (!out) return cli_usage_error(cmd, "missing -o OUT.obj");
   if (cli_is_stdout(glb)) return cli_refuse_stdout(cmd, "--glb", "a glTF binary");
   if (warp_dci && !has_camera) return cli_usage_error(cmd, "--warp-dci needs --camera");
-  if (max_tris && max_tris < (target ? target : CH_DISPLACE_DEFAULT_TARGET))
-    return cli_usage_error(cmd, "--max-tris %ld is below --target-tris %ld", max_tris,
-                           target ? target : (long)CH_DISPLACE_DEFAULT_TARGET);
+  long aimed = target ? target : (long)CH_DISPLACE_DEFAULT_TARGET;
+  if (max_tris && max_tris < aimed)
+    return cli_usage_error(cmd, "--max-tris %ld is below --target-tris %ld", max_tris, aimed);
   /* Standard output takes one mesh, OBJ or PLY; EXR and PNG need seeks or
    * are not what a pipe expects. */
   if (cli_is_stdout(exr)) return cli_refuse_stdout(cmd, "--exr", "an EXR");
