@@ -6,15 +6,19 @@
  * point catches every exception; OpenSubdiv's error and warning callbacks
  * (process-global) are routed into the ch_error of the calling thread.
  *
- * Evaluation: one Bfr::Surface<double> per face for positions (limit
- * surface for catmark, bilinear patches for bilinear) and one for the
- * face-varying UVs (FVAR_LINEAR_ALL: linear per face whatever the scheme),
- * with their patch points prepared once at creation, so ch_surface_eval
- * only reads. For the bilinear scheme a third set of patch points holds the
- * unit vertex normals, evaluated with the same Surface (hence the same
- * weights as the position) and normalised: docs/spec.md §1's N. */
+ * Evaluation: Bfr::Surface<double>s for positions (limit surface for
+ * catmark, bilinear patches for bilinear) and for the face-varying UVs
+ * (FVAR_LINEAR_ALL: linear per face whatever the scheme). Catmark
+ * positions have a surface per face and its patch points prepared at
+ * creation. A linear surface depends on its face's size alone: one per
+ * size serves every face, its patch points made from the face's corners
+ * when evaluating (ch_surface_internal.h), the values Bfr gives a surface
+ * per face bit for bit (test_tess). Under the bilinear scheme N is the
+ * unit vertex normals taken as patch points of the position surface (the
+ * same weights as the position), normalised: docs/spec.md §1's N. */
 #include "ch_surface.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <mutex>
@@ -144,39 +148,54 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
     return ch_error_set(err, CH_ERR_INPUT, "base mesh: OpenSubdiv rejects the topology: %s",
                         far_message.empty() ? "no reason given" : far_message.c_str());
 
-  /* Bfr surfaces and patch points, face by face (the factory's cache
+  /* Bfr surfaces: the linear ones, one per face size, from the first face
+   * of that size; catmark positions face by face (the factory's cache
    * shares irregular patches between faces; it is not thread-safe). */
+  const bool linear_pos = scheme == CH_SCHEME_BILINEAR;
   Bfr::RefinerSurfaceFactory<>::Options fopts;
   fopts.SetDefaultFVarID(0);
   Bfr::RefinerSurfaceFactory<> factory(*refiner, fopts);
-  S->pos.resize(nf);
-  S->tex.resize(nf);
-  S->pos_off.resize(nf + 1);
-  S->tex_off.resize(nf + 1);
-  size_t npos = 0, ntex = 0;
-  for (int f = 0; f < nf; f++) {
-    if (!factory.InitSurfaces(f, &S->pos[f], &S->tex[f]) || !S->pos[f].IsValid() ||
-        !S->tex[f].IsValid())
-      return ch_error_set(err, CH_ERR_INPUT, "base mesh: face %d: OpenSubdiv cannot build its surface",
-                          f);
-    S->pos_off[f] = npos;
-    S->tex_off[f] = ntex;
-    npos += S->pos[f].GetNumPatchPoints();
-    ntex += S->tex[f].GetNumPatchPoints();
+  int max_size = 0;
+  for (int f = 0; f < nf; f++) max_size = std::max(max_size, verts_per_face[f]);
+  S->linear_tex.resize(max_size + 1);
+  if (linear_pos)
+    S->linear_pos.resize(max_size + 1);
+  else {
+    S->pos.resize(nf);
+    S->pos_off.resize(nf + 1);
   }
-  S->pos_off[nf] = npos;
-  S->tex_off[nf] = ntex;
-  S->pos_pts.resize(3 * npos);
-  S->tex_pts.resize(2 * ntex);
+  size_t npos = 0;
   for (int f = 0; f < nf; f++) {
-    S->pos[f].PreparePatchPoints(mesh->positions, PD(3), &S->pos_pts[3 * S->pos_off[f]], PD(3));
-    S->tex[f].PreparePatchPoints(mesh->uvs, PD(2), &S->tex_pts[2 * S->tex_off[f]], PD(2));
+    Surface &tex = S->linear_tex[verts_per_face[f]];
+    bool built = true;
+    if (!tex.IsValid()) {
+      Surface *pos = linear_pos ? &S->linear_pos[verts_per_face[f]] : &S->pos[f];
+      built = factory.InitSurfaces(f, pos, &tex) && pos->IsValid() && tex.IsValid();
+      if (built && (!tex.IsLinear() || (linear_pos && !pos->IsLinear())))
+        return ch_error_set(err, CH_ERR_INTERNAL, "face %d: OpenSubdiv's surface is not linear", f);
+    } else if (!linear_pos) {
+      built = factory.InitVertexSurface(f, &S->pos[f]) && S->pos[f].IsValid();
+    }
+    if (!built) return ch_error_set(err, CH_ERR_INPUT, "base mesh: face %d: OpenSubdiv cannot build its surface", f);
+    if (!linear_pos) {
+      S->pos_off[f] = npos;
+      npos += S->pos[f].GetNumPatchPoints();
+    }
+  }
+  if (!linear_pos) {
+    S->pos_off[nf] = npos;
+    S->pos_pts.resize(3 * npos);
+#pragma omp parallel for schedule(dynamic, 1024)
+    for (int f = 0; f < nf; f++)
+      S->pos[f].PreparePatchPoints(mesh->positions, PD(3), &S->pos_pts[3 * S->pos_off[f]], PD(3));
   }
 
-  /* Bilinear N: unit vertex normals from area vectors (Newell), as a
-   * second set of patch points of the position surfaces. */
-  if (scheme == CH_SCHEME_BILINEAR) {
-    std::vector<double> vn(3 * (size_t)np, 0.0);
+  /* Bilinear: the positions, and N's unit vertex normals from area
+   * vectors (Newell). */
+  if (linear_pos) {
+    S->positions.assign(mesh->positions, mesh->positions + 3 * (size_t)np);
+    large_vector<double> &vn = S->vertex_normals;
+    vn.assign(3 * (size_t)np, 0.0);
     std::vector<unsigned char> used(np, 0);
     for (int f = 0; f < nf; f++) {
       int a = mesh->face_start[f], n = mesh->face_start[f + 1] - a;
@@ -202,9 +221,6 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
                             "no normal",
                             v);
     }
-    S->nrm_pts.resize(3 * npos);
-    for (int f = 0; f < nf; f++)
-      S->pos[f].PreparePatchPoints(vn.data(), PD(3), &S->nrm_pts[3 * S->pos_off[f]], PD(3));
   }
 
   /* Edge topology from Far's base level. */
@@ -292,29 +308,43 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
   for (int v = 0; v < np; v++)
     if (S->vertex_face[v] >= 0) S->vertex_out[v] = nu++;
   S->num_used_vertices = nu;
-  /* The patches' corner UVs, evaluated once: locating a point in a face
-   * (ch_surface_locate, for every vertex the refinement adds) read them
-   * through Bfr four times a patch, every time. */
-  S->patch_start.assign(nf + 1, 0);
+  return CH_OK;
+}
+
+/* The patches' corner UVs, evaluated once for all faces on first use:
+ * locating a point in a face (ch_surface_locate, for every vertex the
+ * refinement adds) read them through Bfr four times a patch, every time;
+ * a run that locates nothing (--no-snap) needs none (190 bytes per
+ * triangle of a dense base mesh). */
+void build_patch_uvs(const ch_surface *S) {
+  const int nf = S->num_faces;
+  large_vector<int> start(nf + 1);
+  start[0] = 0;
   for (int f = 0; f < nf; f++) {
-    int n = mesh->face_start[f + 1] - mesh->face_start[f], npatch = n == 4 ? 1 : n;
-    S->patch_start[f + 1] = S->patch_start[f] + npatch;
+    int n = S->face_start[f + 1] - S->face_start[f], npatch = n == 4 ? 1 : n;
+    start[f + 1] = start[f] + npatch;
   }
-  S->patch_uv.assign(8 * (size_t)S->patch_start[nf], 0.0);
+  large_vector<double> uv(8 * (size_t)start[nf]);
   static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  for (int f = 0; f < nf; f++)
-    for (int k = 0; k < S->patch_start[f + 1] - S->patch_start[f]; k++) {
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; f++) {
+    const Surface &tex = tex_surface(S, f);
+    patch_buffer buf;
+    const double *points = linear_points(S, tex, f, S->uvs.data(), S->corner_uv.data(), 2, buf);
+    for (int k = 0; k < start[f + 1] - start[f]; k++) {
       double origin[2] = {0.0, 0.0}, scale = 1.0;
-      if (S->patch_start[f + 1] - S->patch_start[f] > 1) {
-        S->pos[f].GetParameterization().GetVertexCoord(k, origin);
+      if (start[f + 1] - start[f] > 1) {
+        pos_surface(S, f).GetParameterization().GetVertexCoord(k, origin);
         scale = 0.5;
       }
       for (int c = 0; c < 4; c++) {
         double st[2] = {origin[0] + scale * local[c][0], origin[1] + scale * local[c][1]};
-        eval_uv(S, f, st, &S->patch_uv[8 * (size_t)(S->patch_start[f] + k) + 2 * (size_t)c]);
+        tex.Evaluate(st, points, PD(2), &uv[8 * (size_t)(start[f] + k) + 2 * (size_t)c]);
       }
     }
-  return CH_OK;
+  }
+  S->patch_start.swap(start);
+  S->patch_uv.swap(uv);
 }
 
 }  // namespace
@@ -367,12 +397,26 @@ extern "C" int ch_surface_face_size(const ch_surface *S, int face) {
 extern "C" ch_status ch_surface_corner_param(const ch_surface *S, int face, int k, double st[2]) {
   int n = ch_surface_face_size(S, face);
   if (!n || k < 0 || k >= n) return CH_ERR_INPUT;
-  S->pos[face].GetParameterization().GetVertexCoord(k, st);
+  pos_surface(S, face).GetParameterization().GetVertexCoord(k, st);
+  return CH_OK;
+}
+
+extern "C" ch_status ch_surface_prepare_patch_uvs(const ch_surface *S) {
+  if (!S) return CH_ERR_INPUT;
+  try {
+    std::call_once(S->patch_uv_once, build_patch_uvs, S);
+  } catch (...) { /* out of memory: tried again at the next call */
+    return CH_ERR_NOMEM;
+  }
   return CH_OK;
 }
 
 extern "C" const double *ch_surface_patch_uvs(const ch_surface *S, int face, int *num_patches) {
   if (!S || face < 0 || face >= S->num_faces) {
+    if (num_patches) *num_patches = 0;
+    return nullptr;
+  }
+  if (ch_surface_prepare_patch_uvs(S)) {
     if (num_patches) *num_patches = 0;
     return nullptr;
   }
@@ -384,14 +428,14 @@ extern "C" ch_status ch_surface_edge_param(const ch_surface *S, int face, int k,
                                            double st[2]) {
   int n = ch_surface_face_size(S, face);
   if (!n || k < 0 || k >= n || !(x >= 0.0 && x <= 1.0)) return CH_ERR_INPUT;
-  S->pos[face].GetParameterization().GetEdgeCoord(k, x, st);
+  pos_surface(S, face).GetParameterization().GetEdgeCoord(k, x, st);
   return CH_OK;
 }
 
 extern "C" ch_status ch_surface_eval_uv(const ch_surface *S, int face, double s, double t, double uv[2]) {
   if (!S || !uv || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;
   try {
-    if (!in_domain(S->pos[face].GetParameterization(), s, t)) return CH_ERR_INPUT;
+    if (!in_domain(pos_surface(S, face).GetParameterization(), s, t)) return CH_ERR_INPUT;
     double st[2] = {s, t};
     eval_uv(S, face, st, uv);
   } catch (...) {
@@ -404,15 +448,12 @@ extern "C" ch_status ch_surface_eval_position(const ch_surface *S, int face, dou
                                               double N[3]) {
   if (!S || !P || !N || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;
   try {
-    if (!in_domain(S->pos[face].GetParameterization(), s, t)) return CH_ERR_INPUT;
+    if (!in_domain(pos_surface(S, face).GetParameterization(), s, t)) return CH_ERR_INPUT;
     double st[2] = {s, t};
-    if (S->scheme == CH_SCHEME_BILINEAR) {
-      S->pos[face].Evaluate(st, &S->pos_pts[3 * S->pos_off[face]], PD(3), P);
-      S->pos[face].Evaluate(st, &S->nrm_pts[3 * S->pos_off[face]], PD(3), N);
-      if (ch_normalize3(N)) return CH_OK;
-    }
+    face_eval fe(S, face);
+    if (S->scheme == CH_SCHEME_BILINEAR && fe.bilinear(st, P, nullptr, nullptr, N)) return CH_OK;
     double Du[3], Dv[3];
-    eval_point(S, face, st, P, Du, Dv, N, NULL);
+    fe.point(st, P, Du, Dv, N, nullptr);
   } catch (...) {
     return CH_ERR_INTERNAL;
   }
@@ -423,7 +464,7 @@ extern "C" ch_status ch_surface_eval(const ch_surface *S, int face, double s, do
                                      ch_surface_point *out) {
   if (!S || !out || face < 0 || face >= S->num_faces) return CH_ERR_INPUT;
   try {
-    if (!in_domain(S->pos[face].GetParameterization(), s, t)) return CH_ERR_INPUT;
+    if (!in_domain(pos_surface(S, face).GetParameterization(), s, t)) return CH_ERR_INPUT;
     double st[2] = {s, t};
     eval_point(S, face, st, out->position, out->dpds, out->dpdt, out->normal, out->uv);
   } catch (...) {

@@ -56,9 +56,10 @@ typedef enum ch_scheme { CH_SCHEME_BILINEAR = 0, CH_SCHEME_CATMARK = 1 } ch_sche
 typedef struct ch_surface ch_surface;
 
 /* Builds the surface of mesh (which must have UVs; positions shared across
- * UV seams; faces of 3 corners up to OpenSubdiv's limit) with scheme: an
- * OpenSubdiv refiner, a Bfr surface and its patch points for every face,
- * and the edge topology for ch_tess_build. The mesh is not referenced
+ * UV seams; faces of 3 corners up to OpenSubdiv's limit) with scheme:
+ * through an OpenSubdiv refiner, Bfr surfaces (catmark: one per face with
+ * its patch points; linear ones: one per face size) and the edge topology
+ * for ch_tess_build. The mesh is not referenced
  * afterwards (what is needed is copied). Errors: CH_ERR_INPUT for a mesh
  * without faces or UVs, an index out of range, a face OpenSubdiv rejects
  * (message names the face, 0-based), with the bilinear scheme a position
@@ -88,9 +89,18 @@ ch_status ch_surface_edge_param(const ch_surface *surface, int face, int k, doub
  * quad is one patch, (s,t) in [0,1]^2; an n-gon's are its n sub-faces,
  * patch k at corner k's (s,t), half a unit wide. The UVs at their corners
  * (s,t) + (0,0), (1,0), (1,1), (0,1) times the patch's size, 8 numbers a
- * patch, as ch_surface_eval_uv gives them (evaluated once, at creation);
- * *num_patches gets their count. NULL (and 0) when face is out of range. */
+ * patch, as ch_surface_eval_uv gives them (evaluated once);
+ * *num_patches gets their count. NULL (and 0) when face is out of range,
+ * or out of memory for them. */
 const double *ch_surface_patch_uvs(const ch_surface *surface, int face, int *num_patches);
+
+/* The patches' corner UVs are made for all faces at the first call of
+ * ch_surface_patch_uvs (a run that never locates a point needs none),
+ * on the calling thread alone; this makes them on all cores: call it
+ * before a parallel loop that locates. CH_OK, or CH_ERR_NOMEM (then they
+ * are tried again at the next call). Thread-safe, like
+ * ch_surface_patch_uvs. */
+ch_status ch_surface_prepare_patch_uvs(const ch_surface *surface);
 
 typedef struct ch_surface_point {
   double position[3]; /* B */

@@ -6,12 +6,16 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdlib>
 #include <exception>
+#include <mutex>
 #include <new>
+#include <utility>
 #include <vector>
 
 #include <opensubdiv/bfr/surface.h>
 
+#include "ch_alloc.h"
 #include "ch_math.h"
 #include "ch_surface.h"
 
@@ -21,6 +25,42 @@ using namespace OpenSubdiv;
 
 typedef Bfr::Surface<double> Surface;
 typedef Surface::PointDescriptor PD;
+
+/* The allocator of the per-face and per-corner arrays: ch_alloc_large's
+ * huge pages, and elements left uninitialised by resize (each is written
+ * once; a 2M-face mesh's patch points and surfaces were otherwise zeroed
+ * and faulted in 4 KiB at a time, half of building its surface). */
+template <class T>
+struct large_allocator {
+  typedef T value_type;
+  large_allocator() = default;
+  template <class U>
+  large_allocator(const large_allocator<U> &) {}
+  T *allocate(size_t n) {
+    void *p = ch_alloc_large(n, sizeof(T), 0);
+    if (!p) throw std::bad_alloc();
+    return static_cast<T *>(p);
+  }
+  void deallocate(T *p, size_t) { std::free(p); }
+  template <class U>
+  void construct(U *p) {
+    ::new (static_cast<void *>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U *p, Args &&...args) {
+    ::new (static_cast<void *>(p)) U(std::forward<Args>(args)...);
+  }
+  template <class U>
+  bool operator==(const large_allocator<U> &) const {
+    return true;
+  }
+  template <class U>
+  bool operator!=(const large_allocator<U> &) const {
+    return false;
+  }
+};
+template <class T>
+using large_vector = std::vector<T, large_allocator<T>>;
 
 /* Bfr clamps larger rates silently (to SHRT_MAX): refuse them instead. */
 constexpr int kMaxRate = 32767;
@@ -52,71 +92,171 @@ struct ch_surface {
   int num_faces = 0;
   int num_positions = 0;
   /* The mesh's topology and UVs (copied). */
-  std::vector<int> face_start, corner_position, corner_uv;
-  std::vector<double> uvs;
-  /* Per face: surfaces and offsets (in points) of their patch points. */
-  std::vector<ch_surface_detail::Surface> pos, tex;
-  std::vector<size_t> pos_off, tex_off;
-  std::vector<double> pos_pts, nrm_pts, tex_pts; /* 3, 3 and 2 per point */
+  ch_surface_detail::large_vector<int> face_start, corner_position, corner_uv;
+  ch_surface_detail::large_vector<double> uvs;
+  /* The surfaces. A linear surface (the UVs of every face; the positions
+   * of every face under the bilinear scheme) is evaluated from its patch
+   * points with its face size alone (Bfr's linear patches: no topology
+   * beyond the face's own corners), so one surface per face size serves all
+   * such faces: linear_pos and linear_tex, indexed by face size. Their
+   * patch points are the face's corner values followed by those Bfr derives
+   * from them, made when evaluating (linear_points): stored, they were
+   * 390 bytes per triangle of a dense base mesh. Catmark positions keep a
+   * surface and its patch points per face (pos, pos_pts from pos_off[f];
+   * empty under bilinear). */
+  ch_surface_detail::large_vector<ch_surface_detail::Surface> pos;
+  std::vector<ch_surface_detail::Surface> linear_pos, linear_tex;
+  ch_surface_detail::large_vector<size_t> pos_off;
+  ch_surface_detail::large_vector<double> pos_pts;
+  /* Bilinear: the mesh's positions and unit vertex normals (3 per
+   * position), the values of linear_pos's patch points. */
+  ch_surface_detail::large_vector<double> positions, vertex_normals;
   /* Edges (Far's base level numbering). */
   int num_edges = 0;
-  std::vector<int> edge_vertices;      /* 2 per edge */
-  std::vector<int> face_edge;          /* per corner: the edge from corner k to k+1 */
-  std::vector<unsigned char> face_edge_fwd; /* per corner: runs edge_vertices[0] -> [1] */
-  std::vector<int> face_edge_group;    /* per corner: UV group of that edge side */
-  std::vector<int> edge_face_start;    /* CSR over edges: incident (face, corner) */
-  std::vector<int> edge_face, edge_corner; /* sorted by face */
-  std::vector<int> edge_num_groups;    /* distinct UV pairs along the edge */
-  std::vector<int> edge_group_face, edge_group_corner; /* per (edge, group): first face */
-  std::vector<int> edge_group_start;   /* CSR over edges into edge_group_* */
-  std::vector<double> edge_uv_length;  /* max over the edge's sides */
+  ch_surface_detail::large_vector<int> edge_vertices;           /* 2 per edge */
+  ch_surface_detail::large_vector<int> face_edge;               /* per corner: the edge from corner k to k+1 */
+  ch_surface_detail::large_vector<unsigned char> face_edge_fwd; /* per corner: runs edge_vertices[0] -> [1] */
+  ch_surface_detail::large_vector<int> face_edge_group;         /* per corner: UV group of that edge side */
+  ch_surface_detail::large_vector<int> edge_face_start;         /* CSR over edges: incident (face, corner) */
+  ch_surface_detail::large_vector<int> edge_face, edge_corner;  /* sorted by face */
+  ch_surface_detail::large_vector<int> edge_num_groups;         /* distinct UV pairs along the edge */
+  ch_surface_detail::large_vector<int> edge_group_face, edge_group_corner; /* per (edge, group): first face */
+  ch_surface_detail::large_vector<int> edge_group_start;                   /* CSR over edges into edge_group_* */
+  ch_surface_detail::large_vector<double> edge_uv_length;                  /* max over the edge's sides */
   /* Base vertices: output index (-1 unused), owner face and corner. */
   int num_used_vertices = 0;
-  std::vector<int> vertex_out, vertex_face, vertex_corner;
+  ch_surface_detail::large_vector<int> vertex_out, vertex_face, vertex_corner;
   /* The UVs at the corners of each face's bilinear patches (ch_surface_patch_uvs):
-   * 8 per patch, face f's from patch_start[f]. */
-  std::vector<int> patch_start;
-  std::vector<double> patch_uv;
+   * 8 per patch, face f's from patch_start[f]; made at the first call. */
+  mutable std::once_flag patch_uv_once;
+  mutable ch_surface_detail::large_vector<int> patch_start;
+  mutable ch_surface_detail::large_vector<double> patch_uv;
 };
 
 namespace ch_surface_detail {
 
-/* Evaluates position, derivatives, normal and UV at st of face f. */
-inline void eval_point(const ch_surface *S, int f, const double st[2], double P[3], double Du[3],
-                double Dv[3], double N[3], double uv[2]) {
-  const Surface &s = S->pos[f];
-  const double *pp = &S->pos_pts[3 * S->pos_off[f]];
-  s.Evaluate(st, pp, PD(3), P, Du, Dv);
-  if (S->scheme == CH_SCHEME_BILINEAR) {
-    s.Evaluate(st, &S->nrm_pts[3 * S->pos_off[f]], PD(3), N);
-    if (!ch_normalize3(N)) {
-      /* The interpolated vertex normals cancel: use the patch's own. */
-      ch_cross3(Du, Dv, N);
-      if (!ch_normalize3(N)) N[0] = N[1] = N[2] = 0.0;
-    }
-  } else {
-    ch_cross3(Du, Dv, N);
-    double scale = ch_len3(Du) * ch_len3(Dv);
-    if (!(ch_len3(N) > 1e-14 * scale) || !ch_normalize3(N)) {
-      /* Parallel derivatives: step 1e-7 towards the (sub-)face centre. */
-      Bfr::Parameterization param = s.GetParameterization();
-      double c[2] = {0.5, 0.5};
-      if (param.HasSubFaces()) {
-        c[0] = std::floor(st[0] + 0.25) + 0.25;
-        c[1] = std::floor(st[1] + 0.25) + 0.25;
+/* The surfaces of face f's positions and UVs. */
+inline const Surface &pos_surface(const ch_surface *S, int f) {
+  return S->scheme == CH_SCHEME_BILINEAR ? S->linear_pos[S->face_start[f + 1] - S->face_start[f]] : S->pos[f];
+}
+inline const Surface &tex_surface(const ch_surface *S, int f) {
+  return S->linear_tex[S->face_start[f + 1] - S->face_start[f]];
+}
+
+/* Room for a linear surface's patch points: on the stack for faces of up
+ * to 16 corners (2n + 1 points of up to 3 values), on the heap beyond. */
+class patch_buffer {
+ public:
+  double *get(size_t n) {
+    if (n <= sizeof small / sizeof small[0]) return small;
+    big.resize(n);
+    return big.data();
+  }
+
+ private:
+  double small[3 * 33];
+  std::vector<double> big;
+};
+
+/* The patch points of linear surface s on face f: its corners' values
+ * (dim per value, values[dim * index[corner]]) gathered as
+ * Surface::PreparePatchPoints gathers them, the rest computed by Bfr. */
+inline const double *linear_points(const ch_surface *S, const Surface &s, int f, const double *values, const int *index,
+                                   int dim, patch_buffer &buf) {
+  int a = S->face_start[f], n = S->face_start[f + 1] - a;
+  double *p = buf.get((size_t)dim * (size_t)s.GetNumPatchPoints());
+  for (int k = 0; k < n; k++)
+    for (int i = 0; i < dim; i++) p[dim * k + i] = values[(size_t)dim * (size_t)index[a + k] + i];
+  s.ComputePatchPoints(p, PD(dim));
+  return p;
+}
+
+/* Face f's patch points, made at the first evaluation that needs them and
+ * kept for those that follow (a tessellation evaluates many points of a
+ * face in a row). */
+class face_eval {
+ public:
+  face_eval(const ch_surface *S, int f) : S_(S), f_(f), pos_(pos_surface(S, f)), tex_(tex_surface(S, f)) {}
+
+  /* UV at st. */
+  void uv(const double st[2], double uv[2]) {
+    if (!tex_pts_) tex_pts_ = linear_points(S_, tex_, f_, S_->uvs.data(), S_->corner_uv.data(), 2, tex_buf_);
+    tex_.Evaluate(st, tex_pts_, PD(2), uv);
+  }
+
+  /* B and N at st under the bilinear scheme (derivatives too where Du is
+   * not null); false where the interpolated vertex normals cancel (N is
+   * then not unit). */
+  bool bilinear(const double st[2], double P[3], double Du[3], double Dv[3], double N[3]) {
+    prepare_positions();
+    if (Du)
+      pos_.Evaluate(st, pos_pts_, PD(3), P, Du, Dv);
+    else
+      pos_.Evaluate(st, pos_pts_, PD(3), P);
+    pos_.Evaluate(st, nrm_pts_, PD(3), N);
+    return ch_normalize3(N);
+  }
+
+  /* Position, derivatives, normal and UV (where uv is not null) at st. */
+  void point(const double st[2], double P[3], double Du[3], double Dv[3], double N[3], double uv[2]) {
+    if (S_->scheme == CH_SCHEME_BILINEAR) {
+      if (!bilinear(st, P, Du, Dv, N)) {
+        /* The interpolated vertex normals cancel: use the patch's own. */
+        ch_cross3(Du, Dv, N);
+        if (!ch_normalize3(N)) N[0] = N[1] = N[2] = 0.0;
       }
-      double q[2] = {st[0] + 1e-7 * (c[0] - st[0]), st[1] + 1e-7 * (c[1] - st[1])};
-      double Q[3], Qu[3], Qv[3];
-      s.Evaluate(q, pp, PD(3), Q, Qu, Qv);
-      ch_cross3(Qu, Qv, N);
-      if (!ch_normalize3(N)) N[0] = N[1] = N[2] = 0.0;
+    } else {
+      prepare_positions();
+      pos_.Evaluate(st, pos_pts_, PD(3), P, Du, Dv);
+      ch_cross3(Du, Dv, N);
+      double scale = ch_len3(Du) * ch_len3(Dv);
+      if (!(ch_len3(N) > 1e-14 * scale) || !ch_normalize3(N)) {
+        /* Parallel derivatives: step 1e-7 towards the (sub-)face centre. */
+        Bfr::Parameterization param = pos_.GetParameterization();
+        double c[2] = {0.5, 0.5};
+        if (param.HasSubFaces()) {
+          c[0] = std::floor(st[0] + 0.25) + 0.25;
+          c[1] = std::floor(st[1] + 0.25) + 0.25;
+        }
+        double q[2] = {st[0] + 1e-7 * (c[0] - st[0]), st[1] + 1e-7 * (c[1] - st[1])};
+        double Q[3], Qu[3], Qv[3];
+        pos_.Evaluate(q, pos_pts_, PD(3), Q, Qu, Qv);
+        ch_cross3(Qu, Qv, N);
+        if (!ch_normalize3(N)) N[0] = N[1] = N[2] = 0.0;
+      }
+    }
+    if (uv) this->uv(st, uv);
+  }
+
+ private:
+  void prepare_positions() {
+    if (pos_pts_) return;
+    if (S_->scheme == CH_SCHEME_BILINEAR) {
+      const int *index = S_->corner_position.data();
+      pos_pts_ = linear_points(S_, pos_, f_, S_->positions.data(), index, 3, pos_buf_);
+      nrm_pts_ = linear_points(S_, pos_, f_, S_->vertex_normals.data(), index, 3, nrm_buf_);
+    } else {
+      pos_pts_ = &S_->pos_pts[3 * S_->pos_off[f_]];
     }
   }
-  if (uv) S->tex[f].Evaluate(st, &S->tex_pts[2 * S->tex_off[f]], PD(2), uv);
+
+  const ch_surface *S_;
+  int f_;
+  const Surface &pos_, &tex_;
+  const double *pos_pts_ = nullptr, *nrm_pts_ = nullptr, *tex_pts_ = nullptr;
+  patch_buffer pos_buf_, nrm_buf_, tex_buf_;
+};
+
+/* One evaluation of face f (face_eval::point). */
+inline void eval_point(const ch_surface *S, int f, const double st[2], double P[3], double Du[3], double Dv[3],
+                       double N[3], double uv[2]) {
+  face_eval(S, f).point(st, P, Du, Dv, N, uv);
 }
 
 inline void eval_uv(const ch_surface *S, int f, const double st[2], double uv[2]) {
-  S->tex[f].Evaluate(st, &S->tex_pts[2 * S->tex_off[f]], PD(2), uv);
+  const Surface &s = tex_surface(S, f);
+  patch_buffer buf;
+  s.Evaluate(st, linear_points(S, s, f, S->uvs.data(), S->corner_uv.data(), 2, buf), PD(2), uv);
 }
 
 }  // namespace ch_surface_detail

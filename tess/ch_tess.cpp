@@ -103,13 +103,13 @@ long count_triangles(const ch_surface *S, const int *edge_rates) {
         total += cache_count[at];
         continue;
       }
-      Bfr::Tessellation tess(S->pos[f].GetParameterization(), nr, r, opts);
+      Bfr::Tessellation tess(pos_surface(S, f).GetParameterization(), nr, r, opts);
       cache_key[at] = key;
       cache_count[at] = tess.GetNumFacets();
       total += cache_count[at];
       continue;
     }
-    Bfr::Tessellation tess(S->pos[f].GetParameterization(), nr, r, opts);
+    Bfr::Tessellation tess(pos_surface(S, f).GetParameterization(), nr, r, opts);
     total += tess.GetNumFacets();
   }
   return total;
@@ -298,7 +298,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
     for (int f = 0; f < nf; f++) {
       r.resize(S->face_start[f + 1] - S->face_start[f] + 2);
       int nr = face_rates(S, f, rates.data(), r.data());
-      Bfr::Tessellation tess(S->pos[f].GetParameterization(), nr, r.data(), opts);
+      Bfr::Tessellation tess(pos_surface(S, f).GetParameterization(), nr, r.data(), opts);
       face_int[f + 1] = tess.GetNumInteriorCoords();
       face_tri[f + 1] = tess.GetNumFacets();
       max_coords = std::max(max_coords, tess.GetNumCoords());
@@ -357,7 +357,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
     try {
       int f = S->vertex_face[v];
       double st2[2], du[3], dv[3];
-      S->pos[f].GetParameterization().GetVertexCoord(S->vertex_corner[v], st2);
+      pos_surface(S, f).GetParameterization().GetVertexCoord(S->vertex_corner[v], st2);
       eval_point(S, f, st2, &M.positions[3 * o], du, dv, &M.normals[3 * o], nullptr);
       out->vertex_face[o] = f;
       out->vertex_st[2 * o] = st2[0];
@@ -376,13 +376,14 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
       int i0 = S->edge_face_start[e];
       int f = S->edge_face[i0], k = S->edge_corner[i0];
       bool fwd = S->face_edge_fwd[S->face_start[f] + k];
-      Bfr::Parameterization param = S->pos[f].GetParameterization();
+      Bfr::Parameterization param = pos_surface(S, f).GetParameterization();
+      face_eval fe(S, f);
       for (int j = 0; j < r - 1; j++) {
         long o = nb + edge_pt[e] + j;
         double x = edge_place(f, k, fwd ? (double)(j + 1) / r : (double)(r - 1 - j) / r);
         double st2[2], du[3], dv[3];
         param.GetEdgeCoord(k, x, st2);
-        eval_point(S, f, st2, &M.positions[3 * o], du, dv, &M.normals[3 * o], nullptr);
+        fe.point(st2, &M.positions[3 * o], du, dv, &M.normals[3 * o], nullptr);
         out->vertex_face[o] = f;
         out->vertex_st[2 * o] = st2[0];
         out->vertex_st[2 * o + 1] = st2[1];
@@ -391,7 +392,8 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
         int gi = S->edge_group_start[e] + g;
         int gf = S->edge_group_face[gi], gk = S->edge_group_corner[gi];
         bool gfwd = S->face_edge_fwd[S->face_start[gf] + gk];
-        Bfr::Parameterization gparam = S->pos[gf].GetParameterization();
+        Bfr::Parameterization gparam = pos_surface(S, gf).GetParameterization();
+        face_eval gfe(S, gf);
         for (int j = 0; j < r - 1; j++) {
           long o = nuv0 + edge_uv[e] + (long)g * (r - 1) + j;
           /* the same point as the positions' (one fraction per edge point) */
@@ -399,7 +401,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
           double x = gfwd == fwd ? xf : 1.0 - xf;
           double st2[2];
           gparam.GetEdgeCoord(gk, x, st2);
-          eval_uv(S, gf, st2, &M.uvs[2 * o]);
+          gfe.uv(st2, &M.uvs[2 * o]);
         }
       }
     } catch (...) {
@@ -428,7 +430,7 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
         const int a = S->face_start[f], n = S->face_start[f + 1] - a;
         r.resize(n + 2);
         int nr = face_rates(S, f, rates.data(), r.data());
-        Bfr::Parameterization param = S->pos[f].GetParameterization();
+        Bfr::Parameterization param = pos_surface(S, f).GetParameterization();
         Bfr::Tessellation tess(param, nr, r.data(), opts);
         const int nbd = tess.GetNumBoundaryCoords(), nint = tess.GetNumInteriorCoords();
         /* Boundary: corner k, then the rate-1 points of edge k. */
@@ -472,12 +474,12 @@ ch_status tess_build(const ch_surface *S, const ch_tess_desc *desc, ch_tess_resu
             coords[2 * i + 1] = (1.0 - s0) * g3 + s0 * g1;
           }
         }
+        face_eval fe(S, f);
         for (int i = 0; i < nint; i++) {
           long o = nb + edge_pt[ne] + face_int[f] + i;
           long u = nuv0 + edge_uv[ne] + face_int[f] + i;
           double du[3], dv[3];
-          eval_point(S, f, &coords[2 * i], &M.positions[3 * o], du, dv, &M.normals[3 * o],
-                     &M.uvs[2 * u]);
+          fe.point(&coords[2 * i], &M.positions[3 * o], du, dv, &M.normals[3 * o], &M.uvs[2 * u]);
           out->vertex_face[o] = f;
           out->vertex_st[2 * o] = coords[2 * i];
           out->vertex_st[2 * o + 1] = coords[2 * i + 1];

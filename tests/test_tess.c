@@ -19,6 +19,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "ch_math.h"
 #include "ch_surface.h"
 #include "ch_test.h"
 #include "ch_warp.h"
@@ -30,6 +31,12 @@ ref_catmark *ref_catmark_create(int num_vertices, const double *positions, int n
 int ref_catmark_eval(const ref_catmark *r, int face, double s, double t, double P[3],
                      double Ds[3], double Dt[3]);
 void ref_catmark_destroy(ref_catmark *r);
+typedef struct ref_bfr ref_bfr;
+ref_bfr *ref_bfr_create(int num_positions, const double *positions, int num_uvs, const double *uvs, int num_faces,
+                        const int *face_start, const int *corner_position, const int *corner_uv, int catmark);
+int ref_bfr_eval(const ref_bfr *r, int face, double s, double t, double P[3], double Ds[3], double Dt[3], double N[3],
+                 double uv[2]);
+void ref_bfr_destroy(ref_bfr *r);
 
 /* ---- helpers ------------------------------------------------------------ */
 
@@ -304,6 +311,82 @@ static void test_cube_catmark(void) {
   ref_catmark_destroy(ref);
   ch_surface_destroy(S);
   ch_mesh_free(&m);
+}
+
+/* ch_surface shares one Bfr surface between the faces of a size where it
+ * is linear and makes their patch points when evaluating: the values must
+ * be those of a surface per face with stored patch points
+ * (tests/tess_reference.cpp), bit for bit (P, derivatives, N, UV, and the
+ * patches' corner UVs), on every bundled mesh, the cube and the n-gon fan,
+ * both schemes. */
+static int same_bits(const double *a, const double *b, int n) { return memcmp(a, b, (size_t)n * sizeof *a) == 0; }
+
+static void shared_linear_surfaces(const char *name, const ch_mesh *m, ch_scheme scheme) {
+  ch_surface *S = surface_of(m, scheme);
+  ref_bfr *r = ref_bfr_create(m->num_positions, m->positions, m->num_uvs, m->uvs, m->num_faces, m->face_start,
+                              m->corner_position, m->corner_uv, scheme == CH_SCHEME_CATMARK);
+  CHECK(S && r);
+  if (!S || !r) {
+    ch_surface_destroy(S);
+    ref_bfr_destroy(r);
+    return;
+  }
+  long bad = 0, points = 0;
+  for (int f = 0; f < m->num_faces; f++) {
+    int n = ch_surface_face_size(S, f), np = 0;
+    const double *corner_uvs = ch_surface_patch_uvs(S, f, &np);
+    CHECK(corner_uvs && np == (n == 4 ? 1 : n));
+    if (!corner_uvs) break;
+    for (int k = 0; k < np; k++) {
+      double origin[2] = {0, 0}, scale = 1.0;
+      if (np > 1) {
+        ch_surface_corner_param(S, f, k, origin);
+        scale = 0.5;
+      }
+      static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+      for (int c = 0; c < 4 + 3; c++) { /* the patch's corners, then random points in it */
+        double a = c < 4 ? local[c][0] : ch_test_rnd(), b = c < 4 ? local[c][1] : ch_test_rnd();
+        double st[2] = {origin[0] + scale * a, origin[1] + scale * b};
+        ch_surface_point p;
+        double P[3], Ds[3], Dt[3], N[3] = {0, 0, 0}, uv[2];
+        if (ch_surface_eval(S, f, st[0], st[1], &p) || ref_bfr_eval(r, f, st[0], st[1], P, Ds, Dt, N, uv)) {
+          bad++;
+          continue;
+        }
+        points++;
+        int same = same_bits(p.position, P, 3) && same_bits(p.dpds, Ds, 3) && same_bits(p.dpdt, Dt, 3) &&
+                   same_bits(p.uv, uv, 2);
+        if (scheme == CH_SCHEME_BILINEAR && ch_normalize3(N)) same = same && same_bits(p.normal, N, 3);
+        if (c < 4) same = same && same_bits(&corner_uvs[8 * k + 2 * c], uv, 2);
+        bad += !same;
+      }
+    }
+  }
+  if (bad)
+    fprintf(stderr, "  %s %s: %ld of %ld points differ from a surface per face\n", name, scheme_name(scheme), bad,
+            points);
+  CHECK(bad == 0 && points > 0);
+  ch_surface_destroy(S);
+  ref_bfr_destroy(r);
+}
+
+static void test_shared_linear_surfaces(void) {
+  for (int s = 0; s < 2; s++) {
+    ch_scheme scheme = s ? CH_SCHEME_CATMARK : CH_SCHEME_BILINEAR;
+    for (int i = 0; i < NUM_MODELS; i++) {
+      ch_mesh m;
+      CHECK(load_model(models[i], &m));
+      shared_linear_surfaces(models[i], &m, scheme);
+      ch_mesh_free(&m);
+    }
+    ch_mesh cube, fan;
+    make_cube(&cube);
+    make_fan(&fan);
+    shared_linear_surfaces("cube", &cube, scheme);
+    shared_linear_surfaces("fan", &fan, scheme);
+    ch_mesh_free(&cube);
+    ch_mesh_free(&fan);
+  }
 }
 
 /* ---- continuity across shared edges -------------------------------------- */
@@ -1071,6 +1154,7 @@ int main(int argc, char **argv) {
   RUN_IF(test_plane);
   RUN_IF(test_bilinear_weights);
   RUN_IF(test_cube_catmark);
+  RUN_IF(test_shared_linear_surfaces);
   RUN_IF(test_continuity);
   RUN_IF(test_watertight);
   RUN_IF(test_targets);

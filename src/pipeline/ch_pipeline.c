@@ -218,6 +218,7 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
   ch_warp warp_store = {0};
   const ch_warp *warp = NULL; /* set when the camera gives a warp */
   st = ch_surface_create(&mesh, desc->scheme, &surface, err);
+  ch_mesh_free(&mesh); /* the surface holds what it needs of it */
   double t_surface = omp_get_wtime();
   out->seconds.surface = t_surface - t_read;
   if (!st && desc->camera) {
@@ -323,7 +324,6 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
   ch_height_free(&height);
   ch_surface_destroy(surface);
   ch_curves_free(&set);
-  ch_mesh_free(&mesh);
   if (st) ch_displace_result_free(out);
   return st;
 }
