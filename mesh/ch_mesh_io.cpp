@@ -31,7 +31,6 @@
 #include <OpenMesh/Core/System/omstream.hh>
 
 #include <algorithm>
-#include <array>
 #include <cerrno>
 #include <clocale>
 #include <cmath>
@@ -48,7 +47,6 @@
 #include <stdexcept>
 #include <streambuf>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include <locale.h>
@@ -139,7 +137,30 @@ struct Importer final : OpenMesh::IO::BaseImporter {
   std::vector<float> corner_n;     // 3 per corner
   std::vector<char> face_n;        // 0 none, 1 every corner, 2 some corners
 
+  std::vector<int> face_scratch;  // add_face's corners, kept between calls
+
   explicit Importer(Format f) : format(f), base(f == Format::OBJ ? 1 : 0) {}
+
+  // Room for what the scanner counted (negative: unknown), so that the
+  // arrays are not copied as they grow (a sixth of reading a 2M-face PLY).
+  void reserve(long long nv, long long nf, long long nc) {
+    if (nv > 0) {
+      pos.reserve(3 * (size_t)nv);
+      vert_uv.reserve(2 * (size_t)nv);
+      vert_has_uv.reserve((size_t)nv);
+      vert_n.reserve(3 * (size_t)nv);
+      vert_has_n.reserve((size_t)nv);
+    }
+    if (nf > 0) {
+      face_start.reserve((size_t)nf + 1);
+      face_has_uv.reserve((size_t)nf);
+      face_n.reserve((size_t)nf);
+    }
+    if (nc > 0) {
+      corners.reserve((size_t)nc);
+      face_uv.reserve(2 * (size_t)nc);
+    }
+  }
 
   int vertex_count() const { return (int)(pos.size() / 3); }
   int face_corners(int f) const { return face_start[f + 1] - face_start[f]; }
@@ -182,7 +203,8 @@ struct Importer final : OpenMesh::IO::BaseImporter {
     if ((long long)corners.size() + (long long)v.size() > kMax)
       fail("too many face corners (limit %lld)", kMax);
     // Ranges are checked at the end (faces may precede vertices in a file).
-    std::vector<int> idx;
+    std::vector<int> &idx = face_scratch;
+    idx.clear();
     for (VertexHandle h : v) idx.push_back(h.idx());
     long long rep = first_repeat(idx);
     if (rep >= 0)
@@ -190,14 +212,13 @@ struct Importer final : OpenMesh::IO::BaseImporter {
     corners.insert(corners.end(), idx.begin(), idx.end());
     face_start.push_back((int)corners.size());
     face_has_uv.push_back(0);
-    face_uv.resize(2 * corners.size(), 0.0f);
     take_pending_normals(v);
     return FaceHandle(face);
   }
 
   void take_pending_normals(const VHandles &v) {
-    corner_n.resize(3 * corners.size(), 0.0f);
     if (format != Format::OBJ) return;
+    corner_n.resize(3 * corners.size(), 0.0f);
     char state = 0;
     if (!pending_n.empty()) {
       state = 2;
@@ -229,6 +250,7 @@ struct Importer final : OpenMesh::IO::BaseImporter {
     for (int i = 0; i < n; i++)
       if (corners[b + i] == vh.idx()) first = i;
     if (first < 0) fail("face %d: texture coordinates start at a vertex not in the face", f + base);
+    if (face_uv.size() < 2 * corners.size()) face_uv.resize(2 * corners.size(), 0.0f);
     for (int i = 0; i < n; i++) {
       check_finite(uv[i].data(), 2, "face", f);
       int c = b + (first + i) % n;
@@ -432,52 +454,46 @@ T *c_array(const std::vector<T> &v) {
   return p;
 }
 
-// Indexes values by their exact bits, in order of first appearance (hashed:
-// a std::map here was a sixth of `chisel info` on a 2M-triangle PLY).
-template <int N>
-struct BitsHash {
-  size_t operator()(const std::array<uint32_t, N> &key) const {
-    uint64_t h = 0x9e3779b97f4a7c15u;
-    for (uint32_t k : key) h = (h ^ k) * 0xff51afd7ed558ccdu;
-    return (size_t)(h ^ (h >> 29));
-  }
-};
-
-template <int N>
-struct Dedup {
-  std::unordered_map<std::array<uint32_t, N>, int, BitsHash<N>> index;
-  std::vector<double> values;
-  int add(const float *v) {
-    std::array<uint32_t, N> key;
-    memcpy(key.data(), v, sizeof key);
-    auto it = index.emplace(key, (int)index.size()).first;
-    if (it->second == (int)values.size() / N)
-      for (int k = 0; k < N; k++) values.push_back(v[k]);
-    return it->second;
-  }
-};
-
+// The mesh's shared UVs and normals (ch_mesh_share_values: equal values by
+// their bits, numbered in order of first use), owned until to_mesh takes
+// them.
 struct Built {
-  std::vector<double> uvs, normals;
-  std::vector<int> corner_uv, corner_normal;
+  double *uvs = nullptr, *normals = nullptr;
+  int *corner_uv = nullptr, *corner_normal = nullptr;
+  int num_uvs = 0, num_normals = 0;
+  Built() = default;
+  Built(const Built &) = delete;
+  Built &operator=(const Built &) = delete;
+  ~Built() {
+    free(uvs);
+    free(normals);
+    free(corner_uv);
+    free(corner_normal);
+  }
 };
+
+// Corner c takes list value idx[c] (c where idx is null) of n floats each.
+void share(int n, const std::vector<float> &list, const int *idx, size_t corners, double **values, int **corner,
+           int *count) {
+  if (corners == 0) return;
+  if (ch_mesh_share_values(n, list.data(), list.size() / (size_t)n, idx, corners, values, corner, count))
+    throw std::bad_alloc();
+}
 
 void build_uvs(const Importer &imp, Built &b) {
   size_t nf = imp.face_has_uv.size();
   size_t with = (size_t)std::count(imp.face_has_uv.begin(), imp.face_has_uv.end(), 1);
-  Dedup<2> dd;
   if (with > 0) {
     if (with != nf) {
       size_t f = std::find(imp.face_has_uv.begin(), imp.face_has_uv.end(), 0) - imp.face_has_uv.begin();
       fail("face %zu has no texture coordinates while other faces have them", f + imp.base);
     }
-    for (size_t c = 0; c < imp.corners.size(); c++) b.corner_uv.push_back(dd.add(&imp.face_uv[2 * c]));
+    share(2, imp.face_uv, nullptr, imp.corners.size(), &b.uvs, &b.corner_uv, &b.num_uvs);
   } else {
     for (int v : imp.corners)
       if (!imp.vert_has_uv[v]) return;  // no (complete) per-vertex UVs either
-    for (int v : imp.corners) b.corner_uv.push_back(dd.add(&imp.vert_uv[2 * v]));
+    share(2, imp.vert_uv, imp.corners.data(), imp.corners.size(), &b.uvs, &b.corner_uv, &b.num_uvs);
   }
-  b.uvs = std::move(dd.values);
 }
 
 void build_normals(const Importer &imp, Built &b, const char *name, ch_error *err) {
@@ -488,17 +504,12 @@ void build_normals(const Importer &imp, Built &b, const char *name, ch_error *er
       ch_warn(err, "%s: only some faces have normals (vn) on every corner; normals ignored", name);
       return;
     }
-    Dedup<3> dd;
-    for (size_t c = 0; c < imp.corners.size(); c++)
-      b.corner_normal.push_back(dd.add(&imp.corner_n[3 * c]));
-    b.normals = std::move(dd.values);
+    share(3, imp.corner_n, nullptr, imp.corners.size(), &b.normals, &b.corner_normal, &b.num_normals);
     return;
   }
   for (int v : imp.corners)
     if (!imp.vert_has_n[v]) return;
-  Dedup<3> dd;
-  for (int v : imp.corners) b.corner_normal.push_back(dd.add(&imp.vert_n[3 * v]));
-  b.normals = std::move(dd.values);
+  share(3, imp.vert_n, imp.corners.data(), imp.corners.size(), &b.normals, &b.corner_normal, &b.num_normals);
 }
 
 void to_mesh(const Importer &imp, const char *name, ch_mesh *out, ch_error *err) {
@@ -522,12 +533,14 @@ void to_mesh(const Importer &imp, const char *name, ch_mesh *out, ch_error *err)
     m.face_start = c_array(imp.face_start);
     m.num_corners = (int)imp.corners.size();
     m.corner_position = c_array(imp.corners);
-    m.num_uvs = (int)(b.uvs.size() / 2);
-    m.uvs = c_array(b.uvs);
-    m.corner_uv = c_array(b.corner_uv);
-    m.num_normals = (int)(b.normals.size() / 3);
-    m.normals = c_array(b.normals);
-    m.corner_normal = c_array(b.corner_normal);
+    m.num_uvs = b.num_uvs;
+    m.uvs = b.uvs;
+    m.corner_uv = b.corner_uv;
+    m.num_normals = b.num_normals;
+    m.normals = b.normals;
+    m.corner_normal = b.corner_normal;
+    b.uvs = b.normals = nullptr;
+    b.corner_uv = b.corner_normal = nullptr;
   } catch (...) {
     ch_mesh_free(&m);
     throw;
@@ -585,6 +598,7 @@ void read_buffer(const char *data, size_t size, Format f, const char *name, ch_m
       ch_warn(err, "%s: PLY properties texture_u/texture_v are not read (OpenMesh knows u,v and s,t)", name);
     want_v = s.num_vertices;
     want_f = s.num_faces;
+    imp.reserve(want_v, want_f, s.num_corners);
     if (!s.face_tex) {
       run_stream(data, size, "ply", false, imp);
       break;
@@ -592,9 +606,10 @@ void read_buffer(const char *data, size_t size, Format f, const char *name, ch_m
     run_stream(s.stripped, s.stripped_size, "ply", false, imp);
     // The face texcoords, now that the faces exist (the first value pair
     // belongs to the corner at the face's first vertex).
+    std::vector<Vec2f> uv;
     for (size_t f = 0, k = 0; f < s.num_tex_first && f < imp.n_faces(); f++) {
       int corners = imp.face_corners((int)f);
-      std::vector<Vec2f> uv;
+      uv.clear();
       for (int c = 0; c < corners; c++, k += 2) uv.emplace_back(s.tex[k], s.tex[k + 1]);
       imp.add_face_texcoords(FaceHandle((int)f), VertexHandle(s.tex_first[f]), uv);
     }
@@ -603,6 +618,7 @@ void read_buffer(const char *data, size_t size, Format f, const char *name, ch_m
   case Format::OFF: {
     want_v = s.num_vertices;
     want_f = s.num_faces;
+    imp.reserve(want_v, want_f, s.num_corners);
     run_off_file(data, size, imp);
     break;
   }

@@ -1,4 +1,5 @@
-/* OBJ reading behind ch_mesh_read and ch_mesh_read_memory. Not installed. */
+/* OBJ reading behind ch_mesh_read and ch_mesh_read_memory, and the sharing
+ * of equal values every reader uses. Not installed. */
 #ifndef CH_MESH_OBJ_INTERNAL_H
 #define CH_MESH_OBJ_INTERNAL_H
 
@@ -18,6 +19,16 @@ extern "C" {
  * importer build it. Errors name the file as `name` (CH_ERR_INPUT,
  * CH_ERR_NOMEM); a warning where only some faces have normals. */
 ch_status ch_mesh_read_obj(const char *data, size_t size, const char *name, ch_mesh *out, ch_error *err);
+
+/* The distinct values of a list of n-float values as the corners use them
+ * (corner c uses list value idx[c]; value c where idx is NULL): equal
+ * values (by their bits) share one number, numbered in order of first use;
+ * *values gets them as doubles, n per number, *corner the corners' numbers
+ * (both malloc'd), *count how many. Equal values are found among the
+ * listed ones (an OBJ lists fewer than its corners), with a hash table.
+ * 0, or -1 out of memory (nothing allocated then). */
+int ch_mesh_share_values(int n, const float *list, size_t listed, const int *idx, size_t corners, double **values,
+                         int **corner, int *count);
 
 /* The same OBJ read by OpenMesh's OBJReader through the shim's importer
  * (after the same scan): the reference the tests and the fuzz target hold

@@ -17,27 +17,27 @@
 #include <string.h>
 
 /* Indexes values of n floats by their exact bits, in order of first
- * appearance (open addressing; the table stays at most half full). */
+ * appearance (open addressing; the table stays at most half full, doubling
+ * as the distinct values grow: a list of one value per corner holds far
+ * fewer distinct ones, and a table sized for the list missed the cache). */
 typedef struct dedup {
   int n;
   const float *values; /* the scan's list the keys index */
-  int *slot;           /* -1: empty, else an index into values */
+  int *slot;           /* -1: empty, else an index into first */
   size_t mask;
   int *first; /* distinct values, as indices into values */
   int count;
 } dedup;
 
 static int dedup_init(dedup *d, int n, const float *values, size_t most) {
-  size_t size = 16;
-  while (size < 2 * most) size *= 2;
   d->n = n;
   d->values = values;
-  d->mask = size - 1;
+  d->mask = 1023;
   d->count = 0;
-  d->slot = malloc(size * sizeof *d->slot);
+  d->slot = malloc((d->mask + 1) * sizeof *d->slot);
   d->first = malloc((most > 0 ? most : 1) * sizeof *d->first);
   if (!d->slot || !d->first) return -1;
-  memset(d->slot, 0xff, size * sizeof *d->slot);
+  memset(d->slot, 0xff, (d->mask + 1) * sizeof *d->slot);
   return 0;
 }
 
@@ -52,13 +52,35 @@ static uint32_t bits(float f) {
   return u;
 }
 
-/* The distinct value number of values[i] (a new one if unseen). */
-static int dedup_add(dedup *d, int i) {
-  const float *v = &d->values[(size_t)i * (size_t)d->n];
+static size_t dedup_hash(const dedup *d, const float *v) {
   uint64_t h = 0x9e3779b97f4a7c15u;
   for (int k = 0; k < d->n; k++) h = (h ^ bits(v[k])) * 0xff51afd7ed558ccdu;
-  h ^= h >> 29;
-  for (size_t at = (size_t)h & d->mask;; at = (at + 1) & d->mask) {
+  return (size_t)(h ^ (h >> 29));
+}
+
+/* Doubles the table (-1 out of memory). */
+static int dedup_grow(dedup *d) {
+  size_t size = 2 * (d->mask + 1);
+  int *slot = malloc(size * sizeof *slot);
+  if (!slot) return -1;
+  memset(slot, 0xff, size * sizeof *slot);
+  for (int s = 0; s < d->count; s++) {
+    size_t at = dedup_hash(d, &d->values[(size_t)d->first[s] * (size_t)d->n]) & (size - 1);
+    while (slot[at] >= 0) at = (at + 1) & (size - 1);
+    slot[at] = s;
+  }
+  free(d->slot);
+  d->slot = slot;
+  d->mask = size - 1;
+  return 0;
+}
+
+/* The distinct value number of values[i] (a new one if unseen; -1 out of
+ * memory). */
+static int dedup_add(dedup *d, int i) {
+  if (2 * (size_t)d->count >= d->mask + 1 && dedup_grow(d)) return -1;
+  const float *v = &d->values[(size_t)i * (size_t)d->n];
+  for (size_t at = dedup_hash(d, v) & d->mask;; at = (at + 1) & d->mask) {
     int s = d->slot[at];
     if (s < 0) {
       d->slot[at] = d->count;
@@ -72,25 +94,35 @@ static int dedup_add(dedup *d, int i) {
   }
 }
 
-/* The distinct values of corner list idx[0 .. corners) into *values (as
- * doubles, in order of first use) and the corners' numbers into *corner.
- * Equal values are found among the listed ones (fewer than the corners),
- * then numbered as the corners first use them. -1 out of memory. */
-static int gather(int n, const float *list, size_t listed, const int *idx, size_t corners, double **values,
-                  int **corner, int *count) {
+int ch_mesh_share_values(int n, const float *list, size_t listed, const int *idx, size_t corners, double **values,
+                         int **corner, int *count) {
   dedup d;
+  *values = NULL;
+  *count = 0;
   int *number = malloc((listed > 0 ? listed : 1) * sizeof *number);
   int ok = dedup_init(&d, n, list, listed) == 0 && number;
   if (ok) ok = (*corner = malloc((corners > 0 ? corners : 1) * sizeof **corner)) != NULL;
+  else
+    *corner = NULL;
   if (ok) {
     /* number[i]: first the listed value's class (the first listed index with
      * its bits), then, for that first index, its number by first use */
-    for (size_t i = 0; i < listed; i++) number[i] = d.first[dedup_add(&d, (int)i)];
+    for (size_t i = 0; ok && i < listed; i++) {
+      int s = dedup_add(&d, (int)i);
+      if (s < 0)
+        ok = 0;
+      else
+        number[i] = d.first[s];
+    }
+  }
+  /* (the room for the class numbers by first use, -1 unused) */
+  int *order = ok ? malloc((listed > 0 ? listed : 1) * sizeof *order) : NULL;
+  if (ok && !order) ok = 0;
+  if (ok) {
     int *canon = number, used = 0;
-    int *order = d.slot; /* (the table's room: the class numbers by first use, -1 unused) */
     memset(order, 0xff, listed * sizeof *order);
     for (size_t c = 0; c < corners; c++) {
-      int r = canon[idx[c]];
+      int r = canon[idx ? (size_t)idx[c] : c];
       if (order[r] < 0) {
         order[r] = used;
         d.first[used++] = r;
@@ -104,7 +136,13 @@ static int gather(int n, const float *list, size_t listed, const int *idx, size_
         (*values)[(size_t)i * (size_t)n + (size_t)k] = list[(size_t)d.first[i] * (size_t)n + (size_t)k];
   }
   free(number);
+  free(order);
   dedup_free(&d);
+  if (!ok) {
+    free(*corner);
+    *corner = NULL;
+    *count = 0;
+  }
   return ok ? 0 : -1;
 }
 
@@ -147,11 +185,11 @@ static ch_status build(const ch_mesh_scan *s, const char *name, ch_mesh *out, ch
   for (size_t i = 0; i < 3 * nv; i++) m.positions[i] = s->obj_pos[i];
   memcpy(m.face_start, fs, (nf + 1) * sizeof *fs);
   if (nc > 0) memcpy(m.corner_position, s->obj_corner_pos, nc * sizeof *m.corner_position);
-  if (with_uv > 0 &&
-      gather(2, s->obj_tex, (size_t)s->num_texcoords, s->obj_corner_tex, nc, &m.uvs, &m.corner_uv, &m.num_uvs))
+  if (with_uv > 0 && ch_mesh_share_values(2, s->obj_tex, (size_t)s->num_texcoords, s->obj_corner_tex, nc, &m.uvs,
+                                          &m.corner_uv, &m.num_uvs))
     goto nomem;
-  if (use_normals && gather(3, s->obj_normal, (size_t)s->num_normals, s->obj_corner_normal, nc, &m.normals,
-                            &m.corner_normal, &m.num_normals))
+  if (use_normals && ch_mesh_share_values(3, s->obj_normal, (size_t)s->num_normals, s->obj_corner_normal, nc,
+                                          &m.normals, &m.corner_normal, &m.num_normals))
     goto nomem;
   *out = m;
   return CH_OK;

@@ -321,6 +321,76 @@ static void test_float_precision(void) {
   ch_mesh_free(&m);
 }
 
+/* ch_mesh_share_values against its definition: every corner gets its own
+ * value back bit for bit, two corners share a number exactly when their
+ * values have the same bits (+0 and -0 apart), and numbers appear in order
+ * of first use; lists of one value per corner (idx NULL) and indexed ones,
+ * large enough for the table to grow many times. */
+static int share_sort_n;
+static int share_cmp(const void *a, const void *b) { return memcmp(a, b, (size_t)share_sort_n * sizeof(double)); }
+
+static void share_check(int n, const float *list, size_t listed, const int *idx, size_t corners) {
+  double *values = NULL;
+  int *corner = NULL, count = -1;
+  CHECK(ch_mesh_share_values(n, list, listed, idx, corners, &values, &corner, &count) == 0);
+  if (!values || !corner) return;
+  int bad = 0, next = 0;
+  /* the first corner of each number, to compare bits with */
+  int *first = malloc((size_t)(count > 0 ? count : 1) * sizeof *first);
+  for (size_t c = 0; c < corners && first; c++) {
+    const float *v = &list[(size_t)(idx ? idx[c] : (int)c) * (size_t)n];
+    int k = corner[c];
+    if (k < 0 || k > next || k >= count) {
+      bad++;
+      continue;
+    }
+    if (k == next) first[next++] = (int)c;
+    for (int i = 0; i < n; i++) {
+      float back = (float)values[(size_t)k * (size_t)n + (size_t)i];
+      bad += memcmp(&back, &v[i], sizeof back) != 0;
+    }
+  }
+  CHECK(bad == 0 && next == count);
+  /* distinct numbers, distinct bits: sorted by their bits, no two
+   * neighbours alike */
+  share_sort_n = n;
+  qsort(values, (size_t)count, (size_t)n * sizeof *values, share_cmp);
+  for (int a = 0; a + 1 < count; a++)
+    bad +=
+        memcmp(&values[(size_t)a * (size_t)n], &values[(size_t)(a + 1) * (size_t)n], (size_t)n * sizeof *values) == 0;
+  CHECK(bad == 0);
+  free(first);
+  free(values);
+  free(corner);
+}
+
+static void test_share_values(void) {
+  enum { LISTED = 60000, CORNERS = 200000 };
+  float *list = malloc(3 * LISTED * sizeof *list);
+  int *idx = malloc(CORNERS * sizeof *idx);
+  CHECK(list && idx);
+  if (!list || !idx) return;
+  /* values from a small alphabet (many repeats, +0 and -0 among them) */
+  static const float alphabet[] = {0.0f, -0.0f, 1.0f, 0.5f, 1e-30f, -3.25f, 0.1f};
+  for (int n = 2; n <= 3; n++) {
+    for (int i = 0; i < n * LISTED; i++)
+      list[i] = i % 7 == 0 ? (float)(ch_test_rnd() * 1000) : alphabet[(int)(ch_test_rnd() * 7) % 7];
+    for (int c = 0; c < CORNERS; c++) idx[c] = (int)(ch_test_rnd() * LISTED) % LISTED;
+    share_check(n, list, LISTED, idx, CORNERS);
+    share_check(n, list, LISTED, NULL, LISTED);
+    share_check(n, list, 5, NULL, 5);
+  }
+  /* +0 and -0 are two values */
+  float zeros[4] = {0.0f, 0.0f, -0.0f, 0.0f};
+  double *values = NULL;
+  int *corner = NULL, count = 0;
+  CHECK(ch_mesh_share_values(2, zeros, 2, NULL, 2, &values, &corner, &count) == 0 && count == 2);
+  free(values);
+  free(corner);
+  free(list);
+  free(idx);
+}
+
 /* The OBJ reader's numbers are strtof's (what OpenMesh's operator>> gives),
  * including where its fast path must step aside: decimals whose nearest
  * double is halfway between two floats but which are not (found by a search
@@ -1163,6 +1233,7 @@ int main(void) {
   RUN(test_stl);
   RUN(test_float_precision);
   RUN(test_obj_floats_as_strtof);
+  RUN(test_share_values);
   RUN(test_read_errors);
   RUN(test_hostile_inputs);
   RUN(test_scanners);
