@@ -18,8 +18,7 @@
 
 /* Indexes values of n floats by their exact bits, in order of first
  * appearance (open addressing; the table stays at most half full, doubling
- * as the distinct values grow: a list of one value per corner holds far
- * fewer distinct ones, and a table sized for the list missed the cache). */
+ * as the distinct values grow). */
 typedef struct dedup {
   int n;
   const float *values; /* the scan's list the keys index */
@@ -29,10 +28,13 @@ typedef struct dedup {
   int count;
 } dedup;
 
-static int dedup_init(dedup *d, int n, const float *values, size_t most) {
+/* expect: about how many distinct values to make room for at once. */
+static int dedup_init(dedup *d, int n, const float *values, size_t most, size_t expect) {
+  size_t size = 1024;
+  while (size < 2 * expect) size *= 2;
   d->n = n;
   d->values = values;
-  d->mask = 1023;
+  d->mask = size - 1;
   d->count = 0;
   d->slot = malloc((d->mask + 1) * sizeof *d->slot);
   d->first = malloc((most > 0 ? most : 1) * sizeof *d->first);
@@ -100,7 +102,10 @@ int ch_mesh_share_values(int n, const float *list, size_t listed, const int *idx
   *values = NULL;
   *count = 0;
   int *number = malloc((listed > 0 ? listed : 1) * sizeof *number);
-  int ok = dedup_init(&d, n, list, listed) == 0 && number;
+  /* A list the corners index (an OBJ's vt) holds mostly distinct values;
+   * one value per corner repeats a vertex's about as often as it has
+   * corners: a table sized for the whole list there missed the cache. */
+  int ok = dedup_init(&d, n, list, listed, idx ? listed : listed / 4) == 0 && number;
   if (ok) ok = (*corner = malloc((corners > 0 ? corners : 1) * sizeof **corner)) != NULL;
   else
     *corner = NULL;
