@@ -143,7 +143,7 @@ struct Importer final : OpenMesh::IO::BaseImporter {
 
   // Room for what the scanner counted (negative: unknown), so that the
   // arrays are not copied as they grow (a sixth of reading a 2M-face PLY).
-  void reserve(long long nv, long long nf, long long nc) {
+  void reserve_counts(long long nv, long long nf, long long nc) {
     if (nv > 0) {
       pos.reserve(3 * (size_t)nv);
       vert_uv.reserve(2 * (size_t)nv);
@@ -598,7 +598,7 @@ void read_buffer(const char *data, size_t size, Format f, const char *name, ch_m
       ch_warn(err, "%s: PLY properties texture_u/texture_v are not read (OpenMesh knows u,v and s,t)", name);
     want_v = s.num_vertices;
     want_f = s.num_faces;
-    imp.reserve(want_v, want_f, s.num_corners);
+    imp.reserve_counts(want_v, want_f, s.num_corners);
     if (!s.face_tex) {
       run_stream(data, size, "ply", false, imp);
       break;
@@ -618,7 +618,7 @@ void read_buffer(const char *data, size_t size, Format f, const char *name, ch_m
   case Format::OFF: {
     want_v = s.num_vertices;
     want_f = s.num_faces;
-    imp.reserve(want_v, want_f, s.num_corners);
+    imp.reserve_counts(want_v, want_f, s.num_corners);
     run_off_file(data, size, imp);
     break;
   }
