@@ -367,9 +367,6 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   const int base_faces = tm->num_faces, base_positions = tm->num_positions;
   stats.base_triangles = base_faces;
   double t0 = omp_get_wtime();
-  /* (the table locating reads, on all cores before the loops that locate) */
-  if (ch_surface_prepare_patch_uvs(surface))
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
   ch_refine_mesh w = {.surface = surface};
   unsigned char *fresh = NULL; /* triangles the last split made; NULL: all */
   unsigned char *edge_sampled = NULL; /* a sampled pilot's: the edges of its tiles' triangles */

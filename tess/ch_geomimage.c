@@ -175,11 +175,6 @@ static ch_status rasterise(const ch_surface *s, int W, int H, const double rect[
     free(first);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d geometry image", W, H);
   }
-  if (ch_surface_prepare_patch_uvs(s)) {
-    free(ps);
-    free(first);
-    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d geometry image", W, H);
-  }
   first[0] = 0;
   for (int f = 0; f < nf; f++) first[f + 1] = first[f] + (ch_surface_face_size(s, f) == 4 ? 1 : ch_surface_face_size(s, f));
   int failed = 0;

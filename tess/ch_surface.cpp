@@ -24,6 +24,7 @@
 #include <mutex>
 #include <new>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opensubdiv/bfr/limits.h>
@@ -308,43 +309,37 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
   for (int v = 0; v < np; v++)
     if (S->vertex_face[v] >= 0) S->vertex_out[v] = nu++;
   S->num_used_vertices = nu;
+  /* Room for the patches' corner UVs, made face by face at first use
+   * (ch_surface_patch_uvs): pages no face touches cost nothing. */
+  S->patch_start.resize(nf + 1);
+  S->patch_start[0] = 0;
+  for (int f = 0; f < nf; f++) {
+    int n = verts_per_face[f];
+    S->patch_start[f + 1] = S->patch_start[f] + (n == 4 ? 1 : n);
+  }
+  S->patch_uv.resize(8 * (size_t)S->patch_start[nf]);
+  S->patch_state.reset(new std::atomic<unsigned char>[nf]());
   return CH_OK;
 }
 
-/* The patches' corner UVs, evaluated once for all faces on first use:
- * locating a point in a face (ch_surface_locate, for every vertex the
- * refinement adds) read them through Bfr four times a patch, every time;
- * a run that locates nothing (--no-snap) needs none (190 bytes per
- * triangle of a dense base mesh). */
-void build_patch_uvs(const ch_surface *S) {
-  const int nf = S->num_faces;
-  large_vector<int> start(nf + 1);
-  start[0] = 0;
-  for (int f = 0; f < nf; f++) {
-    int n = S->face_start[f + 1] - S->face_start[f], npatch = n == 4 ? 1 : n;
-    start[f + 1] = start[f] + npatch;
-  }
-  large_vector<double> uv(8 * (size_t)start[nf]);
+/* Face f's patches' corner UVs into out (8 numbers a patch). */
+void face_patch_uvs(const ch_surface *S, int f, double *out) {
   static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-#pragma omp parallel for schedule(static)
-  for (int f = 0; f < nf; f++) {
-    const Surface &tex = tex_surface(S, f);
-    patch_buffer buf;
-    const double *points = linear_points(S, tex, f, S->uvs.data(), S->corner_uv.data(), 2, buf);
-    for (int k = 0; k < start[f + 1] - start[f]; k++) {
-      double origin[2] = {0.0, 0.0}, scale = 1.0;
-      if (start[f + 1] - start[f] > 1) {
-        pos_surface(S, f).GetParameterization().GetVertexCoord(k, origin);
-        scale = 0.5;
-      }
-      for (int c = 0; c < 4; c++) {
-        double st[2] = {origin[0] + scale * local[c][0], origin[1] + scale * local[c][1]};
-        tex.Evaluate(st, points, PD(2), &uv[8 * (size_t)(start[f] + k) + 2 * (size_t)c]);
-      }
+  const Surface &tex = tex_surface(S, f);
+  patch_buffer buf;
+  const double *points = linear_points(S, tex, f, S->uvs.data(), S->corner_uv.data(), 2, buf);
+  int npatch = S->patch_start[f + 1] - S->patch_start[f];
+  for (int k = 0; k < npatch; k++) {
+    double origin[2] = {0.0, 0.0}, scale = 1.0;
+    if (npatch > 1) {
+      pos_surface(S, f).GetParameterization().GetVertexCoord(k, origin);
+      scale = 0.5;
+    }
+    for (int c = 0; c < 4; c++) {
+      double st[2] = {origin[0] + scale * local[c][0], origin[1] + scale * local[c][1]};
+      tex.Evaluate(st, points, PD(2), &out[8 * (size_t)k + 2 * (size_t)c]);
     }
   }
-  S->patch_start.swap(start);
-  S->patch_uv.swap(uv);
 }
 
 }  // namespace
@@ -401,27 +396,33 @@ extern "C" ch_status ch_surface_corner_param(const ch_surface *S, int face, int 
   return CH_OK;
 }
 
-extern "C" ch_status ch_surface_prepare_patch_uvs(const ch_surface *S) {
-  if (!S) return CH_ERR_INPUT;
-  try {
-    std::call_once(S->patch_uv_once, build_patch_uvs, S);
-  } catch (...) { /* out of memory: tried again at the next call */
-    return CH_ERR_NOMEM;
-  }
-  return CH_OK;
-}
-
 extern "C" const double *ch_surface_patch_uvs(const ch_surface *S, int face, int *num_patches) {
   if (!S || face < 0 || face >= S->num_faces) {
     if (num_patches) *num_patches = 0;
     return nullptr;
   }
-  if (ch_surface_prepare_patch_uvs(S)) {
-    if (num_patches) *num_patches = 0;
-    return nullptr;
+  double *uv = &S->patch_uv[8 * (size_t)S->patch_start[face]];
+  /* 0: not made, 1: being made (by another thread: wait, a few evaluations
+   * long), 2: made (its values published by the release store). */
+  std::atomic<unsigned char> &state = S->patch_state[face];
+  for (;;) {
+    unsigned char seen = state.load(std::memory_order_acquire);
+    if (seen == 2) break;
+    if (seen == 0 && state.compare_exchange_weak(seen, 1, std::memory_order_acquire)) {
+      try {
+        face_patch_uvs(S, face, uv);
+      } catch (...) { /* out of memory (a face of over 16 corners): not made */
+        state.store(0, std::memory_order_release);
+        if (num_patches) *num_patches = 0;
+        return nullptr;
+      }
+      state.store(2, std::memory_order_release);
+      break;
+    }
+    std::this_thread::yield();
   }
   if (num_patches) *num_patches = S->patch_start[face + 1] - S->patch_start[face];
-  return &S->patch_uv[8 * (size_t)S->patch_start[face]];
+  return uv;
 }
 
 extern "C" ch_status ch_surface_edge_param(const ch_surface *S, int face, int k, double x,

@@ -89,18 +89,10 @@ ch_status ch_surface_edge_param(const ch_surface *surface, int face, int k, doub
  * quad is one patch, (s,t) in [0,1]^2; an n-gon's are its n sub-faces,
  * patch k at corner k's (s,t), half a unit wide. The UVs at their corners
  * (s,t) + (0,0), (1,0), (1,1), (0,1) times the patch's size, 8 numbers a
- * patch, as ch_surface_eval_uv gives them (evaluated once);
- * *num_patches gets their count. NULL (and 0) when face is out of range,
- * or out of memory for them. */
+ * patch, as ch_surface_eval_uv gives them (evaluated at the first call
+ * for that face: a run that locates nothing makes none); *num_patches gets
+ * their count. NULL (and 0) when face is out of range. Thread-safe. */
 const double *ch_surface_patch_uvs(const ch_surface *surface, int face, int *num_patches);
-
-/* The patches' corner UVs are made for all faces at the first call of
- * ch_surface_patch_uvs (a run that never locates a point needs none),
- * on the calling thread alone; this makes them on all cores: call it
- * before a parallel loop that locates. CH_OK, or CH_ERR_NOMEM (then they
- * are tried again at the next call). Thread-safe, like
- * ch_surface_patch_uvs. */
-ch_status ch_surface_prepare_patch_uvs(const ch_surface *surface);
 
 typedef struct ch_surface_point {
   double position[3]; /* B */

@@ -4,11 +4,12 @@
 #ifndef CH_SURFACE_INTERNAL_H
 #define CH_SURFACE_INTERNAL_H
 
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <cstdlib>
 #include <exception>
-#include <mutex>
+#include <memory>
 #include <new>
 #include <utility>
 #include <vector>
@@ -127,10 +128,11 @@ struct ch_surface {
   int num_used_vertices = 0;
   ch_surface_detail::large_vector<int> vertex_out, vertex_face, vertex_corner;
   /* The UVs at the corners of each face's bilinear patches (ch_surface_patch_uvs):
-   * 8 per patch, face f's from patch_start[f]; made at the first call. */
-  mutable std::once_flag patch_uv_once;
-  mutable ch_surface_detail::large_vector<int> patch_start;
+   * 8 per patch, face f's from patch_start[f], made at the first call for
+   * that face (patch_state[f]: 0 not yet, 1 being made, 2 made). */
+  ch_surface_detail::large_vector<int> patch_start;
   mutable ch_surface_detail::large_vector<double> patch_uv;
+  std::unique_ptr<std::atomic<unsigned char>[]> patch_state;
 };
 
 namespace ch_surface_detail {
