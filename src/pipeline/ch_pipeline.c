@@ -217,6 +217,7 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
   ch_height height = {0};
   ch_warp warp_store = {0};
   const ch_warp *warp = NULL; /* set when the camera gives a warp */
+  ch_progress_reportf(progress, -1.0, "the base surface (%d faces)", mesh.num_faces);
   st = ch_surface_create(&mesh, desc->scheme, &surface, err);
   ch_mesh_free(&mesh); /* the surface holds what it needs of it */
   double t_surface = omp_get_wtime();
