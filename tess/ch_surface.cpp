@@ -165,7 +165,6 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
     S->pos.resize(nf);
     S->pos_off.resize(nf + 1);
   }
-  size_t npos = 0;
   for (int f = 0; f < nf; f++) {
     Surface &tex = S->linear_tex[verts_per_face[f]];
     bool built = true;
@@ -178,23 +177,30 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
       built = factory.InitVertexSurface(f, &S->pos[f]) && S->pos[f].IsValid();
     }
     if (!built) return ch_error_set(err, CH_ERR_INPUT, "base mesh: face %d: OpenSubdiv cannot build its surface", f);
-    if (!linear_pos) {
-      S->pos_off[f] = npos;
-      npos += S->pos[f].GetNumPatchPoints();
-    }
   }
+  S->positions.assign(mesh->positions, mesh->positions + 3 * (size_t)np);
   if (!linear_pos) {
+    /* The irregular surfaces' patch points, stored where they average at
+     * most kStoredPatchPoints a face (see there). */
+    size_t irregular = 0;
+    for (int f = 0; f < nf; f++)
+      if (!S->pos[f].IsRegular()) irregular += (size_t)S->pos[f].GetNumPatchPoints();
+    bool store = irregular <= (size_t)kStoredPatchPoints * (size_t)nf;
+    size_t npos = 0;
+    for (int f = 0; f < nf; f++) {
+      S->pos_off[f] = npos;
+      if (store && !S->pos[f].IsRegular()) npos += (size_t)S->pos[f].GetNumPatchPoints();
+    }
     S->pos_off[nf] = npos;
     S->pos_pts.resize(3 * npos);
 #pragma omp parallel for schedule(dynamic, 1024)
     for (int f = 0; f < nf; f++)
-      S->pos[f].PreparePatchPoints(mesh->positions, PD(3), &S->pos_pts[3 * S->pos_off[f]], PD(3));
+      if (S->pos_off[f + 1] > S->pos_off[f])
+        S->pos[f].PreparePatchPoints(mesh->positions, PD(3), &S->pos_pts[3 * S->pos_off[f]], PD(3));
   }
 
-  /* Bilinear: the positions, and N's unit vertex normals from area
-   * vectors (Newell). */
+  /* Bilinear: N's unit vertex normals from area vectors (Newell). */
   if (linear_pos) {
-    S->positions.assign(mesh->positions, mesh->positions + 3 * (size_t)np);
     large_vector<double> &vn = S->vertex_normals;
     vn.assign(3 * (size_t)np, 0.0);
     std::vector<unsigned char> used(np, 0);

@@ -103,14 +103,16 @@ struct ch_surface {
    * patch points are the face's corner values followed by those Bfr derives
    * from them, made when evaluating (linear_points): stored, they were
    * 390 bytes per triangle of a dense base mesh. Catmark positions keep a
-   * surface and its patch points per face (pos, pos_pts from pos_off[f];
-   * empty under bilinear). */
+   * surface per face (pos; empty under bilinear); the patch points of the
+   * irregular ones are stored (pos_pts, face f's from pos_off[f], none
+   * where pos_off[f + 1] == pos_off[f]) or made when evaluating, as a
+   * regular one's are (see kStoredPatchPoints). */
   ch_surface_detail::large_vector<ch_surface_detail::Surface> pos;
   std::vector<ch_surface_detail::Surface> linear_pos, linear_tex;
   ch_surface_detail::large_vector<size_t> pos_off;
   ch_surface_detail::large_vector<double> pos_pts;
-  /* Bilinear: the mesh's positions and unit vertex normals (3 per
-   * position), the values of linear_pos's patch points. */
+  /* The mesh's positions, and under bilinear its unit vertex normals (3
+   * per position): the values patch points are made from. */
   ch_surface_detail::large_vector<double> positions, vertex_normals;
   /* Edges (Far's base level numbering). */
   int num_edges = 0;
@@ -136,6 +138,14 @@ struct ch_surface {
 };
 
 namespace ch_surface_detail {
+
+/* Catmark patch points: a regular surface's are its 16 control points,
+ * gathered when evaluating; an irregular one's (65-256 on the bundled
+ * meshes) take a stencil product to make, so they are stored, unless they
+ * average more than this a face over the mesh (a triangle mesh: 212 a
+ * triangle under Catmull-Clark, 5 KB each, 11 GB for a 2M-triangle base),
+ * where they are made when evaluating. */
+constexpr int kStoredPatchPoints = 64;
 
 /* The surfaces of face f's positions and UVs. */
 inline const Surface &pos_surface(const ch_surface *S, int f) {
@@ -237,8 +247,12 @@ class face_eval {
       const int *index = S_->corner_position.data();
       pos_pts_ = linear_points(S_, pos_, f_, S_->positions.data(), index, 3, pos_buf_);
       nrm_pts_ = linear_points(S_, pos_, f_, S_->vertex_normals.data(), index, 3, nrm_buf_);
-    } else {
+    } else if (S_->pos_off[f_ + 1] > S_->pos_off[f_]) {
       pos_pts_ = &S_->pos_pts[3 * S_->pos_off[f_]];
+    } else {
+      double *p = pos_buf_.get(3 * (size_t)pos_.GetNumPatchPoints());
+      pos_.PreparePatchPoints(S_->positions.data(), PD(3), p, PD(3));
+      pos_pts_ = p;
     }
   }
 
