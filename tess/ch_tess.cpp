@@ -64,67 +64,139 @@ Bfr::Tessellation::Options tess_options() {
   return o;
 }
 
-/* Triangle count of the whole mesh for these edge rates. Serial: it is
- * cheap (no evaluation), and the bisection calls it ~50 times, where a
- * parallel region each time costs a scheduler slice per call on a loaded
- * machine (measured: 8 ms on 1 thread became 580 ms on 2 busy cores). */
-long count_triangles(const ch_surface *S, const int *edge_rates) {
-  long total = 0;
-  const Bfr::Tessellation::Options opts = tess_options();
-  int rates[64];
-  std::vector<int> big;
-  /* A face's count depends on its size and rates alone (its
-   * parameterization is its size's), and a base of millions of triangles
-   * and quads has few distinct rate tuples: those are counted once per
-   * call (a Bfr::Tessellation for every face in each of the bisection's
-   * ~50 calls was seconds on a 2M-face base). Direct-mapped by a key of
-   * the size and six 10-bit rates. */
-  enum { CACHE = 4096 };
-  std::vector<uint64_t> cache_key(CACHE, 0);
-  std::vector<int> cache_count(CACHE, 0);
-  for (int f = 0; f < S->num_faces; f++) {
-    int n = S->face_start[f + 1] - S->face_start[f];
-    int *r = rates;
+/* Triangle counts of faces for edge rates. A face's count depends on its
+ * size and rates alone (its parameterization is its size's), and a base of
+ * millions of triangles and quads has few distinct rate tuples: those are
+ * counted once (a Bfr::Tessellation for every face in each of the rate
+ * bisection's ~50 counts was seconds on a 2M-face base). Direct-mapped by a
+ * key of the size and six 10-bit rates. */
+class face_counter {
+ public:
+  explicit face_counter(const ch_surface *S) : S_(S), key_(kCache, 0), count_(kCache, 0) {}
+
+  /* Face f's triangles, or -1 where Bfr's int counts could overflow. */
+  long count(int f, const int *edge_rates) {
+    int n = S_->face_start[f + 1] - S_->face_start[f];
+    int local[64], *r = local;
     if (n + 2 > 64) {
-      big.resize(n + 2);
-      r = big.data();
+      big_.resize(n + 2);
+      r = big_.data();
     }
-    int nr = face_rates(S, f, edge_rates, r);
-    /* Bfr counts in int: a face that could overflow it is "too many". */
+    int nr = face_rates(S_, f, edge_rates, r);
     long rmax = 0;
     for (int i = 0; i < nr; i++) rmax = std::max(rmax, (long)r[i]);
-    if ((long)n * (rmax + 1) * (rmax + 1) > (1L << 30)) return std::numeric_limits<long>::max();
-    uint64_t key = 0; /* 0: not cached (a key has its top bit set) */
+    if ((long)n * (rmax + 1) * (rmax + 1) > (1L << 30)) return -1;
+    const Bfr::Tessellation::Options opts = tess_options();
     if (n <= 4 && rmax < 1024) {
-      key = (uint64_t)1 << 63 | (uint64_t)(n - 3) << 60;
+      uint64_t key = (uint64_t)1 << 63 | (uint64_t)(n - 3) << 60; /* (0: empty) */
       for (int i = 0; i < nr; i++) key |= (uint64_t)r[i] << (10 * i);
-      size_t at = (size_t)((key * 0x9e3779b97f4a7c15u) >> 52) & (CACHE - 1);
-      if (cache_key[at] == key) {
-        total += cache_count[at];
-        continue;
+      size_t at = (size_t)((key * 0x9e3779b97f4a7c15u) >> 52) & (kCache - 1);
+      if (key_[at] != key) {
+        Bfr::Tessellation tess(pos_surface(S_, f).GetParameterization(), nr, r, opts);
+        key_[at] = key;
+        count_[at] = tess.GetNumFacets();
       }
-      Bfr::Tessellation tess(pos_surface(S, f).GetParameterization(), nr, r, opts);
-      cache_key[at] = key;
-      cache_count[at] = tess.GetNumFacets();
-      total += cache_count[at];
-      continue;
+      return count_[at];
     }
-    Bfr::Tessellation tess(pos_surface(S, f).GetParameterization(), nr, r, opts);
-    total += tess.GetNumFacets();
+    Bfr::Tessellation tess(pos_surface(S_, f).GetParameterization(), nr, r, opts);
+    return tess.GetNumFacets();
+  }
+
+ private:
+  enum { kCache = 4096 };
+  const ch_surface *S_;
+  std::vector<uint64_t> key_;
+  std::vector<int> count_;
+  std::vector<int> big_;
+};
+
+/* Triangle count of the whole mesh for these edge rates (LONG_MAX where a
+ * face could overflow Bfr's counts). Serial: it is cheap (no evaluation),
+ * and the bisection counts ~50 times, where a parallel region each time
+ * costs a scheduler slice per call on a loaded machine (measured: 8 ms on
+ * 1 thread became 580 ms on 2 busy cores). */
+long count_triangles(const ch_surface *S, const int *edge_rates) {
+  face_counter fc(S);
+  long total = 0;
+  for (int f = 0; f < S->num_faces; f++) {
+    long c = fc.count(f, edge_rates);
+    if (c < 0) return std::numeric_limits<long>::max();
+    total += c;
   }
   return total;
 }
+
+/* count_triangles for a run of rate arrays that differ little from one to
+ * the next (the bisection's): only the faces on edges whose rate changed
+ * are counted again, the same total. */
+class rate_counter {
+ public:
+  explicit rate_counter(const ch_surface *S)
+      : S_(S), faces_(S), face_count_(S->num_faces, 0), stamp_(S->num_faces, 0) {}
+
+  long count(const int *edge_rates) {
+    const int ne = S_->num_edges, nf = S_->num_faces;
+    if (rates_.empty()) return recount(edge_rates);
+    changed_faces_.clear();
+    ++epoch_;
+    for (int e = 0; e < ne; e++) {
+      if (edge_rates[e] == rates_[e]) continue;
+      rates_[e] = edge_rates[e];
+      for (int i = S_->edge_face_start[e]; i < S_->edge_face_start[e + 1]; i++) {
+        int f = S_->edge_face[i];
+        if (stamp_[f] != epoch_) {
+          stamp_[f] = epoch_;
+          changed_faces_.push_back(f);
+        }
+      }
+    }
+    if (2 * changed_faces_.size() > (size_t)nf) return recount(edge_rates);
+    for (int f : changed_faces_) {
+      long c = faces_.count(f, rates_.data());
+      over_ += (c < 0) - (face_count_[f] < 0);
+      total_ += std::max(c, 0L) - std::max(face_count_[f], 0L);
+      face_count_[f] = c;
+    }
+    return over_ > 0 ? std::numeric_limits<long>::max() : total_;
+  }
+
+ private:
+  long recount(const int *edge_rates) {
+    rates_.assign(edge_rates, edge_rates + S_->num_edges);
+    total_ = over_ = 0;
+    for (int f = 0; f < S_->num_faces; f++) {
+      face_count_[f] = faces_.count(f, edge_rates);
+      over_ += face_count_[f] < 0;
+      total_ += std::max(face_count_[f], 0L);
+    }
+    return over_ > 0 ? std::numeric_limits<long>::max() : total_;
+  }
+
+  const ch_surface *S_;
+  face_counter faces_;
+  std::vector<int> rates_;
+  std::vector<long> face_count_;
+  std::vector<unsigned> stamp_;
+  std::vector<int> changed_faces_;
+  unsigned epoch_ = 0;
+  long total_ = 0, over_ = 0;
+};
 
 /* Rates max(1, round(d L)); false when a rate would exceed kMaxRate. */
 bool rates_for_density(const ch_surface *S, const double *length, double d, int *rates) {
   bool ok = true;
   for (int e = 0; e < S->num_edges; e++) {
-    double r = std::floor(d * length[e] + 0.5);
-    if (r > kMaxRate) {
+    /* (x >= 0.5: truncation is floor, without the libm call the bisection
+     * made 150M times on a 3M-edge base) */
+    double x = d * length[e] + 0.5;
+    int r;
+    if (x >= kMaxRate + 1.0) {
       ok = false;
       r = kMaxRate;
+    } else {
+      r = (int)x;
     }
-    rates[e] = r < 1.0 ? 1 : (int)r;
+    rates[e] = r < 1 ? 1 : r;
   }
   return ok;
 }
@@ -149,7 +221,8 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const doub
   if (target > kMaxTriangles)
     return ch_error_set(err, CH_ERR_INPUT, "target of %ld triangles is above the maximum %ld", target,
                         kMaxTriangles);
-  long cmin = count_triangles(S, rates.data());
+  rate_counter counter(S);
+  long cmin = counter.count(rates.data());
   if (cmin >= target) {
     if (cmin <= target * 1.05) return CH_OK;
     return ch_error_set(err, CH_ERR_INPUT,
@@ -162,7 +235,7 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const doub
   long chi;
   for (;;) {
     bool ok = rates_for_density(S, length, hi, rhi.data());
-    chi = count_triangles(S, rhi.data());
+    chi = counter.count(rhi.data());
     if (chi >= target) break;
     if (!ok)
       return ch_error_set(err, CH_ERR_INPUT,
@@ -172,12 +245,12 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const doub
     hi *= 2.0;
   }
   rates_for_density(S, length, lo, rlo.data());
-  long clo = count_triangles(S, rlo.data());
+  long clo = counter.count(rlo.data());
   for (int it = 0; it < 200 && hi - lo > 1e-13 * hi; it++) {
     double mid = 0.5 * (lo + hi);
     std::vector<int> &r = rates;
     rates_for_density(S, length, mid, r.data());
-    long c = count_triangles(S, r.data());
+    long c = counter.count(r.data());
     if (c < target) {
       lo = mid, clo = c, rlo.swap(r);
     } else {
@@ -213,7 +286,7 @@ ch_status choose_rates(const ch_surface *S, const ch_tess_desc *desc, const doub
   auto count_k = [&](size_t k, std::vector<int> &r) {
     r = rlo;
     for (size_t i = 0; i < k; i++) r[jump[i]] = rhi[jump[i]];
-    return count_triangles(S, r.data());
+    return counter.count(r.data());
   };
   size_t klo = 0, khi = jump.size();
   while (khi - klo > 1) {
