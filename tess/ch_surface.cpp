@@ -331,9 +331,7 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
 /* Face f's patches' corner UVs into out (8 numbers a patch). */
 void face_patch_uvs(const ch_surface *S, int f, double *out) {
   static const double local[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  const Surface &tex = tex_surface(S, f);
-  patch_buffer buf;
-  const double *points = linear_points(S, tex, f, S->uvs.data(), S->corner_uv.data(), 2, buf);
+  face_eval fe(S, f);
   int npatch = S->patch_start[f + 1] - S->patch_start[f];
   for (int k = 0; k < npatch; k++) {
     double origin[2] = {0.0, 0.0}, scale = 1.0;
@@ -343,7 +341,7 @@ void face_patch_uvs(const ch_surface *S, int f, double *out) {
     }
     for (int c = 0; c < 4; c++) {
       double st[2] = {origin[0] + scale * local[c][0], origin[1] + scale * local[c][1]};
-      tex.Evaluate(st, points, PD(2), &out[8 * (size_t)k + 2 * (size_t)c]);
+      fe.uv(st, &out[8 * (size_t)k + 2 * (size_t)c]);
     }
   }
 }
@@ -444,7 +442,7 @@ extern "C" ch_status ch_surface_eval_uv(const ch_surface *S, int face, double s,
   try {
     if (!in_domain(pos_surface(S, face).GetParameterization(), s, t)) return CH_ERR_INPUT;
     double st[2] = {s, t};
-    eval_uv(S, face, st, uv);
+    face_eval(S, face).uv(st, uv);
   } catch (...) {
     return CH_ERR_INTERNAL;
   }

@@ -269,12 +269,6 @@ inline void eval_point(const ch_surface *S, int f, const double st[2], double P[
   face_eval(S, f).point(st, P, Du, Dv, N, uv);
 }
 
-inline void eval_uv(const ch_surface *S, int f, const double st[2], double uv[2]) {
-  const Surface &s = tex_surface(S, f);
-  patch_buffer buf;
-  s.Evaluate(st, linear_points(S, s, f, S->uvs.data(), S->corner_uv.data(), 2, buf), PD(2), uv);
-}
-
 }  // namespace ch_surface_detail
 
 #endif

@@ -72,7 +72,7 @@ Bfr::Tessellation::Options tess_options() {
  * key of the size and six 10-bit rates. */
 class face_counter {
  public:
-  explicit face_counter(const ch_surface *S) : S_(S), key_(kCache, 0), count_(kCache, 0) {}
+  explicit face_counter(const ch_surface *S) : S_(S), opts_(tess_options()), key_(kCache, 0), count_(kCache, 0) {}
 
   /* Face f's triangles, or -1 where Bfr's int counts could overflow. */
   long count(int f, const int *edge_rates) {
@@ -86,49 +86,33 @@ class face_counter {
     long rmax = 0;
     for (int i = 0; i < nr; i++) rmax = std::max(rmax, (long)r[i]);
     if ((long)n * (rmax + 1) * (rmax + 1) > (1L << 30)) return -1;
-    const Bfr::Tessellation::Options opts = tess_options();
     if (n <= 4 && rmax < 1024) {
       uint64_t key = (uint64_t)1 << 63 | (uint64_t)(n - 3) << 60; /* (0: empty) */
       for (int i = 0; i < nr; i++) key |= (uint64_t)r[i] << (10 * i);
       size_t at = (size_t)((key * 0x9e3779b97f4a7c15u) >> 52) & (kCache - 1);
       if (key_[at] != key) {
-        Bfr::Tessellation tess(pos_surface(S_, f).GetParameterization(), nr, r, opts);
+        Bfr::Tessellation tess(pos_surface(S_, f).GetParameterization(), nr, r, opts_);
         key_[at] = key;
         count_[at] = tess.GetNumFacets();
       }
       return count_[at];
     }
-    Bfr::Tessellation tess(pos_surface(S_, f).GetParameterization(), nr, r, opts);
+    Bfr::Tessellation tess(pos_surface(S_, f).GetParameterization(), nr, r, opts_);
     return tess.GetNumFacets();
   }
 
  private:
   enum { kCache = 4096 };
   const ch_surface *S_;
+  Bfr::Tessellation::Options opts_;
   std::vector<uint64_t> key_;
   std::vector<int> count_;
   std::vector<int> big_;
 };
 
-/* Triangle count of the whole mesh for these edge rates (LONG_MAX where a
- * face could overflow Bfr's counts). Serial: it is cheap (no evaluation),
- * and the bisection counts ~50 times, where a parallel region each time
- * costs a scheduler slice per call on a loaded machine (measured: 8 ms on
- * 1 thread became 580 ms on 2 busy cores). */
-long count_triangles(const ch_surface *S, const int *edge_rates) {
-  face_counter fc(S);
-  long total = 0;
-  for (int f = 0; f < S->num_faces; f++) {
-    long c = fc.count(f, edge_rates);
-    if (c < 0) return std::numeric_limits<long>::max();
-    total += c;
-  }
-  return total;
-}
-
-/* count_triangles for a run of rate arrays that differ little from one to
- * the next (the bisection's): only the faces on edges whose rate changed
- * are counted again, the same total. */
+/* The whole mesh's triangle count for a run of rate arrays that differ
+ * little from one to the next (the bisection's): after the first, only the
+ * faces on edges whose rate changed are counted again, the same total. */
 class rate_counter {
  public:
   explicit rate_counter(const ch_surface *S)
@@ -181,6 +165,13 @@ class rate_counter {
   unsigned epoch_ = 0;
   long total_ = 0, over_ = 0;
 };
+
+/* Triangle count of the whole mesh for these edge rates (LONG_MAX where a
+ * face could overflow Bfr's counts). Serial: it is cheap (no evaluation),
+ * and the bisection counts ~50 times, where a parallel region each time
+ * costs a scheduler slice per call on a loaded machine (measured: 8 ms on
+ * 1 thread became 580 ms on 2 busy cores). */
+long count_triangles(const ch_surface *S, const int *edge_rates) { return rate_counter(S).count(edge_rates); }
 
 /* Rates max(1, round(d L)); false when a rate would exceed kMaxRate. */
 bool rates_for_density(const ch_surface *S, const double *length, double d, int *rates) {
