@@ -522,7 +522,7 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
    * around it. */
   double longest = sqrt(ch_max3(ch_dot3(u, u), ch_dot3(w, w), ch_dot3(e, e)));
   double weight = 0.0;
-  if (fl >= thin * longest && fl > 0.0) weight = atan2(fl, ch_dot3(u, w)) / fl;
+  if (fl >= thin * longest && fl > 0.0) weight = ch_angle(fl, ch_dot3(u, w)) / fl;
   for (int i = 0; i < 3; i++) out[i] = f[i] * weight;
 }
 
@@ -530,14 +530,65 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
  * vertex among the triangles of the same group (piece, or wall), so they
  * are smooth inside a piece and split at its boundary.
  *
- * In parallel, with the numbering a serial pass over the corners in order
- * would give: each vertex walks its own corners (in triangle order, from a
- * counting sort) and marks the corner where each of its UVs and normals is
- * born; the born corners' ranks (a prefix sum) are the indices; then each
- * vertex sums its normals in that order straight into the mesh's. The
- * corners' weights are worked out where they are summed: kept per corner,
- * they were the largest array at the embedding's peak (72 bytes a
- * triangle). */
+ * In one parallel pass over the vertices, each thread a block of them in
+ * order: a vertex walks its own corners (in triangle order, from a
+ * counting sort), gives a corner a new UV unless it is the vertex's first
+ * UV, and sums each group's weights into that group's normal. UVs and
+ * normals are numbered by vertex, then by the corner where each is born:
+ * the same on any number of threads, and near their vertices in the file.
+ * Each thread keeps its block's in a list of its own; the lists are joined
+ * at the end. (Numbered by corner, as before, the ranks needed a pass of
+ * their own and the sums a second walk of the corners, each corner's
+ * arrays read in a random order twice: 60% of this function.) */
+typedef struct born_list {
+  double *uvs;     /* 2 per UV born in the block */
+  double *normals; /* 3 per normal: the sums, then unit */
+  int nuv, cap_uv, nnormal, cap_normal;
+  uint64_t *group; /* the groups of the vertex at hand's normals, in order */
+  int cap_group;
+  int failed;
+} born_list;
+
+/* Walks vertices [v0, v1) (see above); corner indices are the list's own
+ * until joined. */
+static void born_block(const ch_cut_out *o, double thin, const int *start, const int *order, int v0, int v1, ch_mesh *m,
+                       born_list *l) {
+  for (int p = v0; p < v1 && !l->failed; p++) {
+    int deg = start[p + 1] - start[p], first = -1, k = 0, base = l->nnormal;
+    if (ch_alloc_grow((void **)&l->uvs, &l->cap_uv, l->nuv + deg, 2 * sizeof *l->uvs, 4096) ||
+        ch_alloc_grow((void **)&l->normals, &l->cap_normal, l->nnormal + deg, 3 * sizeof *l->normals, 4096) ||
+        ch_alloc_grow((void **)&l->group, &l->cap_group, deg, sizeof *l->group, 64)) {
+      l->failed = 1;
+      break;
+    }
+    const double *fuv = NULL;
+    for (int i = start[p]; i < start[p + 1]; i++) {
+      int c = order[i];
+      const double *uv = ch_cut_out_uv(o, (size_t)c);
+      if (first < 0 || fuv[0] != uv[0] || fuv[1] != uv[1]) {
+        memcpy(&l->uvs[2 * (size_t)l->nuv], uv, 2 * sizeof *uv);
+        m->corner_uv[c] = l->nuv++;
+        if (first < 0) first = m->corner_uv[c], fuv = uv;
+      } else {
+        m->corner_uv[c] = first;
+      }
+      uint64_t g = o->group[c / 3];
+      int j = 0;
+      while (j < k && l->group[j] != g) j++;
+      double *sum = &l->normals[3 * (size_t)(base + j)];
+      if (j == k) { /* born here (the sum starts from +0, as it always did) */
+        l->group[k++] = g;
+        sum[0] = sum[1] = sum[2] = 0.0;
+      }
+      double wc[3];
+      corner_weight(o, thin, (size_t)c / 3, c % 3, wc);
+      for (int x = 0; x < 3; x++) sum[x] += wc[x];
+      m->corner_normal[c] = base + j;
+    }
+    l->nnormal = base + k;
+  }
+}
+
 ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *err) {
   memset(m, 0, sizeof *m);
   size_t nc = 3 * (size_t)o->ntri, np = (size_t)(o->npos > 0 ? o->npos : 1);
@@ -550,74 +601,30 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   m->corner_normal = ch_alloc_large(nc ? nc : 1, sizeof *m->corner_normal, 0);
   int *start = ch_alloc_large(np + 1, sizeof *start, 0); /* a vertex's corners in order */
   int *order = ch_alloc_large(nc ? nc : 1, sizeof *order, 0);
-  int *born = ch_alloc_large(nc ? nc : 1, sizeof *born, 0); /* per corner: a normal is born here */
-  if (!m->face_start || !m->corner_uv || !m->corner_normal || !start || !order || !born) goto nomem;
+  int nb = omp_get_max_threads();
+  born_list *list = calloc((size_t)nb, sizeof *list);
+  /* per block: its first vertex, and where its UVs and normals go */
+  int *first_vertex = calloc(3 * ((size_t)nb + 1), sizeof *first_vertex);
+  int *uv_at = first_vertex ? first_vertex + nb + 1 : NULL, *normal_at = uv_at ? uv_at + nb + 1 : NULL;
+  if (!m->face_start || !m->corner_uv || !m->corner_normal || !start || !order || !list || !first_vertex) goto nomem;
 #pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++) m->face_start[t] = 3 * t;
   m->face_start[o->ntri] = (int)nc;
   /* Corners by vertex, in corner order. */
   if (ch_sort_buckets(o->tri, nc, o->npos, start, order)) goto nomem;
-  /* Per vertex: where its UVs and normals are born (a UV is new unless it
-   * equals the vertex's first; a normal is new for each group).
-   * corner_uv and corner_normal hold the born corner for now. */
-#pragma omp parallel for schedule(dynamic, 1024)
-  for (int p = 0; p < o->npos; p++) {
-    enum { KNOWN = 16 };
-    uint64_t known_group[KNOWN]; /* the groups born so far at p, in order, and where */
-    int known_corner[KNOWN], nknown = 0;
-    int first = -1;
-    const double *fuv = NULL;
-    for (int i = start[p]; i < start[p + 1]; i++) {
-      int c = order[i];
-      const double *uv = ch_cut_out_uv(o, (size_t)c);
-      if (first < 0 || fuv[0] != uv[0] || fuv[1] != uv[1]) {
-        m->corner_uv[c] = c;
-        if (first < 0) first = c, fuv = uv;
-      } else {
-        m->corner_uv[c] = first;
-      }
-      uint64_t g = o->group[c / 3];
-      int s = -1;
-      if (nknown <= KNOWN) {
-        for (int j = 0; j < nknown && s < 0; j++)
-          if (known_group[j] == g) s = known_corner[j];
-      } else { /* (more groups than kept: the earlier corners themselves) */
-        for (int j = start[p]; j < i && s < 0; j++) {
-          int d = order[j];
-          if (born[d] && o->group[d / 3] == g) s = d;
-        }
-      }
-      born[c] = s < 0;
-      if (s < 0) {
-        if (nknown < KNOWN) known_group[nknown] = g, known_corner[nknown] = c;
-        nknown++;
-        s = c;
-      }
-      m->corner_normal[c] = s;
-    }
+  /* The blocks: about as many corners each. */
+  for (int b = 1, p = 0; b <= nb; b++) {
+    size_t want = nc * (size_t)b / (size_t)nb;
+    while (p < o->npos && (size_t)start[p] < want) p++;
+    first_vertex[b] = b == nb ? o->npos : p;
   }
-  /* The groups are spent, and so are o's UVs once numbered in corner
-   * order where they are born (m->corner_uv then holds the numbers: a
-   * corner's first is before it, and already numbered): both go before
-   * the normals' arrays are made. */
+#pragma omp parallel for schedule(static, 1) num_threads(nb)
+  for (int b = 0; b < nb; b++) born_block(o, thin, start, order, first_vertex[b], first_vertex[b + 1], m, &list[b]);
+  int failed = 0;
+  for (int b = 0; b < nb; b++) failed |= list[b].failed;
+  if (failed) goto nomem;
   free(o->group);
   o->group = NULL;
-  int nuv = 0;
-#pragma omp parallel for schedule(static) reduction(+ : nuv)
-  for (size_t c = 0; c < nc; c++) nuv += m->corner_uv[c] == (int)c;
-  m->uvs = ch_alloc_large(2 * (size_t)(nuv > 0 ? nuv : 1), sizeof *m->uvs, 0);
-  if (!m->uvs) goto nomem;
-  m->num_uvs = nuv;
-  nuv = 0;
-  for (size_t c = 0; c < nc; c++) {
-    int first = m->corner_uv[c];
-    if (first == (int)c) {
-      memcpy(&m->uvs[2 * (size_t)nuv], ch_cut_out_uv(o, c), 2 * sizeof *m->uvs);
-      m->corner_uv[c] = nuv++;
-    } else {
-      m->corner_uv[c] = m->corner_uv[first];
-    }
-  }
   free(o->corner_uv);
   free(o->extra_uv);
   free(o->vertex_uv);
@@ -625,48 +632,65 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   o->extra_uv = NULL;
   o->vertex_uv = NULL;
   o->nextra = 0;
-  /* Ranks of the born normals (born then holds them, -1 where none is
-   * born). */
-  int nslot = 0;
-  for (size_t c = 0; c < nc; c++) born[c] = born[c] ? nslot++ : -1;
-  m->normals = ch_alloc_large(3 * (size_t)(nslot > 0 ? nslot : 1), sizeof *m->normals, 0);
-  if (!m->normals) goto nomem;
-  m->num_normals = nslot;
-  /* The sums, each vertex's corners in order: the born corner's weight
-   * plus +0 (the sum starts from +0, as it did serially: -0 + 0 is +0),
-   * then the others' of its group. */
-#pragma omp parallel for schedule(dynamic, 1024)
-  for (int p = 0; p < o->npos; p++) {
-    for (int i = start[p]; i < start[p + 1]; i++) {
-      int c = order[i], s = m->corner_normal[c];
-      double wc[3], *sum = &m->normals[3 * (size_t)born[s]];
-      corner_weight(o, thin, (size_t)c / 3, c % 3, wc);
-      for (int k = 0; k < 3; k++) sum[k] = s == c ? wc[k] + 0.0 : sum[k] + wc[k];
+  /* The lists joined, in block order. */
+  for (int b = 0; b < nb; b++) {
+    uv_at[b + 1] = uv_at[b] + list[b].nuv;
+    normal_at[b + 1] = normal_at[b] + list[b].nnormal;
+  }
+  m->num_uvs = uv_at[nb];
+  m->num_normals = normal_at[nb];
+  m->uvs = ch_alloc_large(2 * (size_t)(m->num_uvs > 0 ? m->num_uvs : 1), sizeof *m->uvs, 0);
+  m->normals = ch_alloc_large(3 * (size_t)(m->num_normals > 0 ? m->num_normals : 1), sizeof *m->normals, 0);
+  if (!m->uvs || !m->normals) goto nomem;
+#pragma omp parallel for schedule(static, 1) num_threads(nb)
+  for (int b = 0; b < nb; b++) {
+    born_list *l = &list[b];
+    memcpy(&m->uvs[2 * (size_t)uv_at[b]], l->uvs, 2 * (size_t)l->nuv * sizeof *l->uvs);
+    for (int i = 0; i < l->nnormal; i++) {
+      const double *s = &l->normals[3 * (size_t)i];
+      double *n = &m->normals[3 * ((size_t)normal_at[b] + (size_t)i)], len = sqrt(ch_dot3(s, s));
+      if (len > 0.0) {
+        for (int k = 0; k < 3; k++) n[k] = s[k] / len;
+      } else {
+        n[0] = n[1] = 0.0;
+        n[2] = 1.0; /* only zero-area triangles here: any unit vector */
+      }
+    }
+    free(l->uvs);
+    free(l->normals);
+    free(l->group);
+    l->uvs = l->normals = NULL;
+    l->group = NULL;
+  }
+  /* Each corner's numbers from its block's to the mesh's. */
+  if (nb > 1) {
+#pragma omp parallel for schedule(static)
+    for (size_t c = 0; c < nc; c++) {
+      int v = o->tri[c], b = 0;
+      while (v >= first_vertex[b + 1]) b++;
+      m->corner_uv[c] += uv_at[b];
+      m->corner_normal[c] += normal_at[b];
     }
   }
-#pragma omp parallel for schedule(static)
-  for (int i = 0; i < nslot; i++) {
-    double *n = &m->normals[3 * (size_t)i], len = sqrt(ch_dot3(n, n));
-    if (len > 0.0) {
-      for (int k = 0; k < 3; k++) n[k] = n[k] / len;
-    } else {
-      n[0] = n[1] = 0.0;
-      n[2] = 1.0; /* only zero-area triangles here: any unit vector */
-    }
-  }
-#pragma omp parallel for schedule(static)
-  for (size_t c = 0; c < nc; c++) m->corner_normal[c] = born[m->corner_normal[c]];
   free(start);
   free(order);
-  free(born);
+  free(list);
+  free(first_vertex); /* (and uv_at, normal_at) */
   /* The triangles' corners are the mesh's corners, in the same order. */
   m->corner_position = o->tri;
   o->tri = NULL;
   return CH_OK;
 nomem:
+  if (list)
+    for (int b = 0; b < nb; b++) {
+      free(list[b].uvs);
+      free(list[b].normals);
+      free(list[b].group);
+    }
   free(start);
   free(order);
-  free(born);
+  free(list);
+  free(first_vertex);
   m->positions = NULL; /* still o's */
   ch_mesh_free(m);
   return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");

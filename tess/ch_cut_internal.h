@@ -90,7 +90,9 @@ ch_status ch_cut_evaluate_positions(const ch_surface *surface, ch_cut_out *o, ch
  * vertex among the triangles of the same group (piece, or wall), so they
  * are smooth inside a piece and split at its boundary. Triangles thinner
  * than `thin` (twice their area over their longest edge) count for
- * nothing: their normal is rounding noise. On success m takes o's
+ * nothing: their normal is rounding noise. UVs and normals are numbered
+ * by vertex, then by the first corner of the vertex that has each (the
+ * same on any number of threads). On success m takes o's
  * positions and triangles (o->tri is then NULL; the caller sets o->pos
  * to NULL); o's groups and UVs are spent there (freed and set to NULL;
  * after a failure ch_cut_out_free frees whatever is left). */

@@ -1,6 +1,6 @@
 /* core's small shared helpers: ch_math.h (checked against hand-worked
- * values and against qsort's contract), ch_alloc_grow, the counting sort
- * of ch_sort (against a serial stable sort, on 1 to 3 threads), its
+ * values and against qsort's contract; ch_angle against libm),
+ * ch_alloc_grow, the counting sort of ch_sort (against a serial stable sort, on 1 to 3 threads), its
  * selection (against qsort) and the clock of ch_progress. */
 #define _POSIX_C_SOURCE 200809L /* nanosleep */
 #include <stdlib.h>
@@ -44,6 +44,25 @@ static void test_math(void) {
   CHECK(sorted);
   double x = 1.0, y = 2.0;
   CHECK(ch_cmp_double(&x, &y) == -1 && ch_cmp_double(&y, &x) == 1 && ch_cmp_double(&x, &x) == 0);
+}
+
+/* ch_angle against libm's atan2 (which is within an ulp of the true
+ * angle), over the cases that matter: tiny and huge ratios, both signs of
+ * the cosine, and the exact ones. */
+static void test_angle(void) {
+  double worst = 0.0;
+  for (int i = 0; i < 400000; i++) {
+    double s = ch_test_rnd(), c = 2.0 * ch_test_rnd() - 1.0;
+    if (i % 3 == 0) s *= 1e-9;
+    if (i % 5 == 0) c *= 1e-9;
+    if (i % 7 == 0) s *= 1e6;
+    worst = fmax(worst, fabs(ch_angle(s, c) - atan2(s, c)));
+  }
+  CHECK_MSG(worst <= 4.5e-16, "ch_angle off by %.3g", worst);
+  CHECK(ch_angle(1.0, 1.0) == atan2(1.0, 1.0) && ch_angle(1.0, 0.0) == atan2(1.0, 0.0));
+  CHECK(ch_angle(2.0, -0.0) == atan2(2.0, -0.0) && ch_angle(0.0, -3.0) == atan2(0.0, -3.0));
+  CHECK(ch_angle(0.0, 0.0) == 0.0 && ch_angle(0.0, -0.0) == atan2(0.0, -0.0));
+  CHECK(ch_angle(1e-300, 1.0) == 1e-300 && fabs(ch_angle(1.0, 1e-300) - 0.5 * CH_PI) <= 2e-16);
 }
 
 static void test_grow(void) {
@@ -151,6 +170,7 @@ static void test_clock(void) {
 
 int main(void) {
   RUN(test_math);
+  RUN(test_angle);
   RUN(test_grow);
   RUN(test_resize);
   RUN(test_sort);

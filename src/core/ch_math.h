@@ -46,6 +46,36 @@ static inline void ch_cross3(const double a[3], const double b[3], double out[3]
   out[1] = y;
   out[2] = z;
 }
+/* atan(x) for x in [0, 1]: Moshier's Cephes atan (range reduction at 0.66
+ * by atan(x) = pi/4 + atan((x - 1) / (x + 1)), then a rational function of
+ * degree 4/5 in x^2; about 1e-16 relative error). */
+static inline double ch_atan01(double x) {
+  double y = 0.0, bits = 0.0;
+  if (x > 0.66) {
+    y = 0.25 * CH_PI, bits = 0.5 * 6.123233995736765886130e-17; /* (pi/4's low bits) */
+    x = (x - 1.0) / (x + 1.0);
+  }
+  double z = x * x;
+  double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z - 7.500855792314704667340e1) * z -
+              1.228866684490136173410e2) *
+                 z -
+             6.485021904942025371773e1;
+  double q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z + 4.328810604912902668951e2) * z +
+              4.853903996359136964868e2) *
+                 z +
+             1.945506571482613964425e2;
+  return y + (x * (z * p / q) + x + bits);
+}
+/* atan2(s, c) for s >= 0 (an angle in [0, pi] from its sine and cosine
+ * times one length, as |a x b| and a . b): inlined, where glibc's atan2
+ * is a call (the output's normals take 5% less time). Within 4.5e-16 (an
+ * ulp of pi) of atan2 in radians (tests/test_math.c). */
+static inline double ch_angle(double s, double c) {
+  double ac = fabs(c);
+  if (!(s > 0.0)) return signbit(c) ? CH_PI : 0.0; /* (atan2(+0, -0) is pi) */
+  double a = s <= ac ? ch_atan01(s / ac) : 0.5 * CH_PI - ch_atan01(ac / s);
+  return c < 0.0 ? CH_PI - a : a;
+}
 /* Scales v to unit length; returns 0 (v unchanged) when its length is 0 or
  * not finite. */
 static inline int ch_normalize3(double v[3]) {
