@@ -530,63 +530,95 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
  * vertex among the triangles of the same group (piece, or wall), so they
  * are smooth inside a piece and split at its boundary.
  *
- * In one parallel pass over the vertices, each thread a block of them in
- * order: a vertex walks its own corners (in triangle order, from a
- * counting sort), gives a corner a new UV unless it is the vertex's first
- * UV, and sums each group's weights into that group's normal. UVs and
- * normals are numbered by vertex, then by the corner where each is born:
- * the same on any number of threads, and near their vertices in the file.
- * Each thread keeps its block's in a list of its own; the lists are joined
- * at the end. (Numbered by corner, as before, the ranks needed a pass of
- * their own and the sums a second walk of the corners, each corner's
- * arrays read in a random order twice: 60% of this function.) */
-typedef struct born_list {
-  double *uvs;     /* 2 per UV born in the block */
-  double *normals; /* 3 per normal: the sums, then unit */
-  int nuv, cap_uv, nnormal, cap_normal;
-  uint64_t *group; /* the groups of the vertex at hand's normals, in order */
-  int cap_group;
-  int failed;
-} born_list;
+ * Two parallel walks over the vertices, each thread a block of them in
+ * order, each vertex its own corners (in triangle order, from a counting
+ * sort). The first gives a corner a new UV unless it is the vertex's first
+ * UV, and counts the groups at each vertex; the second sums each group's
+ * weights into that group's normal and makes it unit once the vertex is
+ * done. UVs and normals are numbered by vertex, then by the corner where
+ * each is born: the same on any number of threads, and near their
+ * vertices in the file. A block writes its UVs from its first corner's
+ * index on (it has no more UVs than corners) and the blocks close ranks
+ * after the walk; the normals, counted by then, are written in place, in
+ * an array made where o's UVs were (made before those went, it grew the
+ * peak by 35 MB at 2.1M). Numbered by corner, as before, the ranks took a
+ * serial pass and the sums a random walk of every corner's arrays of
+ * their own. */
 
-/* Walks vertices [v0, v1) (see above); corner indices are the list's own
- * until joined. */
-static void born_block(const ch_cut_out *o, double thin, const int *start, const int *order, int v0, int v1, ch_mesh *m,
-                       born_list *l) {
-  for (int p = v0; p < v1 && !l->failed; p++) {
-    int deg = start[p + 1] - start[p], first = -1, k = 0, base = l->nnormal;
-    if (ch_alloc_grow((void **)&l->uvs, &l->cap_uv, l->nuv + deg, 2 * sizeof *l->uvs, 4096) ||
-        ch_alloc_grow((void **)&l->normals, &l->cap_normal, l->nnormal + deg, 3 * sizeof *l->normals, 4096) ||
-        ch_alloc_grow((void **)&l->group, &l->cap_group, deg, sizeof *l->group, 64)) {
-      l->failed = 1;
-      break;
-    }
+/* The first walk over vertices [v0, v1), writing from UV `at`; returns the
+ * UVs it made, and *normals the normals the second walk will make (one per
+ * group at each vertex). groups: room for the largest vertex's corners. */
+static int uv_block(const ch_cut_out *o, const int *start, const int *order, int v0, int v1, int at, ch_mesh *m,
+                    uint64_t *groups, int *normals) {
+  int n = at, count = 0;
+  for (int p = v0; p < v1; p++) {
+    int first = -1, k = 0;
     const double *fuv = NULL;
     for (int i = start[p]; i < start[p + 1]; i++) {
-      int c = order[i];
+      int c = order[i], j = 0;
       const double *uv = ch_cut_out_uv(o, (size_t)c);
       if (first < 0 || fuv[0] != uv[0] || fuv[1] != uv[1]) {
-        memcpy(&l->uvs[2 * (size_t)l->nuv], uv, 2 * sizeof *uv);
-        m->corner_uv[c] = l->nuv++;
+        memcpy(&m->uvs[2 * (size_t)n], uv, 2 * sizeof *uv);
+        m->corner_uv[c] = n++;
         if (first < 0) first = m->corner_uv[c], fuv = uv;
       } else {
         m->corner_uv[c] = first;
       }
       uint64_t g = o->group[c / 3];
-      int j = 0;
-      while (j < k && l->group[j] != g) j++;
-      double *sum = &l->normals[3 * (size_t)(base + j)];
+      while (j < k && groups[j] != g) j++;
+      if (j == k) groups[k++] = g;
+    }
+    count += k;
+  }
+  *normals = count;
+  return n - at;
+}
+
+/* The second walk, writing from normal `at` (groups as above). */
+static void normal_block(const ch_cut_out *o, double thin, const int *start, const int *order, int v0, int v1, int at,
+                         ch_mesh *m, uint64_t *groups) {
+  int n = at;
+  for (int p = v0; p < v1; p++) {
+    int k = 0;
+    for (int i = start[p]; i < start[p + 1]; i++) {
+      int c = order[i], j = 0;
+      uint64_t g = o->group[c / 3];
+      while (j < k && groups[j] != g) j++;
+      double *sum = &m->normals[3 * (size_t)(n + j)], wc[3];
       if (j == k) { /* born here (the sum starts from +0, as it always did) */
-        l->group[k++] = g;
+        groups[k++] = g;
         sum[0] = sum[1] = sum[2] = 0.0;
       }
-      double wc[3];
       corner_weight(o, thin, (size_t)c / 3, c % 3, wc);
       for (int x = 0; x < 3; x++) sum[x] += wc[x];
-      m->corner_normal[c] = base + j;
+      m->corner_normal[c] = n + j;
     }
-    l->nnormal = base + k;
+    for (int j = 0; j < k; j++) {
+      double *s = &m->normals[3 * (size_t)(n + j)], len = sqrt(ch_dot3(s, s));
+      if (len > 0.0) {
+        for (int x = 0; x < 3; x++) s[x] = s[x] / len;
+      } else {
+        s[0] = s[1] = 0.0;
+        s[2] = 1.0; /* only zero-area triangles here: any unit vector */
+      }
+    }
+    n += k;
   }
+}
+
+/* Moves each block's `width` doubles per item from its first corner's
+ * index (at[b]) to the end of the blocks before it (made[b] items each),
+ * filling dest_at; shrinks the array to the total. */
+static void close_ranks(double **array, int width, int nb, const int *at, const int *made, int *dest_at) {
+  dest_at[0] = 0;
+  for (int b = 0; b < nb; b++) {
+    if (dest_at[b] != at[b] && made[b] > 0)
+      memmove(&(*array)[(size_t)width * (size_t)dest_at[b]], &(*array)[(size_t)width * (size_t)at[b]],
+              (size_t)width * (size_t)made[b] * sizeof **array);
+    dest_at[b + 1] = dest_at[b] + made[b];
+  }
+  double *q = realloc(*array, (size_t)width * (size_t)(dest_at[nb] > 0 ? dest_at[nb] : 1) * sizeof **array);
+  if (q) *array = q; /* (shrinking: keeps the block where it cannot) */
 }
 
 ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *err) {
@@ -602,11 +634,13 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   int *start = ch_alloc_large(np + 1, sizeof *start, 0); /* a vertex's corners in order */
   int *order = ch_alloc_large(nc ? nc : 1, sizeof *order, 0);
   int nb = omp_get_max_threads();
-  born_list *list = calloc((size_t)nb, sizeof *list);
-  /* per block: its first vertex, and where its UVs and normals go */
-  int *first_vertex = calloc(3 * ((size_t)nb + 1), sizeof *first_vertex);
-  int *uv_at = first_vertex ? first_vertex + nb + 1 : NULL, *normal_at = uv_at ? uv_at + nb + 1 : NULL;
-  if (!m->face_start || !m->corner_uv || !m->corner_normal || !start || !order || !list || !first_vertex) goto nomem;
+  /* per block: its first vertex and first corner; the UVs and normals it
+   * makes, and where they go */
+  int *block = calloc(6 * ((size_t)nb + 1), sizeof *block);
+  int *first_vertex = block, *first_corner = block + (nb + 1), *made_uvs = block + 2 * (nb + 1);
+  int *uv_at = block + 3 * (nb + 1), *made_normals = block + 4 * (nb + 1), *normal_at = block + 5 * (nb + 1);
+  uint64_t **groups = calloc((size_t)nb, sizeof *groups); /* per block: a vertex's normals' groups */
+  if (!m->face_start || !m->corner_uv || !m->corner_normal || !start || !order || !block || !groups) goto nomem;
 #pragma omp parallel for schedule(static)
   for (int t = 0; t < o->ntri; t++) m->face_start[t] = 3 * t;
   m->face_start[o->ntri] = (int)nc;
@@ -618,13 +652,22 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
     while (p < o->npos && (size_t)start[p] < want) p++;
     first_vertex[b] = b == nb ? o->npos : p;
   }
+  int most = 1;
+  for (int p = 0; p < o->npos; p++) most = start[p + 1] - start[p] > most ? start[p + 1] - start[p] : most;
+  for (int b = 0; b <= nb; b++) first_corner[b] = start[first_vertex[b]];
+  for (int b = 0; b < nb; b++)
+    if (!(groups[b] = malloc((size_t)most * sizeof *groups[b]))) goto nomem;
+  /* (as many as the corners at most: the pages past the UVs made are
+   * never touched; the blocks then close ranks and the rest is given
+   * back) */
+  m->uvs = ch_alloc_large(2 * (nc ? nc : 1), sizeof *m->uvs, 0);
+  if (!m->uvs) goto nomem;
 #pragma omp parallel for schedule(static, 1) num_threads(nb)
-  for (int b = 0; b < nb; b++) born_block(o, thin, start, order, first_vertex[b], first_vertex[b + 1], m, &list[b]);
-  int failed = 0;
-  for (int b = 0; b < nb; b++) failed |= list[b].failed;
-  if (failed) goto nomem;
-  free(o->group);
-  o->group = NULL;
+  for (int b = 0; b < nb; b++)
+    made_uvs[b] = uv_block(o, start, order, first_vertex[b], first_vertex[b + 1], first_corner[b], m, groups[b],
+                           &made_normals[b]);
+  close_ranks(&m->uvs, 2, nb, first_corner, made_uvs, uv_at);
+  m->num_uvs = uv_at[nb];
   free(o->corner_uv);
   free(o->extra_uv);
   free(o->vertex_uv);
@@ -632,65 +675,42 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   o->extra_uv = NULL;
   o->vertex_uv = NULL;
   o->nextra = 0;
-  /* The lists joined, in block order. */
-  for (int b = 0; b < nb; b++) {
-    uv_at[b + 1] = uv_at[b] + list[b].nuv;
-    normal_at[b + 1] = normal_at[b] + list[b].nnormal;
-  }
-  m->num_uvs = uv_at[nb];
+  /* The normals, counted: their array where o's UVs were. */
+  normal_at[0] = 0;
+  for (int b = 0; b < nb; b++) normal_at[b + 1] = normal_at[b] + made_normals[b];
   m->num_normals = normal_at[nb];
-  m->uvs = ch_alloc_large(2 * (size_t)(m->num_uvs > 0 ? m->num_uvs : 1), sizeof *m->uvs, 0);
   m->normals = ch_alloc_large(3 * (size_t)(m->num_normals > 0 ? m->num_normals : 1), sizeof *m->normals, 0);
-  if (!m->uvs || !m->normals) goto nomem;
+  if (!m->normals) goto nomem;
 #pragma omp parallel for schedule(static, 1) num_threads(nb)
-  for (int b = 0; b < nb; b++) {
-    born_list *l = &list[b];
-    memcpy(&m->uvs[2 * (size_t)uv_at[b]], l->uvs, 2 * (size_t)l->nuv * sizeof *l->uvs);
-    for (int i = 0; i < l->nnormal; i++) {
-      const double *s = &l->normals[3 * (size_t)i];
-      double *n = &m->normals[3 * ((size_t)normal_at[b] + (size_t)i)], len = sqrt(ch_dot3(s, s));
-      if (len > 0.0) {
-        for (int k = 0; k < 3; k++) n[k] = s[k] / len;
-      } else {
-        n[0] = n[1] = 0.0;
-        n[2] = 1.0; /* only zero-area triangles here: any unit vector */
-      }
-    }
-    free(l->uvs);
-    free(l->normals);
-    free(l->group);
-    l->uvs = l->normals = NULL;
-    l->group = NULL;
-  }
-  /* Each corner's numbers from its block's to the mesh's. */
+  for (int b = 0; b < nb; b++)
+    normal_block(o, thin, start, order, first_vertex[b], first_vertex[b + 1], normal_at[b], m, groups[b]);
+  free(o->group);
+  o->group = NULL;
+  /* Each corner's UV from where its block wrote it to where it landed. */
   if (nb > 1) {
 #pragma omp parallel for schedule(static)
     for (size_t c = 0; c < nc; c++) {
       int v = o->tri[c], b = 0;
       while (v >= first_vertex[b + 1]) b++;
-      m->corner_uv[c] += uv_at[b];
-      m->corner_normal[c] += normal_at[b];
+      m->corner_uv[c] -= first_corner[b] - uv_at[b];
     }
   }
+  for (int b = 0; b < nb; b++) free(groups[b]);
+  free(groups);
   free(start);
   free(order);
-  free(list);
-  free(first_vertex); /* (and uv_at, normal_at) */
+  free(block);
   /* The triangles' corners are the mesh's corners, in the same order. */
   m->corner_position = o->tri;
   o->tri = NULL;
   return CH_OK;
 nomem:
-  if (list)
-    for (int b = 0; b < nb; b++) {
-      free(list[b].uvs);
-      free(list[b].normals);
-      free(list[b].group);
-    }
+  if (groups)
+    for (int b = 0; b < nb; b++) free(groups[b]);
+  free(groups);
   free(start);
   free(order);
-  free(list);
-  free(first_vertex);
+  free(block);
   m->positions = NULL; /* still o's */
   ch_mesh_free(m);
   return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the output mesh");
