@@ -1,6 +1,7 @@
 #define _GNU_SOURCE
 #include "ch_alloc.h"
 
+#include <omp.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,7 +35,18 @@ void *ch_alloc_large(size_t count, size_t size, int zero) {
   void *p = malloc(bytes);
   if (!p) return NULL;
   advise_huge(p, bytes);
-  if (zero) memset(p, 0, bytes);
+  if (zero) {
+    /* On all threads, a huge page at a time: zeroing is where the pages
+     * are first touched, and their faults cost more than the writes (a
+     * third of the page clearing of a 2.1M-triangle run was the
+     * tessellation's arrays, zeroed on one thread). */
+    size_t chunks = (bytes + HUGE_PAGE - 1) / HUGE_PAGE;
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < chunks; i++) {
+      size_t from = i * HUGE_PAGE, n = bytes - from < HUGE_PAGE ? bytes - from : HUGE_PAGE;
+      memset((char *)p + from, 0, n);
+    }
+  }
   return p;
 }
 
