@@ -566,7 +566,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   double cap = desc && desc->max_triangles > 0 ? (double)desc->max_triangles
                                                : MAX_REFINED_PER_BASE * (double)base_faces + MAX_REFINED_EXTRA;
   /* Local refinement until every triangle's crossings pair into chords. */
-  int labelled = 0, crossed = 0;
+  int labelled = 0, crossed = 0, last_split = 0;
   for (int round = 0;; round++) {
     double ta = omp_get_wtime();
     report(desc, pilot, round, "labels", -1.0);
@@ -574,10 +574,15 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     labelled = w.nverts;
     double tb = omp_get_wtime();
     if (round == 0 && (st = ch_refine_build_edges(&w, err))) goto done;
+    /* The last split's halves take their edges' crossings: about half of
+     * a round's new edges, searched again before. */
+    int oom = 0;
+#pragma omp parallel for schedule(dynamic, 256) reduction(| : oom)
+    for (int i = 0; i < last_split; i++) oom |= ch_refine_inherit_crossings(&lb, &w, split_edges[i], delta) != 0;
+    if (oom) goto nomem;
     double tc = omp_get_wtime();
     stats.seconds_labels += tb - ta;
     stats.seconds_edges += tc - tb;
-    int oom = 0;
     if (sampled) {
       unsigned char *es = realloc(edge_sampled, (size_t)(w.nedges > 0 ? w.nedges : 1));
       if (!es) goto nomem;
@@ -649,6 +654,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     stats.refine_rounds = round + 1;
     stats.refined_edges += split;
     if ((st = ch_refine_split(&w, split_edges, split, &fresh, err))) goto done;
+    last_split = split;
     stats.seconds_split += omp_get_wtime() - te;
   }
   double t1 = omp_get_wtime();

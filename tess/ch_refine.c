@@ -777,6 +777,87 @@ void ch_refine_locate_new(ch_refine_mesh *w, int from) {
   for (int v = from; v < w->nverts; v++) ch_refine_locate_st(w->surface, w->verts[v].face, w->verts[v].uv, w->verts[v].st);
 }
 
+int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i, double delta) {
+  ch_refine_edge *e = &w->edges[i];
+  int n = e->ncross, ok = e->mid >= 0 && n >= 0 && n < MAX_NODES;
+  /* (a crossing at the midpoint itself: neither half's alone) */
+  for (int c = 0; c < n && ok; c++) ok = !(fabs(e->cross[c].x - 0.5) < 1e-9);
+  for (int j = 0; j < 2 && ok; j++) {
+    ch_refine_edge *h = &w->edges[e->half[j]];
+    if (h->ncross >= 0 || h->tri < 0) continue;
+    const ch_refine_tri *T = &w->tris[h->tri];
+    const double *mid = w->verts[e->mid].uv;
+    int ka, kb;
+    edge_corners(w, h, &ka, &kb);
+    /* In the split edge's chart (the midpoint's UV was made in it), and
+     * its end labelled in it too. */
+    if (T->uv[kb][0] != mid[0] || T->uv[kb][1] != mid[1] || ch_refine_on_seam(w, h->a, T->uv[ka])) continue;
+    ch_refine_crossing list[MAX_NODES];
+    int count = 0, chain = 1;
+    uint64_t at = w->verts[h->a].label;
+    for (int c = 0; c < n; c++) {
+      /* half 0 runs from a to the midpoint, half 1 from b: backwards */
+      const ch_refine_crossing *x = &e->cross[j ? n - 1 - c : c];
+      if (j ? !(x->x > 0.5) : !(x->x < 0.5)) continue;
+      ch_refine_crossing *y = &list[count++];
+      *y = *x;
+      if (j) {
+        y->x = 2.0 * (1.0 - x->x); /* (exact: 1 - x for x in [0.5, 1] is) */
+        y->la = x->lb, y->lb = x->la;
+        y->ha = x->hb, y->hb = x->ha;
+      } else {
+        y->x = 2.0 * x->x;
+      }
+      if (y->la != at) {
+        chain = 0;
+        break;
+      }
+      at = y->lb;
+    }
+    if (!chain || at != w->verts[e->mid].label) continue; /* the labels tell another story: searched afresh */
+    /* The half's own samples, where the search would read them, must see
+     * the pieces the list says: a piece between two of the split edge's
+     * samples that its search missed may show at these, and only a search
+     * finds it (each level of refinement samples anew). */
+    span sp = {.a = {T->uv[ka][0], T->uv[ka][1]}, .b = {T->uv[kb][0], T->uv[kb][1]}};
+    if (ch_label_quiet(lb, sp.a) && ch_label_quiet(lb, sp.b)) continue; /* (the search's at once) */
+    double len = ch_dist2d(sp.b[0] - sp.a[0], sp.b[1] - sp.a[1]);
+    int ns = (int)ceil(len / delta), next = 0;
+    ns = ns < 2 ? 2 : ns > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : ns;
+    uint64_t piece = w->verts[h->a].label, before = piece;
+    for (int k = 1; k <= ns && chain; k++) {
+      double x = (double)k / ns;
+      int first = next;
+      while (next < count && list[next].x < x) piece = list[next++].lb;
+      /* (a sample on a crossing, to its bracket: the search's call) */
+      if ((next < count && list[next].x - x < 1e-9) || (next > 0 && x - list[next - 1].x < 1e-9)) {
+        chain = 0;
+      } else {
+        uint64_t here = k == ns ? piece : span_label(lb, &sp, x); /* (the midpoint's: checked above) */
+        /* and between two samples of one piece the search looks no
+         * further: a way out and back found between the split edge's
+         * samples is not the half's (kept, it is split for ever) */
+        chain = here == piece && !(here == before && next > first);
+        before = here;
+      }
+    }
+    if (!chain) continue;
+    h->cross = NULL;
+    h->ncross = 0;
+    if (count > 0) {
+      if (!(h->cross = malloc((size_t)count * sizeof *h->cross))) return -1;
+      memcpy(h->cross, list, (size_t)count * sizeof *h->cross);
+      h->ncross = count;
+    }
+  }
+  if (e->cross) { /* (as ch_refine_split left them before) */
+    free(e->cross);
+    e->cross = NULL;
+    e->ncross = 0;
+  }
+  return 0;
+}
+
 /* A corner of a child triangle: a corner of its parent (tag 0-2) or the
  * midpoint of the parent's edge k (tag 3 + k). */
 typedef struct corner_ref {
@@ -957,15 +1038,8 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
       }
     }
   }
-  /* The split edges are gone from the mesh. */
-#pragma omp parallel for schedule(static)
-  for (int i = 0; i < nsplit; i++) {
-    ch_refine_edge *e = &w->edges[split_edges[i]];
-    if (!e->cross) continue;
-    free(e->cross);
-    e->cross = NULL;
-    e->ncross = 0;
-  }
+  /* The split edges are gone from the mesh; their crossings stay for their
+   * halves (ch_refine_inherit_crossings). */
   free(edge_split);
   free(parent);
   free(first);

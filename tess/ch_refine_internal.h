@@ -161,9 +161,22 @@ void ch_refine_locate_new(ch_refine_mesh *w, int from);
  * edge gives way to its halves, each parent gets as many new inner edges
  * as it has split edges), so a round costs what it changes, not the size
  * of the mesh. split_edges: the nsplit edges given midpoints since the
- * last split. The result does not depend on the thread count. fresh[t]
+ * last split (their crossings are kept for ch_refine_inherit_crossings).
+ * The result does not depend on the thread count. fresh[t]
  * (resized with the triangles) tells the children from the untouched. */
 ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit, unsigned char **fresh, ch_error *err);
+
+/* The crossings of split edge i's halves from its own (ch_refine_split
+ * keeps them for this), which are then freed. A half takes those on its
+ * side, at twice the fraction from its end, where it lies in the split
+ * edge's chart, its end is on no UV seam, they lead from its end's label
+ * to the midpoint's, and the labels at the half's own samples (delta
+ * apart, as ch_refine_crossings reads them) are the pieces they say: the
+ * points the search would find (to its tolerance), without narrowing to
+ * each again. Other halves are left to
+ * ch_refine_crossings (ncross -1). Call once the midpoints are labelled.
+ * 0, or -1 out of memory. */
+int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i, double delta);
 
 /* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
 void ch_refine_edge_point(const ch_refine_mesh *w, const ch_refine_edge *e, double x, double uv[2], double st[2]);
