@@ -647,6 +647,20 @@ int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
  * the edge, and the search goes on from there, so lines closer together
  * than the samples (the break lines near a u groove's rim) are all found.
  * h is read on both sides. */
+/* Gives e an array of exactly the count crossings of list: edges hold
+ * their crossings until the cut, and a per-edge array grown by doubling
+ * from a large first capacity took gigabytes. 0, or -1 out of memory. */
+static int keep_crossings(ch_refine_edge *e, const ch_refine_crossing *list, int count) {
+  e->cross = NULL;
+  e->ncross = 0;
+  if (count > 0) {
+    if (!(e->cross = malloc((size_t)count * sizeof *e->cross))) return -1;
+    memcpy(e->cross, list, (size_t)count * sizeof *e->cross);
+    e->ncross = count;
+  }
+  return 0;
+}
+
 int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refine_edge *e, double delta) {
   /* (from the canonical triangle's corners: ch_refine_edge_point's points) */
   const ch_refine_tri *T = &w->tris[e->tri];
@@ -672,9 +686,8 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
    * rest (a third sample more made no difference on the bundled sets). */
   n = n < 2 ? 2 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
   /* Crossings gather in a buffer on the stack (most edges have a few; the
-   * search stops at MAX_NODES), and the edge keeps an array of exactly its
-   * count: edges hold the crossings until the cut, and a per-edge array
-   * grown by doubling from a large first capacity took gigabytes. */
+   * search stops at MAX_NODES), and the edge keeps exactly its count
+   * (keep_crossings). */
   ch_refine_crossing list[MAX_NODES];
   int count = 0;
   double x0 = 0.0;
@@ -728,14 +741,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
         break;
       }
   }
-  e->cross = NULL;
-  e->ncross = 0;
-  if (count > 0) {
-    if (!(e->cross = malloc((size_t)count * sizeof *e->cross))) return -1;
-    memcpy(e->cross, list, (size_t)count * sizeof *e->cross);
-    e->ncross = count;
-  }
-  return 0;
+  return keep_crossings(e, list, count);
 }
 
 void ch_refine_label_vertices(const ch_label_ctx *lb, ch_refine_mesh *w, int from) {
@@ -842,13 +848,7 @@ int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i
       }
     }
     if (!chain) continue;
-    h->cross = NULL;
-    h->ncross = 0;
-    if (count > 0) {
-      if (!(h->cross = malloc((size_t)count * sizeof *h->cross))) return -1;
-      memcpy(h->cross, list, (size_t)count * sizeof *h->cross);
-      h->ncross = count;
-    }
+    if (keep_crossings(h, list, count)) return -1;
   }
   if (e->cross) { /* (as ch_refine_split left them before) */
     free(e->cross);
