@@ -16,7 +16,9 @@
  *   the groove, and two points share a label exactly when they lie on the
  *   same half of the v (t < 0 or t > 0, its break at 0);
  * - away from both: label 0, and a quiet cell never holds a label;
- * - h of a point's own piece, read there, is h. */
+ * - h of a point's own piece, read there, is h.
+ * And the crossings a split edge's halves take from it (the refinement's,
+ * built on these labels) against the search and the labels themselves. */
 #include <math.h>
 #include <string.h>
 
@@ -24,6 +26,7 @@
 #include "ch_height.h"
 #include "ch_label_internal.h"
 #include "ch_math.h"
+#include "ch_refine_internal.h"
 #include "ch_test.h"
 
 static const char svg[] =
@@ -265,11 +268,115 @@ static void test_mirrored_tie(void) {
   scene_close(&sc);
 }
 
+/* The pieces a crossing list says lie along a half (from its end's label,
+ * one list entry at a time) against the labels read at n points along it,
+ * skipping points within 1e-9 of a crossing: how many disagree. */
+static int list_mismatches(const ch_label_ctx *lb, const double a[2], const double b[2], uint64_t la,
+                           const ch_refine_edge *e, int n) {
+  int bad = 0, next = 0;
+  uint64_t piece = la;
+  for (int i = 1; i < n; i++) {
+    double x = (double)i / n, uv[2];
+    while (next < e->ncross && e->cross[next].x < x) piece = e->cross[next++].lb;
+    if ((next < e->ncross && e->cross[next].x - x < 1e-9) || (next > 0 && x - e->cross[next - 1].x < 1e-9)) continue;
+    ch_refine_lerp2(a, b, x, uv);
+    bad += ch_label_at(lb, uv) != piece;
+  }
+  return bad;
+}
+
+/* A split edge's halves take its crossings (ch_refine_inherit_crossings)
+ * only where they are right: on random edges over a curved u groove (its
+ * many close lines) crossing a v groove, and a step circle, each
+ * inherited list is the search's own on that half (the same crossings
+ * and labels, the points to 1e-9 of the half, heights to 1e-6 (h is read
+ * 1e-12 of the edge inside each piece: beside a u groove's vertical rim
+ * that is h to 1e-8) and the same walls), or differs where the labels
+ * read at 400 points along the half (an independent reading, finer than
+ * any piece here) contradict the search's list, and contradict the
+ * inherited one no more (the search runs a u groove's lines by their
+ * level function and can step over the other groove between two of its
+ * samples). Most halves must inherit (the check is not vacuous). */
+static void test_inherited_crossings(void) {
+  static const char scene[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<path d='M 5 60 Q 50 0 95 60' data-profile='u' data-width='10' data-depth='0.02'/>"
+      "<path d='M -10 30 L 110 34' data-profile='v' data-width='8' data-depth='0.02'/>"
+      "<circle cx='50' cy='70' r='15' data-kind='step' data-left='0.01' data-right='0.03'/>"
+      "</svg>";
+  label_scene sc;
+  double edge = 0.02;
+  CHECK(scene_open(&sc, scene, "inherit.svg", 4.0 * edge, edge));
+  if (!sc.set.num_curves) return;
+  sc.lb.junction_size = edge / 8.0;
+  sc.lb.wall_tol = 1e-5 * 0.03 + 1e-12; /* (the embedding's: 1e-5 of the largest |h| a curve sets) */
+  double delta = 0.25 * 0.08;           /* a quarter of the thinnest groove, as the embedding's */
+  int halves = 0, inherited = 0, differ = 0, worse = 0, search_right = 0, crossings = 0;
+  for (int trial = 0; trial < 1500; trial++) {
+    /* vertices a, b, a third corner c, and the midpoint m (numbered after
+     * them, as ch_refine_add_midpoint does); the split edge a-b in T0,
+     * its halves a-m in T1 and b-m in T2, one chart */
+    ch_refine_vert v[4];
+    memset(v, 0, sizeof v);
+    double len = 0.02 + 0.2 * ch_test_rnd(), ang = 2.0 * CH_PI * ch_test_rnd();
+    v[0].uv[0] = 0.05 + 0.9 * ch_test_rnd(), v[0].uv[1] = 0.05 + 0.9 * ch_test_rnd();
+    v[1].uv[0] = v[0].uv[0] + len * cos(ang), v[1].uv[1] = v[0].uv[1] + len * sin(ang);
+    v[2].uv[0] = v[0].uv[0] - len * sin(ang), v[2].uv[1] = v[0].uv[1] + len * cos(ang);
+    ch_refine_lerp2(v[0].uv, v[1].uv, 0.5, v[3].uv);
+    for (int i = 0; i < 4; i++) v[i].label = ch_label_quiet(&sc.lb, v[i].uv) ? 0 : ch_label_at(&sc.lb, v[i].uv);
+    ch_refine_tri t[3] = {{.v = {0, 1, 2}}, {.v = {0, 3, 2}}, {.v = {1, 3, 2}}};
+    for (int i = 0; i < 3; i++)
+      for (int k = 0; k < 3; k++) memcpy(t[i].uv[k], v[t[i].v[k]].uv, sizeof t[i].uv[k]);
+    ch_refine_edge e[3] = {{.a = 0, .b = 1, .tri = 0, .k = 0, .ncross = -1, .mid = 3, .half = {1, 2}},
+                           {.a = 0, .b = 3, .tri = 1, .k = 0, .ncross = -1, .mid = -1},
+                           {.a = 1, .b = 3, .tri = 2, .k = 0, .ncross = -1, .mid = -1}};
+    ch_refine_mesh w = {.verts = v, .nverts = 4, .tris = t, .ntris = 3, .edges = e, .nedges = 3};
+    CHECK(ch_refine_crossings(&sc.lb, &w, &e[0], delta) == 0);
+    crossings += e[0].ncross;
+    CHECK(ch_refine_inherit_crossings(&sc.lb, &w, 0, delta) == 0);
+    CHECK(e[0].ncross <= 0 && !e[0].cross); /* (the split edge's are spent) */
+    for (int j = 1; j <= 2; j++) {
+      halves++;
+      if (e[j].ncross < 0) continue; /* left to the search */
+      inherited++;
+      const double *a = v[e[j].a].uv, *b = v[3].uv;
+      ch_refine_edge fresh = e[j];
+      fresh.ncross = -1;
+      fresh.cross = NULL;
+      CHECK(ch_refine_crossings(&sc.lb, &w, &fresh, delta) == 0);
+      int same = fresh.ncross == e[j].ncross;
+      for (int c = 0; c < e[j].ncross && same; c++) {
+        const ch_refine_crossing *x = &e[j].cross[c], *y = &fresh.cross[c];
+        int wall_x = !(fabs(x->ha - x->hb) <= sc.lb.wall_tol), wall_y = !(fabs(y->ha - y->hb) <= sc.lb.wall_tol);
+        same = fabs(x->x - y->x) < 1e-9 && x->la == y->la && x->lb == y->lb && fabs(x->ha - y->ha) < 1e-6 &&
+               fabs(x->hb - y->hb) < 1e-6 && wall_x == wall_y;
+      }
+      if (!same) {
+        int bad = list_mismatches(&sc.lb, a, b, v[e[j].a].label, &e[j], 400);
+        int search_bad = list_mismatches(&sc.lb, a, b, v[e[j].a].label, &fresh, 400);
+        differ++;
+        worse += bad > search_bad;
+        search_right += search_bad == 0;
+      }
+      free(fresh.cross);
+      free(e[j].cross);
+    }
+  }
+  CHECK_MSG(worse == 0 && search_right == 0,
+            "%d inherited lists differ from the search's: %d disagree more with the labels, %d where the search's "
+            "agrees with them",
+            differ, worse, search_right);
+  CHECK_MSG(inherited > halves / 2 && crossings > 1500, "%d of %d halves inherited, %d crossings", inherited, halves,
+            crossings);
+  scene_close(&sc);
+}
+
 int main(void) {
   RUN(test_labels);
   RUN(test_crossing_loops);
   RUN(test_nested_loops);
   RUN(test_hidden_caps);
   RUN(test_mirrored_tie);
+  RUN(test_inherited_crossings);
   TEST_MAIN_END();
 }
