@@ -840,10 +840,13 @@ int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i
         chain = 0;
       } else {
         uint64_t here = k == ns ? piece : span_label(lb, &sp, x); /* (the midpoint's: checked above) */
-        /* and between two samples of one piece the search looks no
-         * further: a way out and back found between the split edge's
-         * samples is not the half's (kept, it is split for ever) */
+        /* and between two samples the search stops at the first change
+         * into the far sample's piece (none where both read one piece): a
+         * way out and back the split edge's search found between its
+         * samples is not the half's (kept, the triangle is split for
+         * ever, or cut against neighbours that do not have it) */
         chain = here == piece && !(here == before && next > first);
+        for (int c = first; c + 1 < next && chain; c++) chain = list[c].lb != here;
         before = here;
       }
     }
