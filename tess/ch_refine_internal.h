@@ -170,12 +170,13 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
  * keeps them for this), which are then freed. A half takes those on its
  * side, at twice the fraction from its end, where it lies in the split
  * edge's chart, its end is on no UV seam, they lead from its end's label
- * to the midpoint's, and the labels at the half's own samples (delta
- * apart, as ch_refine_crossings reads them) are the pieces they say: the
- * points the search would find (to its tolerance), without narrowing to
- * each again. Other halves are left to
- * ch_refine_crossings (ncross -1). Call once the midpoints are labelled.
- * 0, or -1 out of memory. */
+ * to the midpoint's, the labels at the half's own samples (delta apart,
+ * as ch_refine_crossings reads them) are the pieces they say, and between
+ * two samples they go as the search goes (none between two of one piece,
+ * none into the far sample's piece but the last): the points the search
+ * would find (to its tolerance), without narrowing to each again. Other
+ * halves are left to ch_refine_crossings (ncross -1). Call once the
+ * midpoints are labelled. 0, or -1 out of memory. */
 int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i, double delta);
 
 /* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
