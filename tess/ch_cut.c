@@ -545,6 +545,15 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
  * serial pass and the sums a random walk of every corner's arrays of
  * their own. */
 
+/* Where group g's normal is among the k (*k) of the vertex at hand, in
+ * groups; a new one is added last. */
+static int group_slot(uint64_t *groups, int *k, uint64_t g) {
+  int j = 0;
+  while (j < *k && groups[j] != g) j++;
+  if (j == *k) groups[(*k)++] = g;
+  return j;
+}
+
 /* The first walk over vertices [v0, v1), writing from UV `at`; returns the
  * UVs it made, and *normals the normals the second walk will make (one per
  * group at each vertex). groups: room for the largest vertex's corners. */
@@ -555,7 +564,7 @@ static int uv_block(const ch_cut_out *o, const int *start, const int *order, int
     int first = -1, k = 0;
     const double *fuv = NULL;
     for (int i = start[p]; i < start[p + 1]; i++) {
-      int c = order[i], j = 0;
+      int c = order[i];
       const double *uv = ch_cut_out_uv(o, (size_t)c);
       if (first < 0 || fuv[0] != uv[0] || fuv[1] != uv[1]) {
         memcpy(&m->uvs[2 * (size_t)n], uv, 2 * sizeof *uv);
@@ -564,9 +573,7 @@ static int uv_block(const ch_cut_out *o, const int *start, const int *order, int
       } else {
         m->corner_uv[c] = first;
       }
-      uint64_t g = o->group[c / 3];
-      while (j < k && groups[j] != g) j++;
-      if (j == k) groups[k++] = g;
+      group_slot(groups, &k, o->group[c / 3]);
     }
     count += k;
   }
@@ -581,26 +588,16 @@ static void normal_block(const ch_cut_out *o, double thin, const int *start, con
   for (int p = v0; p < v1; p++) {
     int k = 0;
     for (int i = start[p]; i < start[p + 1]; i++) {
-      int c = order[i], j = 0;
-      uint64_t g = o->group[c / 3];
-      while (j < k && groups[j] != g) j++;
+      int c = order[i], born = k, j = group_slot(groups, &k, o->group[c / 3]);
       double *sum = &m->normals[3 * (size_t)(n + j)], wc[3];
-      if (j == k) { /* born here (the sum starts from +0, as it always did) */
-        groups[k++] = g;
-        sum[0] = sum[1] = sum[2] = 0.0;
-      }
+      if (j == born) sum[0] = sum[1] = sum[2] = 0.0; /* (the sum starts from +0, as it always did) */
       corner_weight(o, thin, (size_t)c / 3, c % 3, wc);
       for (int x = 0; x < 3; x++) sum[x] += wc[x];
       m->corner_normal[c] = n + j;
     }
     for (int j = 0; j < k; j++) {
-      double *s = &m->normals[3 * (size_t)(n + j)], len = sqrt(ch_dot3(s, s));
-      if (len > 0.0) {
-        for (int x = 0; x < 3; x++) s[x] = s[x] / len;
-      } else {
-        s[0] = s[1] = 0.0;
-        s[2] = 1.0; /* only zero-area triangles here: any unit vector */
-      }
+      double *s = &m->normals[3 * (size_t)(n + j)];
+      if (!ch_normalize3(s)) s[0] = s[1] = 0.0, s[2] = 1.0; /* only zero-area triangles here: any unit vector */
     }
     n += k;
   }

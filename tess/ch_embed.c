@@ -574,15 +574,15 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     labelled = w.nverts;
     double tb = omp_get_wtime();
     if (round == 0 && (st = ch_refine_build_edges(&w, err))) goto done;
+    double tc = omp_get_wtime();
+    stats.seconds_labels += tb - ta;
+    stats.seconds_edges += tc - tb;
     /* The last split's halves take their edges' crossings: about half of
      * a round's new edges, searched again before. */
     int oom = 0;
 #pragma omp parallel for schedule(dynamic, 256) reduction(| : oom)
     for (int i = 0; i < last_split; i++) oom |= ch_refine_inherit_crossings(&lb, &w, split_edges[i], delta) != 0;
     if (oom) goto nomem;
-    double tc = omp_get_wtime();
-    stats.seconds_labels += tb - ta;
-    stats.seconds_edges += tc - tb;
     if (sampled) {
       unsigned char *es = realloc(edge_sampled, (size_t)(w.nedges > 0 ? w.nedges : 1));
       if (!es) goto nomem;

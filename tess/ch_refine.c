@@ -641,12 +641,6 @@ int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
   return fabs(w->verts[v].uv[0] - uv[0]) > 1e-9 || fabs(w->verts[v].uv[1] - uv[1]) > 1e-9;
 }
 
-/* Every boundary between pieces along e. Labels are sampled about delta
- * apart; from each sample whose label differs from the next, bisection
- * (in the bracket a fast path narrowed) finds a change to CROSSING_TOL of
- * the edge, and the search goes on from there, so lines closer together
- * than the samples (the break lines near a u groove's rim) are all found.
- * h is read on both sides. */
 /* Gives e an array of exactly the count crossings of list: edges hold
  * their crossings until the cut, and a per-edge array grown by doubling
  * from a large first capacity took gigabytes. 0, or -1 out of memory. */
@@ -661,6 +655,24 @@ static int keep_crossings(ch_refine_edge *e, const ch_refine_crossing *list, int
   return 0;
 }
 
+/* How many parts the search samples an edge of UV length len in: about
+ * delta long, at least two (at least the midpoint: short edges cross
+ * lines one after the other, which the ends' labels show; a midpoint
+ * catches most slivers a triangle's corners miss, and the refinement's
+ * hidden-piece check the rest; a third sample more made no difference on
+ * the bundled sets). The halves that take their crossings check them at
+ * the same samples. */
+static int edge_samples(double len, double delta) {
+  int n = (int)ceil(len / delta);
+  return n < 2 ? 2 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
+}
+
+/* Every boundary between pieces along e. Labels are sampled about delta
+ * apart; from each sample whose label differs from the next, bisection
+ * (in the bracket a fast path narrowed) finds a change to CROSSING_TOL of
+ * the edge, and the search goes on from there, so lines closer together
+ * than the samples (the break lines near a u groove's rim) are all found.
+ * h is read on both sides. */
 int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refine_edge *e, double delta) {
   /* (from the canonical triangle's corners: ch_refine_edge_point's points) */
   const ch_refine_tri *T = &w->tris[e->tri];
@@ -678,13 +690,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
     e->cross = NULL;
     return 0;
   }
-  double len = ch_dist2d(pb[0] - pa[0], pb[1] - pa[1]);
-  int n = (int)ceil(len / delta);
-  /* At least the midpoint: short edges cross lines one after the other,
-   * which the ends' labels show; a midpoint catches most slivers a
-   * triangle's corners miss, and the refinement's hidden-piece check the
-   * rest (a third sample more made no difference on the bundled sets). */
-  n = n < 2 ? 2 : n > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : n;
+  int n = edge_samples(ch_dist2d(pb[0] - pa[0], pb[1] - pa[1]), delta);
   /* Crossings gather in a buffer on the stack (most edges have a few; the
    * search stops at MAX_NODES), and the edge keeps exactly its count
    * (keep_crossings). */
@@ -827,9 +833,7 @@ int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i
      * finds it (each level of refinement samples anew). */
     span sp = {.a = {T->uv[ka][0], T->uv[ka][1]}, .b = {T->uv[kb][0], T->uv[kb][1]}};
     if (ch_label_quiet(lb, sp.a) && ch_label_quiet(lb, sp.b)) continue; /* (the search's at once) */
-    double len = ch_dist2d(sp.b[0] - sp.a[0], sp.b[1] - sp.a[1]);
-    int ns = (int)ceil(len / delta), next = 0;
-    ns = ns < 2 ? 2 : ns > MAX_EDGE_SAMPLES ? MAX_EDGE_SAMPLES : ns;
+    int ns = edge_samples(ch_dist2d(sp.b[0] - sp.a[0], sp.b[1] - sp.a[1]), delta), next = 0;
     uint64_t piece = w->verts[h->a].label, before = piece;
     for (int k = 1; k <= ns && chain; k++) {
       double x = (double)k / ns;
