@@ -5,6 +5,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <fcntl.h>
 #include <float.h>
+#include <omp.h>
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -803,6 +804,158 @@ static void test_remove_pillows(void) {
   CHECK(ch_mesh_remove_pillows(&s.m) == 0 && s.m.num_faces == 3);
 }
 
+/* A mesh of GRID x GRID unit squares, the triangles a-b-c and a-c-d each
+ * (180000: the collapse and the pillow search split it between threads),
+ * with room for more positions and faces. Corner k's UV index is k and
+ * its normal index 2k + 1, so that a corner moved wrongly shows. */
+enum { GRID = 300, GRID_POSITIONS = (GRID + 1) * (GRID + 1), GRID_FACES = 2 * GRID * GRID };
+
+static void add_face(ch_mesh *m, int a, int b, int c) {
+  int f = m->num_faces++, k = 3 * f;
+  m->corner_position[k] = a;
+  m->corner_position[k + 1] = b;
+  m->corner_position[k + 2] = c;
+  for (int i = k; i < k + 3; i++) {
+    m->corner_uv[i] = i;
+    m->corner_normal[i] = 2 * i + 1;
+  }
+  m->face_start[f] = k;
+  m->face_start[f + 1] = k + 3;
+  m->num_corners = k + 3;
+}
+
+static int add_position(ch_mesh *m, double x, double y, double z) {
+  double *p = &m->positions[3 * m->num_positions];
+  p[0] = x;
+  p[1] = y;
+  p[2] = z;
+  return m->num_positions++;
+}
+
+static void grid_mesh(ch_mesh *m, int more_positions, int more_faces) {
+  memset(m, 0, sizeof *m);
+  size_t corners = 3 * (size_t)(GRID_FACES + more_faces);
+  m->positions = malloc(3 * sizeof *m->positions * (GRID_POSITIONS + more_positions));
+  m->face_start = malloc(sizeof *m->face_start * (GRID_FACES + more_faces + 1));
+  m->corner_position = malloc(sizeof *m->corner_position * corners);
+  m->corner_uv = malloc(sizeof *m->corner_uv * corners);
+  m->corner_normal = malloc(sizeof *m->corner_normal * corners);
+  REQUIRE(m->positions && m->face_start && m->corner_position && m->corner_uv && m->corner_normal);
+  m->face_start[0] = 0;
+  for (int j = 0; j <= GRID; j++)
+    for (int i = 0; i <= GRID; i++) add_position(m, i, j, 0);
+  for (int j = 0; j < GRID; j++)
+    for (int i = 0; i < GRID; i++) {
+      int a = j * (GRID + 1) + i, b = a + 1, c = a + GRID + 2, d = a + GRID + 1;
+      add_face(m, a, b, c);
+      add_face(m, a, c, d);
+    }
+}
+
+/* Whether m is `before` without the faces marked in drop (the others in
+ * their order with their corners' indices), its positions the first
+ * num_positions of before's, corners at positions past them renamed by
+ * rename[p - num_positions]. */
+static int grid_is(const ch_mesh *m, const ch_mesh *before, const unsigned char *drop, int num_positions,
+                   const int *rename) {
+  if (m->num_positions != num_positions ||
+      memcmp(m->positions, before->positions, 3 * sizeof *m->positions * num_positions))
+    return 0;
+  int f2 = 0;
+  for (int f = 0; f < before->num_faces; f++) {
+    if (drop[f]) continue;
+    if (f2 >= m->num_faces || m->face_start[f2] != 3 * f2) return 0;
+    for (int k = 0; k < 3; k++) {
+      int c = 3 * f + k, c2 = 3 * f2 + k, p = before->corner_position[c];
+      if (m->corner_position[c2] != (p < num_positions ? p : rename[p - num_positions]) ||
+          m->corner_uv[c2] != before->corner_uv[c] || m->corner_normal[c2] != before->corner_normal[c])
+        return 0;
+    }
+    f2++;
+  }
+  return f2 == m->num_faces && m->num_corners == 3 * f2 && m->face_start[f2] == 3 * f2;
+}
+
+static void copy_mesh(ch_mesh *to, const ch_mesh *m) {
+  *to = *m;
+  size_t corners = sizeof(int) * (size_t)m->num_corners;
+  to->positions = malloc(3 * sizeof *m->positions * m->num_positions);
+  to->face_start = malloc(sizeof *m->face_start * (m->num_faces + 1));
+  to->corner_position = malloc(corners);
+  to->corner_uv = malloc(corners);
+  to->corner_normal = malloc(corners);
+  REQUIRE(to->positions && to->face_start && to->corner_position && to->corner_uv && to->corner_normal);
+  memcpy(to->positions, m->positions, 3 * sizeof *m->positions * m->num_positions);
+  memcpy(to->face_start, m->face_start, sizeof *m->face_start * (m->num_faces + 1));
+  memcpy(to->corner_position, m->corner_position, corners);
+  memcpy(to->corner_uv, m->corner_uv, corners);
+  memcpy(to->corner_normal, m->corner_normal, corners);
+}
+
+/* On a mesh large enough to be split between threads (and on 1 to 3 of
+ * them): thousands of vertex copies of valence 3 (each at a corner of the
+ * square's first triangle, which it splits) collapse into their originals,
+ * leaving the grid with each such triangle's one face moved to the end;
+ * flaps on diagonals go as pillows, while a reversed copy of a triangle
+ * (the diagonal would be left with one face) and faces with a repeated
+ * corner stay. */
+static void test_collapse_and_pillows_in_parallel(void) {
+  int threads = omp_get_max_threads();
+  enum { STEP = 4, COPIES = (GRID / STEP) * (GRID / STEP) };
+  unsigned char *drop = calloc(GRID_FACES + 2 * COPIES, 1);
+  int *original = malloc(sizeof *original * COPIES);
+  REQUIRE(drop && original);
+  for (int t = 1; t <= 3; t++) {
+    omp_set_num_threads(t);
+    ch_mesh m, before;
+    grid_mesh(&m, COPIES, 2 * COPIES);
+    memset(drop, 0, GRID_FACES + 2 * COPIES);
+    for (int j = 0; j < GRID; j += STEP)
+      for (int i = 0; i < GRID; i += STEP) {
+        int f = 2 * (j * GRID + i), *c = &m.corner_position[3 * f], a = c[0], b = c[1], d = c[2];
+        int v = add_position(&m, i, j, 0);
+        original[v - GRID_POSITIONS] = a;
+        c[2] = v; /* a-b-v, b-d-v, d-a-v: the two faces on a-v go */
+        drop[f] = 1;
+        add_face(&m, b, d, v);
+        add_face(&m, d, a, v);
+        drop[m.num_faces - 1] = 1;
+      }
+    copy_mesh(&before, &m);
+    CHECK_MSG(ch_mesh_collapse_short_edges(&m, 1e-9) == COPIES, "%d threads", t);
+    CHECK_MSG(grid_is(&m, &before, drop, GRID_POSITIONS, original), "%d threads: %d faces, %d positions", t,
+              m.num_faces, m.num_positions);
+    ch_mesh_free(&m);
+    ch_mesh_free(&before);
+
+    enum { FLAP = 6 };
+    int flaps = 0;
+    grid_mesh(&m, COPIES, 2 * COPIES);
+    memset(drop, 0, GRID_FACES + 2 * COPIES);
+    for (int j = 1; j < GRID; j += FLAP)
+      for (int i = 1; i < GRID; i += FLAP) {
+        const int *c = &m.corner_position[6 * (j * GRID + i)];
+        int w = add_position(&m, i + 0.5, j + 0.5, 1);
+        add_face(&m, c[0], c[2], w);
+        drop[m.num_faces - 1] = 1;
+        add_face(&m, c[2], c[0], w);
+        drop[m.num_faces - 1] = 1;
+        flaps++;
+        const int *e = &m.corner_position[6 * (j * GRID + i + 3) + 3]; /* a-c-d, a square on */
+        add_face(&m, e[2], e[1], e[0]);
+        if (i % (2 * FLAP) == 1) add_face(&m, c[1], c[1], c[0]);
+      }
+    copy_mesh(&before, &m);
+    CHECK_MSG(ch_mesh_remove_pillows(&m) == 2 * flaps, "%d threads", t);
+    CHECK_MSG(grid_is(&m, &before, drop, before.num_positions, NULL), "%d threads: %d faces", t, m.num_faces);
+    ch_mesh_free(&m);
+    ch_mesh_free(&before);
+  }
+  omp_set_num_threads(threads);
+  free(drop);
+  free(original);
+}
+
 static void test_nonmanifold(void) {
   ch_mesh m;
   REQUIRE(read_data("nonmanifold.obj", &m, NULL) == CH_OK); /* reported, not fatal */
@@ -1244,6 +1397,7 @@ int main(void) {
   RUN(test_collapse_short_edges);
   RUN(test_collapse_vertex_copies);
   RUN(test_remove_pillows);
+  RUN(test_collapse_and_pillows_in_parallel);
   RUN(test_validate_uv);
   RUN(test_validate_errors);
   RUN(test_obj_round_trip);
