@@ -1,6 +1,7 @@
 /* Collapsing edges shorter than a tolerance, where doing so keeps the mesh
  * manifold (see ch_mesh.h). */
 #include <math.h>
+#include <omp.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,31 +43,99 @@ static int same_corners(const int *c, const int *d) {
   return same;
 }
 
-/* Drops the faces marked in drop, their corners with them, keeping the
- * order of the others. */
-static void drop_faces(ch_mesh *m, const unsigned char *drop) {
-  int f2 = 0;
-  for (int f = 0; f < m->num_faces; f++) {
-    if (drop[f]) continue;
-    for (int k = 0; k < 3; k++) {
-      size_t from = 3 * (size_t)f + k, to = 3 * (size_t)f2 + k;
-      m->corner_position[to] = m->corner_position[from];
-      if (m->corner_uv) m->corner_uv[to] = m->corner_uv[from];
-      if (m->corner_normal) m->corner_normal[to] = m->corner_normal[from];
-    }
-    f2++;
+/* Concatenates the nt lists into *out (NULL when all are empty) and frees
+ * them: the number of items, or -1 when out of memory. Lists that the
+ * threads filled in a loop of schedule(static), which gives thread t the
+ * t-th of contiguous ranges in order (OpenMP 4.5, 2.7.1), so come out in
+ * the serial order. */
+static int concat_lists(vlist *lists, int nt, int **out) {
+  size_t n = 0;
+  for (int t = 0; t < nt; t++) n += (size_t)lists[t].n;
+  int *all = n ? malloc(n * sizeof *all) : NULL;
+  for (int t = 0, at = 0; t < nt; t++) {
+    if (all && lists[t].n) memcpy(&all[at], lists[t].f, (size_t)lists[t].n * sizeof *all);
+    at += lists[t].n;
+    free(lists[t].f);
+    lists[t] = (vlist){0};
   }
+  *out = all;
+  return n && !all ? -1 : (int)n;
+}
+
+/* The number of the sorted values[0..n) below x. */
+static size_t count_below(const int *values, size_t n, size_t x) {
+  size_t lo = 0, hi = n;
+  while (lo < hi) {
+    size_t mid = (lo + hi) / 2;
+    if ((size_t)values[mid] < x)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
+/* Removes the elements at the sorted, distinct indices gone[0..ngone) from
+ * the n elements of size bytes at base, in place, keeping the others'
+ * order: each moves back by the number gone before it. Each thread moves a
+ * contiguous range of those after the first gone; a range's writes reach
+ * back into the previous range's last k elements (k gone before it), which
+ * that range copies aside before anyone writes. So ranges are longer than
+ * ngone, else one thread moves them all (as it does when out of memory). */
+static void remove_elements(void *base, size_t size, size_t n, const int *gone, size_t ngone) {
+  if (!ngone) return;
+  char *a = base;
+  size_t first = (size_t)gone[0], span = n - first;
+  int nt = omp_get_max_threads();
+  if (span / (size_t)nt <= ngone) nt = 1;
+  char *aside = nt > 1 ? malloc((size_t)nt * ngone * size) : NULL;
+  if (!aside) nt = 1;
+#pragma omp parallel num_threads(nt)
+  {
+    size_t nth = (size_t)omp_get_num_threads(), t = (size_t)omp_get_thread_num();
+    size_t lo = first + span * t / nth, hi = first + span * (t + 1) / nth;
+    size_t k = count_below(gone, ngone, lo);
+    /* [risk, hi): what the next range's first writes overwrite */
+    size_t risk = t + 1 < nth ? hi - count_below(gone, ngone, hi) : hi;
+    char *mine = risk < hi ? aside + t * ngone * size : NULL;
+    if (mine) memcpy(mine, a + risk * size, (hi - risk) * size);
+#pragma omp barrier
+    for (size_t i = lo; i < hi;) {
+      /* the run [i, end) of kept elements moves back by k */
+      size_t end = k < ngone && (size_t)gone[k] < hi ? (size_t)gone[k] : hi;
+      size_t in_place = end < risk ? end : risk, aside_from = i > risk ? i : risk;
+      if (i < in_place) memmove(a + (i - k) * size, a + i * size, (in_place - i) * size);
+      if (aside_from < end)
+        memcpy(a + (aside_from - k) * size, mine + (aside_from - risk) * size, (end - aside_from) * size);
+      if (end == hi) break;
+      i = end + 1;
+      k++;
+    }
+  }
+  free(aside);
+}
+
+/* Drops the faces at the sorted, distinct indices gone[0..ngone), their
+ * corners with them, keeping the order of the others. */
+static void drop_faces(ch_mesh *m, const int *gone, size_t ngone) {
+  size_t corners = 3 * sizeof *m->corner_position;
+  remove_elements(m->corner_position, corners, (size_t)m->num_faces, gone, ngone);
+  if (m->corner_uv) remove_elements(m->corner_uv, corners, (size_t)m->num_faces, gone, ngone);
+  if (m->corner_normal) remove_elements(m->corner_normal, corners, (size_t)m->num_faces, gone, ngone);
+  int f2 = m->num_faces - (int)ngone;
   m->num_faces = f2;
   m->num_corners = 3 * f2;
+#pragma omp parallel for schedule(static)
   for (int f = 0; f <= f2; f++) m->face_start[f] = 3 * f;
 }
 
-/* The distinct live neighbours of v, sorted, into out (grown as needed). */
-static int neighbours(const ch_mesh *m, const vlist *inc, const unsigned char *dead, int v, int **out, int *cap) {
+/* The distinct live neighbours of v (incident faces inc), sorted, into out
+ * (grown as needed). */
+static int neighbours(const ch_mesh *m, const vlist *inc, const uint64_t *dead, int v, int **out, int *cap) {
   int n = 0;
-  for (int i = 0; i < inc[v].n; i++) {
-    int f = inc[v].f[i];
-    if (dead[f]) continue;
+  for (int i = 0; i < inc->n; i++) {
+    int f = inc->f[i];
+    if (dead[f >> 6] >> (f & 63) & 1) continue;
     for (int k = 0; k < 3; k++) {
       int w = m->corner_position[3 * (size_t)f + k];
       if (w == v) continue;
@@ -89,66 +158,102 @@ static int neighbours(const ch_mesh *m, const vlist *inc, const unsigned char *d
 
 int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces || !(eps > 0.0)) return 0;
-  int np = m->num_positions, nf = m->num_faces;
+  int np = m->num_positions, nf = m->num_faces, nt = omp_get_max_threads();
   const double *P = m->positions;
-  /* Candidates: edges no longer than eps in every coordinate. */
-  int (*cand)[2] = NULL;
-  size_t nc = 0, cc = 0;
-  for (int f = 0; f < nf; f++)
-    for (int k = 0; k < 3; k++) {
-      int a = m->corner_position[3 * (size_t)f + k], b = m->corner_position[3 * (size_t)f + (k + 1) % 3];
-      const double *pa = &P[3 * (size_t)a], *pb = &P[3 * (size_t)b];
-      if (a == b || fabs(pa[0] - pb[0]) > eps || fabs(pa[1] - pb[1]) > eps || fabs(pa[2] - pb[2]) > eps) continue;
-      if (nc == cc) {
-        size_t c = cc ? 2 * cc : 1024;
-        void *p = realloc(cand, c * sizeof *cand);
-        if (!p) {
-          free(cand);
-          return -1;
-        }
-        cand = p;
-        cc = c;
+  int *cp = m->corner_position;
+  vlist *found = calloc((size_t)nt, sizeof *found);
+  if (!found) return -1;
+  /* Candidates: edges no longer than eps in every coordinate, (low, high):
+   * a pass over every corner's position, on all threads (a few thousand
+   * are found in millions). */
+  int oom = 0;
+#pragma omp parallel num_threads(nt) reduction(| : oom)
+  {
+    vlist *mine = &found[omp_get_thread_num()];
+#pragma omp for schedule(static)
+    for (int f = 0; f < nf; f++) {
+      const int *c = &cp[3 * (size_t)f];
+      for (int k = 0; k < 3; k++) {
+        int a = c[k], b = c[k == 2 ? 0 : k + 1];
+        const double *pa = &P[3 * (size_t)a], *pb = &P[3 * (size_t)b];
+        if (a == b || fabs(pa[0] - pb[0]) > eps || fabs(pa[1] - pb[1]) > eps || fabs(pa[2] - pb[2]) > eps) continue;
+        if (!oom) oom = vlist_push(mine, a < b ? a : b) || vlist_push(mine, a < b ? b : a);
       }
-      cand[nc][0] = a < b ? a : b;
-      cand[nc][1] = a < b ? b : a;
-      nc++;
     }
-  if (nc == 0) return 0;
+  }
+  int(*cand)[2] = NULL;
+  int ncand2 = concat_lists(found, nt, (int **)&cand);
+  if (oom || ncand2 < 0) {
+    free(cand);
+    free(found);
+    return -1;
+  }
+  size_t nc = (size_t)ncand2 / 2;
+  if (nc == 0) {
+    free(found);
+    return 0;
+  }
   qsort(cand, nc, sizeof *cand, cmp_pair);
-  /* Only the candidates' ends are ever read or merged into (map sends a
-   * vertex to another end), so only theirs get incident faces: a list per
-   * vertex of a mesh of millions took most of the time. */
-  vlist *inc = calloc((size_t)np, sizeof *inc);
-  unsigned char *dead = calloc((size_t)nf, 1), *end = calloc((size_t)np, 1);
-  int *map = malloc((size_t)np * sizeof *map);
-  int *na = NULL, *nb = NULL, capa = 0, capb = 0, collapsed = 0, oom = !inc || !dead || !map || !end;
-  for (size_t i = 0; i < nc && !oom; i++) end[cand[i][0]] = end[cand[i][1]] = 1;
-  for (int f = 0; f < nf && !oom; f++)
-    for (int k = 0; k < 3 && !oom; k++) {
-      int v = m->corner_position[3 * (size_t)f + k];
-      if (end[v]) oom |= vlist_push(&inc[v], f);
+  /* Only the candidates' ends are ever read or merged into (merged_into
+   * sends one to another end), so only theirs get incident faces: slot[v]
+   * is 1 + v's number among the ends, 0 for the rest. */
+  int *slot = calloc((size_t)np, sizeof *slot), nends = 0;
+  size_t cap_ends = 2 * nc;
+  vlist *inc = calloc(cap_ends, sizeof *inc), gone_faces = {0}, gone_positions = {0};
+  int *merged_into = malloc(cap_ends * sizeof *merged_into);
+  uint64_t *dead = calloc((size_t)nf / 64 + 1, sizeof *dead);
+  int *na = NULL, *nb = NULL, capa = 0, capb = 0, collapsed = 0;
+  oom = !slot || !inc || !merged_into || !dead;
+  for (size_t i = 0; i < nc && !oom; i++)
+    for (int e = 0; e < 2; e++) {
+      int v = cand[i][e];
+      if (slot[v]) continue;
+      merged_into[nends] = v;
+      slot[v] = ++nends;
     }
-  for (int v = 0; v < np && !oom; v++) map[v] = v;
+  /* Their incident faces, in face order: found on all threads, pushed in
+   * the threads' order. */
+  if (!oom) {
+#pragma omp parallel num_threads(nt) reduction(| : oom)
+    {
+      vlist *mine = &found[omp_get_thread_num()];
+#pragma omp for schedule(static)
+      for (int f = 0; f < nf; f++)
+        for (int k = 0; k < 3; k++) {
+          int s = slot[cp[3 * (size_t)f + k]];
+          if (s && !oom) oom = vlist_push(mine, s - 1) || vlist_push(mine, f);
+        }
+    }
+    int *incident = NULL, ninc2 = concat_lists(found, nt, &incident);
+    oom |= ninc2 < 0;
+    for (int i = 0; i + 1 < ninc2 && !oom; i += 2) oom |= vlist_push(&inc[incident[i]], incident[i + 1]);
+    free(incident);
+  }
+  free(found);
+#define END(v) (&inc[slot[v] - 1])
+#define ROOT(v) merged_into[slot[v] - 1]
+#define DEAD(f) (dead[(f) >> 6] >> ((f)&63) & 1)
   for (size_t i = 0; i < nc && !oom; i++) {
     if (i > 0 && cand[i][0] == cand[i - 1][0] && cand[i][1] == cand[i - 1][1]) continue;
     /* An end already merged away: the edge now joins what it merged into
      * (several lines through one vertex leave several copies of it, and
      * the edge between two of them may exist only once a third is gone). */
     int a = cand[i][0], b = cand[i][1];
-    while (map[a] != a) a = map[a];
-    while (map[b] != b) b = map[b];
+    while (ROOT(a) != a) a = ROOT(a);
+    while (ROOT(b) != b) b = ROOT(b);
     if (a == b) continue;
     if (a > b) {
       int t = a;
       a = b;
       b = t;
     }
+    const vlist *ia = END(a), *ib = END(b);
     /* Still an edge? And its opposite vertices. */
     int opp[4], nopp = 0, edge = 0;
-    for (int j = 0; j < inc[b].n; j++) {
-      int f = inc[b].f[j];
-      if (dead[f]) continue;
-      const int *c = &m->corner_position[3 * (size_t)f];
+    for (int j = 0; j < ib->n; j++) {
+      int f = ib->f[j];
+      if (DEAD(f)) continue;
+      const int *c = &cp[3 * (size_t)f];
       if (c[0] != a && c[1] != a && c[2] != a) continue;
       edge = 1;
       int w = c[0] != a && c[0] != b ? c[0] : c[1] != a && c[1] != b ? c[1] : c[2];
@@ -158,7 +263,7 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
     if (!edge || nopp > 2) continue;
     /* Link condition: the common neighbours of a and b are exactly the
      * vertices opposite their edge, else the collapse pinches the mesh. */
-    int ka = neighbours(m, inc, dead, a, &na, &capa), kb = neighbours(m, inc, dead, b, &nb, &capb);
+    int ka = neighbours(m, ia, dead, a, &na, &capa), kb = neighbours(m, ib, dead, b, &nb, &capb);
     if (ka < 0 || kb < 0) {
       oom = 1;
       break;
@@ -187,12 +292,12 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
     if (nopp == 2) {
       int joined = 0;
       for (int e = 0; e < 2; e++) {
-        const vlist *l = &inc[e ? b : a];
+        const vlist *l = e ? ib : ia;
         int here = 0;
         for (int j = 0; j < l->n && !here; j++) {
           int f = l->f[j];
-          if (dead[f]) continue;
-          const int *c = &m->corner_position[3 * (size_t)f];
+          if (DEAD(f)) continue;
+          const int *c = &cp[3 * (size_t)f];
           int hw = c[0] == opp[0] || c[1] == opp[0] || c[2] == opp[0];
           int hx = c[0] == opp[1] || c[1] == opp[1] || c[2] == opp[1];
           here = hw && hx;
@@ -206,72 +311,83 @@ int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
      * pairs where features cross a UV seam; collapsing into one would make
      * its edges non-manifold). */
     int fin = 0;
-    for (int j = 0; j < inc[b].n && !fin; j++)
-      for (int j2 = j + 1; j2 < inc[b].n && !fin; j2++) {
-        int f = inc[b].f[j], g = inc[b].f[j2];
-        if (dead[f] || dead[g] || f == g) continue;
-        fin = same_corners(&m->corner_position[3 * (size_t)f], &m->corner_position[3 * (size_t)g]);
+    for (int j = 0; j < ib->n && !fin; j++)
+      for (int j2 = j + 1; j2 < ib->n && !fin; j2++) {
+        int f = ib->f[j], g = ib->f[j2];
+        if (DEAD(f) || DEAD(g) || f == g) continue;
+        fin = same_corners(&cp[3 * (size_t)f], &cp[3 * (size_t)g]);
       }
-    for (int j = 0; j < inc[b].n && !fin; j++) {
-      int f = inc[b].f[j];
-      if (dead[f]) continue;
-      const int *c = &m->corner_position[3 * (size_t)f];
+    for (int j = 0; j < ib->n && !fin; j++) {
+      int f = ib->f[j];
+      if (DEAD(f)) continue;
+      const int *c = &cp[3 * (size_t)f];
       if (c[0] == a || c[1] == a || c[2] == a) continue;
       int u[3];
       for (int k = 0; k < 3; k++) u[k] = c[k] == b ? a : c[k];
-      for (int i2 = 0; i2 < inc[a].n && !fin; i2++) {
-        int g = inc[a].f[i2];
-        if (dead[g]) continue;
-        fin = same_corners(u, &m->corner_position[3 * (size_t)g]);
+      for (int i2 = 0; i2 < ia->n && !fin; i2++) {
+        int g = ia->f[i2];
+        if (DEAD(g)) continue;
+        fin = same_corners(u, &cp[3 * (size_t)g]);
       }
     }
     if (fin) continue;
     /* Collapse b into a: its faces take a, those on the edge die. */
-    for (int j = 0; j < inc[b].n && !oom; j++) {
-      int f = inc[b].f[j];
-      if (dead[f]) continue;
-      int *c = &m->corner_position[3 * (size_t)f];
+    for (int j = 0; j < ib->n && !oom; j++) {
+      int f = ib->f[j];
+      if (DEAD(f)) continue;
+      int *c = &cp[3 * (size_t)f];
       int has_a = c[0] == a || c[1] == a || c[2] == a;
       if (has_a) {
-        dead[f] = 1;
+        dead[f >> 6] |= UINT64_C(1) << (f & 63);
+        oom |= vlist_push(&gone_faces, f);
         continue;
       }
       for (int k = 0; k < 3; k++)
         if (c[k] == b) c[k] = a;
-      oom |= vlist_push(&inc[a], f);
+      oom |= vlist_push(END(a), f);
     }
-    map[b] = a;
+    ROOT(b) = a;
+    oom |= vlist_push(&gone_positions, b);
     collapsed++;
   }
+#undef END
+#undef ROOT
+#undef DEAD
   free(na);
   free(nb);
   free(cand);
-  if (inc && end)
-    for (int v = 0; v < np; v++)
-      if (end[v]) free(inc[v].f);
+  if (inc)
+    for (int e = 0; e < nends; e++) free(inc[e].f);
   free(inc);
-  free(end);
-  if (oom) {
-    free(dead);
-    free(map);
-    return -1;
-  }
-  if (collapsed) {
-    /* Drop the dead faces and the unused positions, keeping the order of
-     * everything else. */
-    drop_faces(m, dead);
-    int p2 = 0;
-    for (int v = 0; v < np; v++) {
-      if (map[v] != v) continue;
-      memmove(&m->positions[3 * (size_t)p2], &m->positions[3 * (size_t)v], 3 * sizeof *m->positions);
-      map[v] = p2++;
-    }
-    for (size_t c = 0; c < (size_t)m->num_corners; c++) m->corner_position[c] = map[m->corner_position[c]];
-    m->num_positions = p2;
-  }
+  free(merged_into);
   free(dead);
-  free(map);
-  return collapsed;
+  if (!oom && collapsed) {
+    /* Drop the dead faces and the merged positions, keeping the order of
+     * everything else; slot becomes each kept position's new number. */
+    qsort(gone_faces.f, (size_t)gone_faces.n, sizeof *gone_faces.f, cmp_int);
+    qsort(gone_positions.f, (size_t)gone_positions.n, sizeof *gone_positions.f, cmp_int);
+    drop_faces(m, gone_faces.f, (size_t)gone_faces.n);
+    const int *gp = gone_positions.f;
+    size_t ngp = (size_t)gone_positions.n;
+    remove_elements(m->positions, 3 * sizeof *m->positions, (size_t)np, gp, ngp);
+#pragma omp parallel
+    {
+      size_t nth = (size_t)omp_get_num_threads(), t = (size_t)omp_get_thread_num();
+      size_t lo = (size_t)np * t / nth, hi = (size_t)np * (t + 1) / nth, k = count_below(gp, ngp, lo);
+      for (size_t v = lo; v < hi; v++) {
+        while (k < ngp && (size_t)gp[k] < v) k++;
+        slot[v] = (int)(v - k);
+      }
+    }
+    size_t ncorners = (size_t)m->num_corners;
+#pragma omp parallel for schedule(static)
+    for (size_t c = 0; c < ncorners; c++) cp[c] = slot[cp[c]];
+    m->num_positions = np - (int)ngp;
+  }
+  free(slot);
+  free(gone_faces.f);
+  free(gone_positions.f);
+  return oom ? -1 : collapsed;
 }
 
 static int cmp_u64(const void *x, const void *y) {
@@ -320,7 +436,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   size_t npairs = 0;
   uint64_t *keys = NULL;
   long *uses = NULL;
-  unsigned char *drop = NULL;
+  vlist gone = {0};
   int removed = -1;
   if (!start || !order || !low || !partner) goto done;
 #pragma omp parallel for schedule(static)
@@ -357,8 +473,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   size_t nk = 3 * npairs;
   keys = malloc(nk * sizeof *keys);
   uses = calloc(nk, sizeof *uses);
-  drop = calloc((size_t)nf, 1);
-  if (!keys || !uses || !drop) goto done;
+  if (!keys || !uses) goto done;
   for (size_t i = 0; i < npairs; i++)
     for (int e = 0; e < 3; e++) {
       const int *a = &cp[3 * (size_t)pairs[i][0]];
@@ -373,7 +488,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
       uses[at]++;
     }
   }
-  removed = 0;
+  int dropped = 0;
   for (size_t i = 0; i < npairs; i++) {
     const int *a = &cp[3 * (size_t)pairs[i][0]];
     int safe = 1;
@@ -382,10 +497,18 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
       safe &= u == 2 || u >= 4;
     }
     if (!safe) continue;
-    drop[pairs[i][0]] = drop[pairs[i][1]] = 1;
-    removed += 2;
+    if (vlist_push(&gone, pairs[i][0]) || vlist_push(&gone, pairs[i][1])) goto done;
+    dropped += 2;
   }
-  if (removed) drop_faces(m, drop);
+  if (dropped) {
+    /* (a face in two pairs is dropped once) */
+    qsort(gone.f, (size_t)gone.n, sizeof *gone.f, cmp_int);
+    int distinct = 0;
+    for (int i = 0; i < gone.n; i++)
+      if (distinct == 0 || gone.f[distinct - 1] != gone.f[i]) gone.f[distinct++] = gone.f[i];
+    drop_faces(m, gone.f, (size_t)distinct);
+  }
+  removed = dropped;
 done:
   free(start);
   free(order);
@@ -394,6 +517,6 @@ done:
   free(pairs);
   free(keys);
   free(uses);
-  free(drop);
+  free(gone.f);
   return removed;
 }
