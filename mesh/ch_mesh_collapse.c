@@ -7,7 +7,6 @@
 #include <string.h>
 
 #include "ch_mesh.h"
-#include "ch_sort.h"
 
 typedef struct vlist {
   int *f; /* incident faces (may hold dead ones) */
@@ -424,50 +423,121 @@ static int lowest_corner(const int *c) {
   return c[0] < c[1] ? (c[0] < c[2] ? c[0] : c[2]) : (c[1] < c[2] ? c[1] : c[2]);
 }
 
+/* A face's fingerprint among the faces of its lowest corner, low: a hash
+ * of its other two corners, sorted. same_corners holds between two faces
+ * of three distinct corners only when they have the same three, and so the
+ * same fingerprint; where a corner repeats, it may hold without that, so
+ * such a face's is COMPARE_CORNERS. */
+#define COMPARE_CORNERS UINT32_MAX
+static uint32_t fingerprint(const int *c, int low) {
+  int r = c[0] == low ? 0 : c[1] == low ? 1 : 2;
+  uint64_t x = (uint32_t)c[r == 2 ? 0 : r + 1], y = (uint32_t)c[r == 0 ? 2 : r - 1];
+  if (x == y || x == (uint32_t)low || y == (uint32_t)low) return COMPARE_CORNERS;
+  /* (Fibonacci hashing: the product's high bits depend on every bit) */
+  uint32_t h = (uint32_t)(((x < y ? x << 32 | y : y << 32 | x) * UINT64_C(0x9E3779B97F4A7C15)) >> 32);
+  return h == COMPARE_CORNERS ? h - 1 : h;
+}
+
+/* Below this many faces per thread the threads' counts cost more than
+ * they save (as in ch_sort_buckets). */
+enum { FACES_PER_THREAD = 1 << 16 };
+
 int ch_mesh_remove_pillows(ch_mesh *m) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
-  int nf = m->num_faces, np = m->num_positions;
+  int nf = m->num_faces, np = m->num_positions, nt = omp_get_max_threads();
   const int *cp = m->corner_position;
   /* Faces by their lowest corner: the two faces of a pillow share it, and
-   * few faces do, so pairs are found in linear time. */
-  int *start = malloc(((size_t)np + 1) * sizeof *start), *order = malloc((size_t)nf * sizeof *order);
-  int *low = malloc((size_t)nf * sizeof *low), *partner = malloc((size_t)nf * sizeof *partner);
+   * few faces do, so pairs are found in linear time. A stable counting
+   * sort as ch_sort_buckets's (each of nb ranges of faces counts its own,
+   * then places them after the ranges before it), of (fingerprint, face)
+   * made as they are placed: reading the faces' corners bucket by bucket,
+   * scattered over the mesh, took most of the search. The ranges' counts
+   * are kept last range first, so that the last one's, once its faces are
+   * placed, are where each bucket ends: start[v + 1]. */
+  size_t nb = (size_t)nt < (size_t)nf / FACES_PER_THREAD ? (size_t)nt : (size_t)nf / FACES_PER_THREAD;
+  if (nb < 1) nb = 1;
+  int *count = calloc(nb * (size_t)np + 1, sizeof *count);
+  uint64_t *item = malloc((size_t)nf * sizeof *item);
+  vlist *found = calloc((size_t)nt, sizeof *found), gone = {0};
   int(*pairs)[2] = NULL;
   size_t npairs = 0;
   uint64_t *keys = NULL;
   long *uses = NULL;
-  vlist gone = {0};
-  int removed = -1;
-  if (!start || !order || !low || !partner) goto done;
-#pragma omp parallel for schedule(static)
-  for (int f = 0; f < nf; f++) low[f] = lowest_corner(&cp[3 * (size_t)f]);
-  if (ch_sort_buckets(low, (size_t)nf, np, start, order)) goto done;
-  /* partner[f]: g > f where f and g are a pillow (exactly two faces on the
-   * same corners, opposite), else -1 */
-#pragma omp parallel for schedule(dynamic, 4096)
-  for (int v = 0; v < np; v++)
-    for (int i = start[v]; i < start[v + 1]; i++) {
-      int f = order[i], twins = 0, g = -1;
-      for (int j = start[v]; j < start[v + 1]; j++)
-        if (j != i && same_corners(&cp[3 * (size_t)f], &cp[3 * (size_t)order[j]])) {
-          twins++;
-          g = order[j];
-        }
-      partner[f] = twins == 1 && g > f && reversed(&cp[3 * (size_t)f], &cp[3 * (size_t)g]) ? g : -1;
+  int removed = -1, oom = 0;
+  if (!count || !item || !found) goto done;
+#pragma omp parallel for schedule(static, 1) num_threads((int)nb)
+  for (size_t b = 0; b < nb; b++) {
+    int *c = &count[1 + (nb - 1 - b) * (size_t)np];
+    for (size_t f = b * (size_t)nf / nb, f1 = (b + 1) * (size_t)nf / nb; f < f1; f++) c[lowest_corner(&cp[3 * f])]++;
+  }
+  for (size_t v = 0, at = 0; v < (size_t)np; v++)
+    for (size_t b = 0; b < nb; b++) {
+      int *c = &count[1 + (nb - 1 - b) * (size_t)np + v], n = *c;
+      *c = (int)at;
+      at += (size_t)n;
     }
-  for (int f = 0; f < nf; f++) npairs += partner[f] >= 0;
+#pragma omp parallel for schedule(static, 1) num_threads((int)nb)
+  for (size_t b = 0; b < nb; b++) {
+    int *c = &count[1 + (nb - 1 - b) * (size_t)np];
+    for (size_t f = b * (size_t)nf / nb, f1 = (b + 1) * (size_t)nf / nb; f < f1; f++) {
+      int low = lowest_corner(&cp[3 * f]);
+      item[c[low]++] = (uint64_t)fingerprint(&cp[3 * f], low) << 32 | f;
+    }
+  }
+  const int *start = count;
+  /* The pairs (f, g), g > f, where f and g are a pillow (exactly two faces
+   * on the same corners, opposite). Only a bucket where two fingerprints
+   * agree, or one says to, can hold one: its corners are compared. */
+#pragma omp parallel num_threads(nt) reduction(| : oom)
+  {
+    vlist *mine = &found[omp_get_thread_num()];
+    int(*corners)[3] = NULL, cap = 0;
+#pragma omp for schedule(dynamic, 4096)
+    for (int v = 0; v < np; v++) {
+      const uint64_t *bucket = &item[start[v]];
+      int n = start[v + 1] - start[v], compare = 0;
+      for (int i = 0; i < n && !compare; i++) {
+        uint32_t fp = (uint32_t)(bucket[i] >> 32);
+        compare = fp == COMPARE_CORNERS;
+        for (int j = 0; j < i && !compare; j++) compare = (uint32_t)(bucket[j] >> 32) == fp;
+      }
+      if (!compare || oom) continue;
+      if (n > cap) {
+        void *p = realloc(corners, (size_t)n * sizeof *corners);
+        if (!p) {
+          oom = 1;
+          continue;
+        }
+        corners = p;
+        cap = n;
+      }
+      for (int i = 0; i < n; i++) memcpy(corners[i], &cp[3 * (size_t)(uint32_t)bucket[i]], sizeof *corners);
+      for (int i = 0; i < n; i++) {
+        int twins = 0, twin = -1;
+        for (int j = 0; j < n; j++)
+          if (j != i && same_corners(corners[i], corners[j])) {
+            twins++;
+            twin = j;
+          }
+        int f = (int)(uint32_t)bucket[i], g = twin >= 0 ? (int)(uint32_t)bucket[twin] : -1;
+        if (twins == 1 && g > f && reversed(corners[i], corners[twin]))
+          oom |= vlist_push(mine, f) || vlist_push(mine, g);
+      }
+    }
+    free(corners);
+  }
+  free(count);
+  free(item);
+  count = NULL;
+  item = NULL;
+  int npairs2 = concat_lists(found, nt, (int **)&pairs);
+  if (oom || npairs2 < 0) goto done;
+  npairs = (size_t)npairs2 / 2;
   removed = 0;
   if (!npairs) goto done;
   removed = -1;
-  pairs = malloc(npairs * sizeof *pairs);
-  if (!pairs) goto done;
-  npairs = 0;
-  for (int f = 0; f < nf; f++)
-    if (partner[f] >= 0) {
-      pairs[npairs][0] = f;
-      pairs[npairs][1] = partner[f];
-      npairs++;
-    }
+  /* in face order (each face is the first of one pair at most) */
+  qsort(pairs, npairs, sizeof *pairs, cmp_pair);
   /* Removing a pair takes two uses from each of its edges: only if none is
    * left with one (a hole). Count the uses of just those edges. */
   size_t nk = 3 * npairs;
@@ -489,7 +559,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
     }
   }
   int dropped = 0;
-  for (size_t i = 0; i < npairs; i++) {
+  for (size_t i = 0; i < npairs && !oom; i++) {
     const int *a = &cp[3 * (size_t)pairs[i][0]];
     int safe = 1;
     for (int e = 0; e < 3; e++) {
@@ -497,9 +567,10 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
       safe &= u == 2 || u >= 4;
     }
     if (!safe) continue;
-    if (vlist_push(&gone, pairs[i][0]) || vlist_push(&gone, pairs[i][1])) goto done;
+    oom |= vlist_push(&gone, pairs[i][0]) || vlist_push(&gone, pairs[i][1]);
     dropped += 2;
   }
+  if (oom) goto done;
   if (dropped) {
     /* (a face in two pairs is dropped once) */
     qsort(gone.f, (size_t)gone.n, sizeof *gone.f, cmp_int);
@@ -510,10 +581,11 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   }
   removed = dropped;
 done:
-  free(start);
-  free(order);
-  free(low);
-  free(partner);
+  free(count);
+  free(item);
+  if (found)
+    for (int t = 0; t < nt; t++) free(found[t].f);
+  free(found);
   free(pairs);
   free(keys);
   free(uses);
