@@ -36,7 +36,7 @@ static const char usage[] =
     "  --max-tris M       the embedding's cap: curves that would need more triangles\n"
     "                     stop the run with an error, before time and memory run\n"
     "                     away (default 8 x N + 8388608; large runs take about\n"
-    "                     300-450 bytes of memory per triangle)\n"
+    "                     190-460 bytes of memory per triangle)\n"
     "  --res R            resolution of the step curves' diffusion image (default 1024)\n"
     "  --scheme S         base surface: bilinear (default) or catmark (Catmull-Clark)\n"
     "  --no-snap          the naive mesh: no feature embedding (for comparison)\n"
