@@ -45,9 +45,9 @@ printf "| %-9s | %-10s | %-13s | %-10s | %-13s | %-9s | %-7s | %-13s | %-8s | %-
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for n in "${sizes[@]}"; do
   bl_tris=$n
-  : >"$dir/bl_s" >"$dir/bl_in" >"$dir/ch_s" >"$dir/ns_s"
+  rm -f "$dir/bl_s" "$dir/bl_in" "$dir/ch_s" "$dir/ns_s"
   best=
-  for r in $(seq "$repeat"); do
+  for _ in $(seq "$repeat"); do
     if [ $have_blender = 1 ]; then
       t0=$(now)
       line=$(blender -b --factory-startup --python bench/blender/displace.py -- "$base" "$dir/h_y.exr" \
