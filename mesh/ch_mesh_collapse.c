@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "ch_mesh.h"
+#include "ch_sort.h"
 
 typedef struct vlist {
   int *f; /* incident faces (may hold dead ones) */
@@ -438,53 +439,34 @@ static uint32_t fingerprint(const int *c, int low) {
   return h == COMPARE_CORNERS ? h - 1 : h;
 }
 
-/* Below this many faces per thread the threads' counts cost more than
- * they save (as in ch_sort_buckets). */
-enum { FACES_PER_THREAD = 1 << 16 };
-
 int ch_mesh_remove_pillows(ch_mesh *m) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
   int nf = m->num_faces, np = m->num_positions, nt = omp_get_max_threads();
   const int *cp = m->corner_position;
-  /* Faces by their lowest corner: the two faces of a pillow share it, and
-   * few faces do, so pairs are found in linear time. A stable counting
-   * sort as ch_sort_buckets's (each of nb ranges of faces counts its own,
-   * then places them after the ranges before it), of (fingerprint, face)
-   * made as they are placed: reading the faces' corners bucket by bucket,
-   * scattered over the mesh, took most of the search. The ranges' counts
-   * are kept last range first, so that the last one's, once its faces are
-   * placed, are where each bucket ends: start[v + 1]. */
-  size_t nb = (size_t)nt < (size_t)nf / FACES_PER_THREAD ? (size_t)nt : (size_t)nf / FACES_PER_THREAD;
-  if (nb < 1) nb = 1;
-  int *count = calloc(nb * (size_t)np + 1, sizeof *count);
-  uint64_t *item = malloc((size_t)nf * sizeof *item);
+  /* Faces by their lowest corner (ch_sort_buckets): the two faces of a
+   * pillow share it, and few faces do, so pairs are found in linear time.
+   * Each face's fingerprint is made as its corners are read in order: in
+   * a bucket the fingerprints decide, and the corners, scattered over the
+   * mesh (reading them bucket by bucket took most of the search), are
+   * read only where two agree. */
+  int *low = malloc((size_t)nf * sizeof *low), *start = malloc(((size_t)np + 1) * sizeof *start);
+  int *order = malloc((size_t)nf * sizeof *order);
+  uint32_t *print = malloc((size_t)nf * sizeof *print);
   vlist *found = calloc((size_t)nt, sizeof *found), gone = {0};
   int(*pairs)[2] = NULL;
   size_t npairs = 0;
   uint64_t *keys = NULL;
   long *uses = NULL;
   int removed = -1, oom = 0;
-  if (!count || !item || !found) goto done;
-#pragma omp parallel for schedule(static, 1) num_threads((int)nb)
-  for (size_t b = 0; b < nb; b++) {
-    int *c = &count[1 + (nb - 1 - b) * (size_t)np];
-    for (size_t f = b * (size_t)nf / nb, f1 = (b + 1) * (size_t)nf / nb; f < f1; f++) c[lowest_corner(&cp[3 * f])]++;
+  if (!low || !start || !order || !print || !found) goto done;
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; f++) {
+    low[f] = lowest_corner(&cp[3 * (size_t)f]);
+    print[f] = fingerprint(&cp[3 * (size_t)f], low[f]);
   }
-  for (size_t v = 0, at = 0; v < (size_t)np; v++)
-    for (size_t b = 0; b < nb; b++) {
-      int *c = &count[1 + (nb - 1 - b) * (size_t)np + v], n = *c;
-      *c = (int)at;
-      at += (size_t)n;
-    }
-#pragma omp parallel for schedule(static, 1) num_threads((int)nb)
-  for (size_t b = 0; b < nb; b++) {
-    int *c = &count[1 + (nb - 1 - b) * (size_t)np];
-    for (size_t f = b * (size_t)nf / nb, f1 = (b + 1) * (size_t)nf / nb; f < f1; f++) {
-      int low = lowest_corner(&cp[3 * f]);
-      item[c[low]++] = (uint64_t)fingerprint(&cp[3 * f], low) << 32 | f;
-    }
-  }
-  const int *start = count;
+  if (ch_sort_buckets(low, (size_t)nf, np, start, order)) goto done;
+  free(low);
+  low = NULL;
   /* The pairs (f, g), g > f, where f and g are a pillow (exactly two faces
    * on the same corners, opposite). Only a bucket where two fingerprints
    * agree, or one says to, can hold one: its corners are compared. */
@@ -494,12 +476,12 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
     int(*corners)[3] = NULL, cap = 0;
 #pragma omp for schedule(dynamic, 4096)
     for (int v = 0; v < np; v++) {
-      const uint64_t *bucket = &item[start[v]];
+      const int *bucket = &order[start[v]];
       int n = start[v + 1] - start[v], compare = 0;
       for (int i = 0; i < n && !compare; i++) {
-        uint32_t fp = (uint32_t)(bucket[i] >> 32);
+        uint32_t fp = print[bucket[i]];
         compare = fp == COMPARE_CORNERS;
-        for (int j = 0; j < i && !compare; j++) compare = (uint32_t)(bucket[j] >> 32) == fp;
+        for (int j = 0; j < i && !compare; j++) compare = print[bucket[j]] == fp;
       }
       if (!compare || oom) continue;
       if (n > cap) {
@@ -511,7 +493,7 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
         corners = p;
         cap = n;
       }
-      for (int i = 0; i < n; i++) memcpy(corners[i], &cp[3 * (size_t)(uint32_t)bucket[i]], sizeof *corners);
+      for (int i = 0; i < n; i++) memcpy(corners[i], &cp[3 * (size_t)bucket[i]], sizeof *corners);
       for (int i = 0; i < n; i++) {
         int twins = 0, twin = -1;
         for (int j = 0; j < n; j++)
@@ -519,17 +501,18 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
             twins++;
             twin = j;
           }
-        int f = (int)(uint32_t)bucket[i], g = twin >= 0 ? (int)(uint32_t)bucket[twin] : -1;
+        int f = bucket[i], g = twin >= 0 ? bucket[twin] : -1;
         if (twins == 1 && g > f && reversed(corners[i], corners[twin]))
           oom |= vlist_push(mine, f) || vlist_push(mine, g);
       }
     }
     free(corners);
   }
-  free(count);
-  free(item);
-  count = NULL;
-  item = NULL;
+  free(start);
+  free(order);
+  free(print);
+  start = order = NULL;
+  print = NULL;
   int npairs2 = concat_lists(found, nt, (int **)&pairs);
   if (oom || npairs2 < 0) goto done;
   npairs = (size_t)npairs2 / 2;
@@ -581,8 +564,10 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   }
   removed = dropped;
 done:
-  free(count);
-  free(item);
+  free(low);
+  free(start);
+  free(order);
+  free(print);
   if (found)
     for (int t = 0; t < nt; t++) free(found[t].f);
   free(found);
