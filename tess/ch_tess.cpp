@@ -608,3 +608,12 @@ extern "C" long ch_tess_fewest_triangles(const ch_surface *S) {
   std::vector<int> ones((size_t)S->num_edges, 1);
   return count_triangles(S, ones.data());
 }
+
+extern "C" int ch_tess_quad_inner_rates(const ch_surface *S, const ch_tess_result *r, int f, int rates[2]) {
+  if (S->face_start[f + 1] - S->face_start[f] != 4) return 0;
+  int all[6];
+  face_rates(S, f, r->edge_rates, all);
+  rates[0] = all[4];
+  rates[1] = all[5];
+  return 1;
+}

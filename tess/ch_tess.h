@@ -95,6 +95,11 @@ void ch_tess_free(ch_tess_result *result);
  * tessellation of surface has (counted, nothing evaluated). */
 long ch_tess_fewest_triangles(const ch_surface *surface);
 
+/* The inner rates of quad face f in result (along s, along t: its
+ * interior points are (i / rates[0], j / rates[1])); returns 0 for a face
+ * that is not a quad. */
+int ch_tess_quad_inner_rates(const ch_surface *surface, const ch_tess_result *result, int f, int rates[2]);
+
 /* The cage of the view-dependent warp (ch_warp_cage's arrays): the surface
  * tessellated at the uniform rate (at most 64) that gives at least
  * min_triangles, per triangle its corners' UV (6) and positions (9). */
