@@ -138,7 +138,16 @@ void ch_cut_out_free(ch_cut_out *o) {
   free(o->extra_uv);
   free(o->vertex_uv);
   free(o->other_uv);
+  ch_cut_blocks_free(&o->blocks);
   memset(o, 0, sizeof *o);
+}
+
+void ch_cut_blocks_free(ch_cut_blocks *b) {
+  free(b->tri);
+  free(b->vert);
+  free(b->next);
+  free(b->ccw);
+  memset(b, 0, sizeof *b);
 }
 
 /* ---- cutting a triangle ------------------------------------------------------ */

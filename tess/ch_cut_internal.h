@@ -15,6 +15,7 @@
 #include "ch_mesh.h"
 #include "ch_refine_internal.h"
 #include "ch_surface.h"
+#include "ch_tess.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -25,6 +26,35 @@ typedef struct ch_cut_corner_uv {
   int corner; /* 3 * triangle + k */
   double uv[2];
 } ch_cut_corner_uv;
+
+/* Blocks of 2 x 2 quads of the base tessellation's grid (a quad face's
+ * interior, Bfr's pattern at its inner rates), each two triangles a quad,
+ * that the cut copied whole, far from every feature: where the coarsening
+ * may merge a block into two triangles (ch_cut_coarsen). A block's grid
+ * points (i, j) in 0..2 are numbered 3 j + i; its sides 0..3 are j = 0,
+ * i = 2, j = 2 and i = 0. */
+typedef struct ch_cut_blocks {
+  int n;
+  int *tri;         /* 8 per block: its triangles in the output */
+  int *vert;        /* 9 per block: its grid points' vertices */
+  int *next;        /* 4 per block: the block across each side, -1 if none
+                       (another face's, or not a whole block) */
+  signed char *ccw; /* per block: 1 if its triangles wind as the grid's
+                       (i, j) does, else -1 */
+} ch_cut_blocks;
+
+/* The whole blocks among base triangles t with far_where[t] < 0 (those
+ * the cut copies whole; vertices are the tessellation's, as in the cut's
+ * output), their triangles as base triangle indices until
+ * ch_cut_blocks_place. None without tess->corner_st. Returns 0, or -1 out
+ * of memory (out then empty). */
+int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, const int *far_where, ch_cut_blocks *out);
+
+/* Renumbers the blocks' triangles from base triangles to the output's:
+ * output_of_base[t] for base triangle t. */
+void ch_cut_blocks_place(ch_cut_blocks *b, const int *output_of_base);
+
+void ch_cut_blocks_free(ch_cut_blocks *b);
 
 /* The cut's output before evaluation: vertices as (face, st, h), triangles
  * with their corner UVs and group (owns its arrays: ch_cut_out_free). A
@@ -65,7 +95,17 @@ typedef struct ch_cut_out {
   int nother, cap_other;
   int count_only; /* vertices and triangles are numbered and counted, not
                      stored (a sampled pilot's count: the cut's own) */
+  ch_cut_blocks blocks; /* the joined output's, or none (n = 0) */
 } ch_cut_out;
+
+/* Merges o's blocks that lie flat in one plane, with UVs affine over
+ * them, and are one plain piece, in block order until `fewer` triangles
+ * are gone (less one) or none is left: each into the fewest triangles that
+ * keep it joined to the blocks that stay (two, or a fan from its centre
+ * over the midpoints of the sides towards those). The triangles and
+ * vertices that go are dropped, the rest keep their order. Needs o's
+ * positions. Returns the triangles removed, -1 out of memory. */
+long ch_cut_merge_blocks(ch_cut_out *o, long fewer);
 
 /* The UV of corner c (3 t + k) of the joined output o. */
 static inline const double *ch_cut_out_uv(const ch_cut_out *o, size_t c) {
@@ -77,6 +117,12 @@ static inline const double *ch_cut_out_uv(const ch_cut_out *o, size_t c) {
  * UV and, once evaluated, position): the compactions after a thinning or
  * a coarsening. */
 void ch_cut_out_move_vertex(ch_cut_out *o, int to, int from);
+
+/* Drops the vertices v with remap[v] < 0 and the triangles whose first
+ * corner is < 0, keeping the order; remap becomes the vertices' new
+ * indices, and tri (room for 3 * o->ntri) o's triangles (o->tri is freed).
+ * The same on any number of threads. */
+void ch_cut_out_compact(ch_cut_out *o, int *remap, int *tri);
 
 /* Frees o's arrays and zeroes it. */
 void ch_cut_out_free(ch_cut_out *o);

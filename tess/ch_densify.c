@@ -9,9 +9,10 @@
  * terminal edges, Rivara 1984), longest edges first; on a tessellation of
  * quads cut in two that splits the diagonals, then the quads' sides (a
  * 4-8 mesh), so the triangles keep their shapes and no vertex hangs in
- * another's edge. Fewer: shortest edges first, a vertex collapses into a
- * neighbour that keeps its place on the surface, where the link condition
- * holds (Dey et al. 1999) and no triangle turns over. */
+ * another's edge. Fewer: first the flat blocks of the base's grid far from
+ * the features (ch_blocks.c), then shortest edges first, a vertex
+ * collapses into a neighbour that keeps its place on the surface, where
+ * the link condition holds (Dey et al. 1999) and no triangle turns over. */
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -784,15 +785,13 @@ enum { COMPACT_BLOCKS = 256 };
 
 static size_t block_at(size_t n, int b) { return (size_t)b * n / COMPACT_BLOCKS; }
 
-/* Drops the removed vertices (remap < 0) and triangles (first corner < 0),
- * keeping the order; remap becomes the vertices' new indices. Each in
- * place on one thread, side by side: the vertices (ch_cut_out_move_vertex),
- * and the triangles' groups and UV references with where each block's
- * kept triangles start; then all threads gather the triangles, their
- * corners renumbered, into the fans' array (a gather in place on several
- * threads would overwrite what another has still to read). Two parallel
- * regions: on a busy machine each costs about a time slice. */
-static void compact(ch_cut_out *o, vertex_fans *f, int *remap) {
+/* Each in place on one thread, side by side: the vertices
+ * (ch_cut_out_move_vertex), and the triangles' groups and UV references
+ * with where each block's kept triangles start; then all threads gather
+ * the triangles, their corners renumbered, into tri (a gather in place on
+ * several threads would overwrite what another has still to read). Two
+ * parallel regions: on a busy machine each costs about a time slice. */
+void ch_cut_out_compact(ch_cut_out *o, int *remap, int *tri) {
   size_t np = (size_t)o->npos, nt = (size_t)o->ntri;
   int nv = 0, toff[COMPACT_BLOCKS + 1];
 #pragma omp parallel sections
@@ -820,7 +819,6 @@ static void compact(ch_cut_out *o, vertex_fans *f, int *remap) {
       }
     }
   }
-  int *tri = f->tri;
 #pragma omp parallel for schedule(static)
   for (int b = 0; b < COMPACT_BLOCKS; b++)
     for (size_t t = block_at(nt, b), to = (size_t)toff[b]; t < block_at(nt, b + 1); t++)
@@ -830,13 +828,12 @@ static void compact(ch_cut_out *o, vertex_fans *f, int *remap) {
       }
   free(o->tri);
   o->tri = tri;
-  f->tri = NULL;        /* (now o's) */
-  o->cap_tri = o->ntri; /* (what the fans' array holds) */
+  o->cap_tri = o->ntri; /* (what tri holds) */
   o->npos = nv;
   o->ntri = toff[COMPACT_BLOCKS];
 }
 
-long ch_cut_coarsen(ch_cut_out *o, long fewer) {
+static long coarsen_greedy(ch_cut_out *o, long fewer) {
   long removed = 0;
   size_t np = (size_t)(o->npos > 0 ? o->npos : 1);
   vertex_fans f = {0};
@@ -946,9 +943,21 @@ long ch_cut_coarsen(ch_cut_out *o, long fewer) {
       removed += got;
     }
   }
-  compact(o, &f, remap);
+  ch_cut_out_compact(o, remap, f.tri);
+  f.tri = NULL; /* (now o's) */
 done:
   free(length2), free(unslabbed), free(at), free(items); /* (at: and remap) */
   fans_free(&f);
   return removed;
+}
+
+long ch_cut_coarsen(ch_cut_out *o, long fewer) {
+  /* Whole blocks of the base's grid first (exact, and without searches),
+   * then shortest edges first for the rest. */
+  long merged = ch_cut_merge_blocks(o, fewer);
+  ch_cut_blocks_free(&o->blocks);
+  if (merged < 0) return -1;
+  if (merged + 1 >= fewer) return merged;
+  long removed = coarsen_greedy(o, fewer - merged);
+  return removed < 0 ? -1 : merged + removed;
 }

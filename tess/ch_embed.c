@@ -376,6 +376,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
   far_set far = {0};
+  ch_cut_blocks blocks = {0}; /* the far grid's (ch_cut_blocks_find) */
+  int *output_of_base = NULL; /* with blocks: each base triangle's first in the cut */
   ch_status st = CH_OK;
 
   /* The working mesh: the tessellation's vertices, and its triangles near
@@ -531,6 +533,13 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   if (failed) {
     st = ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a tessellation corner is outside its face's UV");
     goto done;
+  }
+  /* A run the finish may coarsen (aimed above its target, with no warp
+   * and no thinning to renumber the cut) finds the far grid's blocks the
+   * coarsening merges first (ch_blocks.c). */
+  if (pilot->count_only && !sampled && !(desc && desc->warp) && !thins(desc, reference_edge)) {
+    if (ch_cut_blocks_find(surface, tess, far.where, &blocks)) goto nomem;
+    if (blocks.n > 0 && !(output_of_base = ch_alloc_large((size_t)base_faces, sizeof *output_of_base, 0))) goto nomem;
   }
   /* All the run needs of the tessellation is read: where the caller does
    * not keep it (ch_embed_to_target's), it goes before the run's peak. */
@@ -768,8 +777,10 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       part[c].npos = part[c].first_pos = shared;
       part[c].shared_uv = shared_uv;
       int t1 = (c + 1) * CUT_CHUNK < norder ? (c + 1) * CUT_CHUNK : norder;
-      for (int t = c * CUT_CHUNK; t < t1 && !oom; t++)
+      for (int t = c * CUT_CHUNK; t < t1 && !oom; t++) {
+        if (output_of_base && t < base_faces) output_of_base[t] = part[c].ntri; /* (within the part, for now) */
         oom |= cut_in_order(&lb, &w, &far, t, tol, &part[c], &pstats[c]) != 0;
+      }
       ch_cut_out_shrink(&part[c]); /* all parts live until the join: not twice their size */
     }
     /* The working mesh is done with once the parts are cut: its memory goes
@@ -849,6 +860,13 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       }
       o.npos = o.cap_pos = (int)vbase[nchunks];
       o.ntri = o.cap_tri = (int)tbase[nchunks];
+      if (output_of_base) {
+#pragma omp parallel for schedule(static)
+        for (int t = 0; t < base_faces; t++) output_of_base[t] += (int)tbase[t / CUT_CHUNK];
+        ch_cut_blocks_place(&blocks, output_of_base);
+        o.blocks = blocks;
+        memset(&blocks, 0, sizeof blocks);
+      }
     }
     for (int c = 0; c < nchunks && !oom; c++) {
       if (pstats[c].unresolved > 0) { /* chunks in order: the first is the first chunk's */
@@ -909,6 +927,8 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
 done:
+  ch_cut_blocks_free(&blocks);
+  free(output_of_base);
   free(shared_uv);
   free(edge_grid);
   free(edge_sampled);

@@ -1077,6 +1077,102 @@ static void test_coarsen(void) {
   scene_free(&s);
 }
 
+/* The UV area, the area and the UV integral of the height (z) of a
+ * cut's output: what merging flat blocks must not change. */
+static void cut_integrals(const ch_cut_out *o, double out[3]) {
+  out[0] = out[1] = out[2] = 0.0;
+  for (int t = 0; t < o->ntri; t++) {
+    const double *a = ch_cut_out_uv(o, 3 * (size_t)t), *b = ch_cut_out_uv(o, 3 * (size_t)t + 1),
+                 *c = ch_cut_out_uv(o, 3 * (size_t)t + 2);
+    double uv_area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]));
+    const double *p[3];
+    for (int k = 0; k < 3; k++) p[k] = &o->pos[3 * (size_t)o->tri[3 * (size_t)t + k]];
+    double e[3], f[3], n[3];
+    ch_sub3(p[1], p[0], e);
+    ch_sub3(p[2], p[0], f);
+    ch_cross3(e, f, n);
+    out[0] += uv_area;
+    out[1] += 0.5 * sqrt(ch_dot3(n, n));
+    out[2] += uv_area * (p[0][2] + p[1][2] + p[2][2]) / 3.0;
+  }
+}
+
+/* ch_cut_merge_blocks over the plane's tessellation, every triangle
+ * taken as copied whole: the blocks that lie flat (outside the grooves
+ * and the step circle's wall, which tilt them) give exactly what was
+ * asked, each vertex that goes takes two triangles, the mesh stays
+ * joined (the same open edges: the square's border) and unfolded, every
+ * vertex left is used and where it was, the surface is the same (UV
+ * area, area and the integral of z), and one thread makes the same mesh
+ * as two. Over the torus, curved everywhere, nothing merges. */
+static void test_merge_flat_blocks(void) {
+  const char *models[] = {"plane", "torus"};
+  for (int i = 0; i < 2; i++) {
+    scene s;
+    REQUIRE(scene_load(&s, models[i], seam_svg, NULL, i ? CH_SCHEME_CATMARK : CH_SCHEME_BILINEAR, 60000));
+    ch_tess_free(&s.tess);
+    ch_error err = {0};
+    ch_tess_desc td = {.target_triangles = 60000, .corner_st = 1};
+    REQUIRE(ch_tess_build(s.surface, &td, &s.tess, &err) == CH_OK);
+    ch_cut_out o[2];
+    int nt = s.tess.mesh.num_faces, *all = malloc((size_t)nt * sizeof *all);
+    REQUIRE(all);
+    for (int k = 0; k < 2; k++) {
+      cut_out_of_tessellation(&s, &o[k]);
+      for (int t = 0; t < nt; t++) all[t] = -1; /* every one far */
+      REQUIRE(ch_cut_blocks_find(s.surface, &s.tess, all, &o[k].blocks) == 0);
+      for (int t = 0; t < nt; t++) all[t] = t; /* the cut's order is the base's */
+      ch_cut_blocks_place(&o[k].blocks, all);
+    }
+    free(all);
+    int npos0 = o[0].npos, ntri0 = o[0].ntri, blocks = o[0].blocks.n;
+    long open0 = cut_open_edges(&o[0]), want = ntri0 / 4;
+    double before[3], after[3];
+    cut_integrals(&o[0], before);
+    int threads = omp_get_max_threads();
+    omp_set_num_threads(1);
+    long removed_one = ch_cut_merge_blocks(&o[1], want);
+    omp_set_num_threads(threads > 1 ? threads : 2);
+    long removed = ch_cut_merge_blocks(&o[0], want);
+    omp_set_num_threads(threads);
+    printf("  %s: %d triangles in %d blocks, %ld fewer asked for, %ld removed\n", models[i], ntri0, blocks, want,
+           removed);
+    CHECK_MSG(blocks > ntri0 / 16, "%d blocks", blocks); /* (eight triangles each) */
+    if (i == 1) {
+      CHECK_MSG(removed == 0 && o[0].ntri == ntri0, "the torus: %ld removed", removed);
+    } else {
+      CHECK_MSG(removed >= want - 1 && removed <= want + 6, "%ld removed of %ld", removed, want);
+      CHECK(o[0].ntri == ntri0 - removed && o[0].npos == npos0 - removed / 2);
+    }
+    CHECK(removed_one == removed && o[1].ntri == o[0].ntri && o[1].npos == o[0].npos &&
+          !memcmp(o[1].tri, o[0].tri, 3 * sizeof *o[0].tri * (size_t)o[0].ntri) &&
+          !memcmp(o[1].corner_uv, o[0].corner_uv, 3 * sizeof *o[0].corner_uv * (size_t)o[0].ntri) &&
+          !memcmp(o[1].pos, o[0].pos, 3 * sizeof *o[0].pos * (size_t)o[0].npos));
+    long open = cut_open_edges(&o[0]);
+    CHECK_MSG(open == open0, "%ld open edges, %ld before", open, open0);
+    int folded = cut_folded(&o[0]);
+    CHECK_MSG(folded == 0, "%d triangles folded over in UV", folded);
+    char *used = calloc((size_t)o[0].npos, 1);
+    REQUIRE(used);
+    int off = 0, unused = 0;
+    for (size_t c = 0; c < 3 * (size_t)o[0].ntri; c++) used[o[0].tri[c]] = 1;
+    for (int v = 0; v < o[0].npos; v++) {
+      unused += !used[v];
+      off += off_surface(&s, &o[0], v, o[0].h[v]);
+    }
+    free(used);
+    CHECK_MSG(unused == 0, "%d vertices no triangle uses", unused);
+    CHECK_MSG(off == 0, "%d coordinates of vertices off the displaced surface", off);
+    cut_integrals(&o[0], after);
+    for (int k = 0; k < 3; k++)
+      CHECK_MSG(fabs(after[k] - before[k]) <= 1e-12 * fabs(before[k]) + 1e-15, "integral %d: %.17g, %.17g before", k,
+                after[k], before[k]);
+    ch_cut_out_free(&o[0]);
+    ch_cut_out_free(&o[1]);
+    scene_free(&s);
+  }
+}
+
 static int same_mesh(const ch_mesh *a, const ch_mesh *b) {
   return a->num_positions == b->num_positions && a->num_faces == b->num_faces && a->num_uvs == b->num_uvs &&
          a->num_normals == b->num_normals && a->num_corners == b->num_corners &&
@@ -1133,6 +1229,7 @@ static void test_far_triangles(void) {
 int main(void) {
   RUN(test_densify);
   RUN(test_coarsen);
+  RUN(test_merge_flat_blocks);
   RUN(test_unresolved_at_seams);
   RUN(test_many_grooves_through_a_point);
   RUN(test_straight_features_are_edges);
