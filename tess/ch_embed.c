@@ -247,12 +247,13 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   }
   double t2 = omp_get_wtime();
   stats->seconds_cut += t2 - t_start;
-  stats->min_h = INFINITY;
-  stats->max_h = -INFINITY;
+  double min_h = INFINITY, max_h = -INFINITY; /* (compared: see ch_box3) */
   for (int i = 0; i < o->npos; i++) {
-    stats->min_h = fmin(stats->min_h, o->h[i]);
-    stats->max_h = fmax(stats->max_h, o->h[i]);
+    min_h = o->h[i] < min_h ? o->h[i] : min_h;
+    max_h = o->h[i] > max_h ? o->h[i] : max_h;
   }
+  stats->min_h = min_h;
+  stats->max_h = max_h;
   /* What each vertex is (face, st, h) is spent in its position: gone
    * before the mesh's arrays are made. */
   free(o->face);
