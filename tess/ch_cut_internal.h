@@ -173,14 +173,16 @@ int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const d
  * when the surface does not evaluate a new vertex. */
 long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_out *o, long extra, int max_rounds);
 
-/* Removes about `fewer` triangles (2 per collapse) where h is smooth:
- * shortest first, a vertex inside a plain piece (h_step alone, off UV
+/* Removes about `fewer` triangles where h is smooth: first o's flat
+ * blocks (ch_cut_merge_blocks: exact, and without a search); then, unless
+ * those took at least `enough`, the rest by collapses (2 triangles each),
+ * shortest first: a vertex inside a plain piece (h_step alone, off UV
  * seams) collapses along its shortest allowed edge into a neighbour that
  * keeps its place on the surface. o's positions must be evaluated. Serial
  * after a parallel start; the result does not depend on the thread count.
  * Returns how many it removed (fewer where no collapse is allowed), -1
  * when out of memory. */
-long ch_cut_coarsen(ch_cut_out *o, long fewer);
+long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough);
 
 /* The longest edge a thinning may make around uv, on a coarse grid of
  * CH_CUT_EDGE_GRID^2 cells over the UV square: half the mean longest edge

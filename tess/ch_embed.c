@@ -230,8 +230,9 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   long extra = target > 0 ? target - (o->ntri - cleanup_estimate(o)) : 0;
   /* Short of the target by more than docs/spec.md §5 allows and by at
    * most DENSIFY_SHARE of it: the rest where h is smooth; over it by up to
-   * COARSEN_SHARE: fewer triangles there. A run within the 5% is left as
-   * it is. */
+   * COARSEN_SHARE: fewer triangles there (the flat blocks' merges towards
+   * the target, then collapses only if the merges leave it more than
+   * LANDED over). A run within the 5% is left as it is. */
   if (extra > LANDED * (double)target && extra <= DENSIFY_SHARE * (double)target) {
     ch_progress_reportf(progress, -1.0, "embedding: run %d, adding triangles where h is smooth", run);
     long added = ch_cut_densify(surface, height, o, extra, DENSIFY_ROUNDS);
@@ -241,7 +242,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   } else if (-extra > LANDED * (double)target && -extra <= COARSEN_SHARE * (double)target) {
     /* over it: fewer triangles where h is smooth, the features' untouched */
     ch_progress_reportf(progress, -1.0, "embedding: run %d, coarsening where h is smooth", run);
-    long removed = ch_cut_coarsen(o, -extra);
+    long removed = ch_cut_coarsen(o, -extra, llround(-extra - LANDED * (double)target));
     if (removed < 0) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     stats->densified = -removed;
   }

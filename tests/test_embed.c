@@ -1033,9 +1033,9 @@ static void test_coarsen(void) {
   long want = ntri0 / 4 * 2; /* half of them: many collapses in each place */
   int threads = omp_get_max_threads();
   omp_set_num_threads(1);
-  long removed_one = ch_cut_coarsen(&one, want);
+  long removed_one = ch_cut_coarsen(&one, want, want);
   omp_set_num_threads(threads > 1 ? threads : 2);
-  long removed = ch_cut_coarsen(&o, want);
+  long removed = ch_cut_coarsen(&o, want, want);
   omp_set_num_threads(threads);
   printf("  %d triangles, %ld fewer asked for, %ld removed\n", ntri0, want, removed);
   CHECK_MSG(removed == want, "%ld removed of %ld", removed, want);
