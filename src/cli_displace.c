@@ -355,14 +355,15 @@ static int run(int argc, char **argv) {
       fprintf(stderr,
               "chisel: embed: %d refinement rounds (%d edges split), %d boundary points (%d on walls), %d "
               "junctions, %d wall triangles, %d unresolved (%d on UV seams), u lines every %.2f deg, %d vertices "
-              "thinned, %ld triangles added where h is smooth, %d base triangles far from the features; refine %.0f ms "
+              "thinned, %ld triangles added where h is smooth (%ld merged in flat blocks), %d base triangles far from "
+              "the features; refine %.0f ms "
               "(setup %.0f, labels %.0f, edges %.0f, crossings %.0f, classify %.0f, split %.0f), cut %.0f ms (thin "
               "%.0f), normals %.0f ms\n",
               e->refine_rounds, e->refined_edges, e->crossings, e->wall_points, e->junctions, e->wall_triangles,
-              e->unresolved, e->unresolved_at_seams, e->angle_deg, e->thinned, e->densified, e->far_triangles,
-              1e3 * e->seconds_refine, 1e3 * e->seconds_setup, 1e3 * e->seconds_labels, 1e3 * e->seconds_edges,
-              1e3 * e->seconds_crossings, 1e3 * e->seconds_classify, 1e3 * e->seconds_split, 1e3 * e->seconds_cut,
-              1e3 * e->seconds_thin, 1e3 * e->seconds_normals);
+              e->unresolved, e->unresolved_at_seams, e->angle_deg, e->thinned, e->densified, e->merged,
+              e->far_triangles, 1e3 * e->seconds_refine, 1e3 * e->seconds_setup, 1e3 * e->seconds_labels,
+              1e3 * e->seconds_edges, 1e3 * e->seconds_crossings, 1e3 * e->seconds_classify, 1e3 * e->seconds_split,
+              1e3 * e->seconds_cut, 1e3 * e->seconds_thin, 1e3 * e->seconds_normals);
   }
   double total = t->total + t_write;
   const char *written[6] = {out, ply, exr, png, png16, glb};
@@ -422,6 +423,7 @@ static int run(int argc, char **argv) {
       }
       cJSON_AddNumberToObject(ej, "thinned", e->thinned);
       cJSON_AddNumberToObject(ej, "densified", (double)e->densified);
+      cJSON_AddNumberToObject(ej, "merged", (double)e->merged);
       cJSON_AddNumberToObject(ej, "far_triangles", e->far_triangles);
       cJSON_AddNumberToObject(ej, "angle_deg", e->angle_deg);
       cJSON_AddNumberToObject(ej, "seconds_refine", e->seconds_refine);

@@ -181,8 +181,9 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
  * keeps its place on the surface. o's positions must be evaluated. Serial
  * after a parallel start; the result does not depend on the thread count.
  * Returns how many it removed (fewer where no collapse is allowed), -1
- * when out of memory. */
-long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough);
+ * when out of memory; *merged (or NULL) gets how many of them the merges
+ * took. */
+long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough, long *merged);
 
 /* The longest edge a thinning may make around uv, on a coarse grid of
  * CH_CUT_EDGE_GRID^2 cells over the UV square: half the mean longest edge

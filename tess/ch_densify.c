@@ -951,10 +951,11 @@ done:
   return removed;
 }
 
-long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough) {
+long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough, long *merged_out) {
   long merged = ch_cut_merge_blocks(o, fewer);
   ch_cut_blocks_free(&o->blocks);
   if (merged < 0) return -1;
+  if (merged_out) *merged_out = merged;
   /* (the collapses' fans and candidates cost 60-100 ms at 2.1M triangles
    * however few they take) */
   if (merged + 1 >= fewer || merged >= enough) return merged;

@@ -242,7 +242,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   } else if (-extra > LANDED * (double)target && -extra <= COARSEN_SHARE * (double)target) {
     /* over it: fewer triangles where h is smooth, the features' untouched */
     ch_progress_reportf(progress, -1.0, "embedding: run %d, coarsening where h is smooth", run);
-    long removed = ch_cut_coarsen(o, -extra, llround(-extra - LANDED * (double)target));
+    long removed = ch_cut_coarsen(o, -extra, llround(-extra - LANDED * (double)target), &stats->merged);
     if (removed < 0) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     stats->densified = -removed;
   }

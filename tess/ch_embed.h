@@ -100,6 +100,9 @@ typedef struct ch_embed_stats {
   long densified;          /* triangles ch_embed_to_target added after the cut
                               where h is smooth, to reach its target
                               (negative: removed there) */
+  long merged;             /* of those removed, the ones the merges of flat
+                              blocks of the base's grid took (the rest:
+                              collapses) */
   double angle_deg;        /* the angle step of the u lines the run used */
   int base_triangles;      /* of the tessellation the run embedded into */
   int far_triangles;       /* of them, those far from every feature, copied

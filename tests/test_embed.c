@@ -1033,9 +1033,9 @@ static void test_coarsen(void) {
   long want = ntri0 / 4 * 2; /* half of them: many collapses in each place */
   int threads = omp_get_max_threads();
   omp_set_num_threads(1);
-  long removed_one = ch_cut_coarsen(&one, want, want);
+  long removed_one = ch_cut_coarsen(&one, want, want, NULL);
   omp_set_num_threads(threads > 1 ? threads : 2);
-  long removed = ch_cut_coarsen(&o, want, want);
+  long removed = ch_cut_coarsen(&o, want, want, NULL);
   omp_set_num_threads(threads);
   printf("  %d triangles, %ld fewer asked for, %ld removed\n", ntri0, want, removed);
   CHECK_MSG(removed == want, "%ld removed of %ld", removed, want);
@@ -1184,6 +1184,57 @@ static int same_mesh(const ch_mesh *a, const ch_mesh *b) {
          !memcmp(a->uvs, b->uvs, 2 * sizeof(double) * (size_t)a->num_uvs);
 }
 
+/* A run to a target that takes its margin back over the plane (panels at
+ * 120k, thinning off so that the far grid's blocks are kept): some of the
+ * triangles taken back are merged blocks (the rest collapses: both kinds
+ * meet), and the mesh is still closed but
+ * for the square's border, with no vertex unused, within 5% of the target,
+ * without holes and as exact against the uniform grid as the runs above,
+ * and the same on 1 and 2 threads. */
+static void test_target_merges_flat_blocks(void) {
+  char path[1024];
+  snprintf(path, sizeof path, "%s/curves/panels.svg", CHISEL_MODELS);
+  scene s;
+  REQUIRE(scene_load(&s, "plane", NULL, path, CH_SCHEME_BILINEAR, 20000));
+  ch_embed_desc d = {.no_thinning = 1};
+  ch_mesh m[2] = {{0}}, grid = {0};
+  ch_embed_stats stats[2];
+  int threads = omp_get_max_threads();
+  for (int k = 0; k < 2; k++) {
+    ch_error err = {0};
+    omp_set_num_threads(k ? (threads > 1 ? threads : 2) : 1);
+    CHECK_MSG(ch_embed_to_target(s.surface, &s.height, &d, 120000, NULL, &m[k], &stats[k], NULL, &err) == CH_OK, "%s",
+              err.message);
+  }
+  omp_set_num_threads(threads);
+  printf("  %d triangles, %ld added where h is smooth, %ld of them merged in flat blocks\n", m[1].num_faces,
+         stats[1].densified, stats[1].merged);
+  CHECK_MSG(stats[1].densified < 0 && stats[1].merged > 0, "densified %ld, merged %ld", stats[1].densified,
+            stats[1].merged);
+  CHECK_MSG(fabs(m[1].num_faces - 120000.0) <= 0.05 * 120000.0, "%d triangles", m[1].num_faces);
+  CHECK_MSG(same_mesh(&m[0], &m[1]), "the mesh differs on 1 and 2 threads");
+  long border, inner;
+  open_edges(&m[1], &border, &inner);
+  CHECK_MSG(inner == 0 && border > 0, "%ld open edges inside, %ld on the border", inner, border);
+  char *used = calloc((size_t)m[1].num_positions, 1);
+  REQUIRE(used);
+  int unused = 0;
+  for (int c = 0; c < m[1].num_corners; c++) used[m[1].corner_position[c]] = 1;
+  for (int v = 0; v < m[1].num_positions; v++) unused += !used[v];
+  free(used);
+  CHECK_MSG(unused == 0, "%d vertices no triangle uses", unused);
+  ch_error err = {0};
+  REQUIRE(ch_accuracy_uniform_grid(&s.height, ch_accuracy_uniform_n(m[1].num_faces), &grid, &err) == CH_OK);
+  ch_accuracy a, u;
+  REQUIRE(ch_accuracy_measure(&m[1], &s.height, &s.set, 1024, &a, &err) == CH_OK);
+  REQUIRE(ch_accuracy_measure(&grid, &s.height, &s.set, 1024, &u, &err) == CH_OK);
+  printf("  L1 %.3g against the grid's %.3g, holes %g\n", a.l1, u.l1, a.holes);
+  CHECK_MSG(a.holes == 0.0 && a.l1 <= 0.3 * u.l1, "L1 %g vs grid %g, holes %g", a.l1, u.l1, a.holes);
+  for (int k = 0; k < 2; k++) ch_mesh_free(&m[k]);
+  ch_mesh_free(&grid);
+  scene_free(&s);
+}
+
 /* The base triangles far from every feature are copied without entering
  * the refinement: the mesh must be the one refining and cutting them gives
  * (their neighbours are never split, their edges cross nothing), over a
@@ -1230,6 +1281,7 @@ int main(void) {
   RUN(test_densify);
   RUN(test_coarsen);
   RUN(test_merge_flat_blocks);
+  RUN(test_target_merges_flat_blocks);
   RUN(test_unresolved_at_seams);
   RUN(test_many_grooves_through_a_point);
   RUN(test_straight_features_are_edges);
