@@ -1,9 +1,10 @@
-/* ch_blocks: the base tessellation's grid blocks far from the features,
+/* ch_blocks: the base tessellation's grid blocks the cut leaves whole,
  * found before the cut and merged by the coarsening (ch_cut_internal.h).
  *
  * A full run of the embedding is aimed above its target and gives the
  * difference back where h is smooth (ch_cut_coarsen). Far from every
- * feature the cut copies the base's triangles whole, and inside a quad
+ * feature the cut copies the base's triangles whole, and nearer the
+ * refinement and the cut leave many of them as they were; inside a quad
  * face those are Bfr's regular grid at the face's inner rates, two
  * triangles a quad. Where a block of 2 x 2 quads lies in one plane, and its
  * UVs follow its positions affinely, two triangles are the same surface
@@ -63,8 +64,7 @@ static long grid_place(const double *st, int ru, int rv, int nbu, int nbv, long 
   return 8 * ((ci / 2) + (long)nbu * (cj / 2)) + 2 * quad + (missing >= 2);
 }
 
-int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, const int *far_where,
-                       ch_cut_blocks *out) {
+int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch_cut_blocks *out) {
   memset(out, 0, sizeof *out);
   const ch_mesh *tm = &tess->mesh;
   int nf = ch_surface_num_faces(surface), nt = tm->num_faces;
@@ -93,8 +93,7 @@ int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, co
   for (int t = 0; t < nt; t++) {
     int f = tess->triangle_face[t], ru = rate[2 * f], rv = rate[2 * f + 1];
     long gi[3], gj[3], p = -1;
-    if (far_where[t] < 0 && ru >= 2 && rv >= 2)
-      p = grid_place(&tess->corner_st[6 * (size_t)t], ru, rv, ru / 2, rv / 2, gi, gj);
+    if (ru >= 2 && rv >= 2) p = grid_place(&tess->corner_st[6 * (size_t)t], ru, rv, ru / 2, rv / 2, gi, gj);
     place[t] = p < 0 ? -1 : 8 * first[f] + p;
   }
   /* Each block's eight triangles (in order: the same on any number of
@@ -172,9 +171,16 @@ done:
   return status;
 }
 
-void ch_cut_blocks_place(ch_cut_blocks *b, const int *output_of_base) {
+void ch_cut_blocks_place(ch_cut_blocks *b, const int *first_out) {
 #pragma omp parallel for schedule(static)
-  for (size_t i = 0; i < 8 * (size_t)b->n; i++) b->tri[i] = output_of_base[b->tri[i]];
+  for (int k = 0; k < b->n; k++) {
+    int *t = &b->tri[8 * (size_t)k], whole = 1;
+    for (int s = 0; s < 8; s++) {
+      whole &= first_out[t[s] + 1] - first_out[t[s]] == 1;
+      t[s] = first_out[t[s]];
+    }
+    if (!whole) t[0] = -1;
+  }
 }
 
 /* Whether p (dim values per point, 9 points) is the affine grid of its
@@ -200,12 +206,18 @@ static int affine_grid(const double *const p[9], int dim, double tol) {
  * the same map). */
 static int mergeable(const ch_cut_out *o, const ch_cut_blocks *bl, int k) {
   const int *t = &bl->tri[8 * (size_t)k], *v = &bl->vert[9 * (size_t)k];
+  if (t[0] < 0) return 0;
   uint64_t group = o->group[t[0]];
   if (group == WALL_GROUP || (group >> 32) != 0) return 0;
+  /* each still the grid's: its corners the block's points (a triangle the
+   * refinement split has a midpoint of its own) */
   for (int s = 0; s < 8; s++) {
     if (o->group[t[s]] != group) return 0;
-    for (int c = 0; c < 3; c++)
-      if (o->corner_uv[3 * (size_t)t[s] + c] >= 0) return 0;
+    for (int c = 0; c < 3; c++) {
+      int x = o->tri[3 * (size_t)t[s] + c], in = 0;
+      for (int g = 0; g < 9; g++) in |= v[g] == x;
+      if (!in || o->corner_uv[3 * (size_t)t[s] + c] >= 0) return 0;
+    }
   }
   const double *pos[9], *uv[9];
   for (int g = 0; g < 9; g++) {

@@ -29,13 +29,15 @@ typedef struct ch_cut_corner_uv {
 
 /* Blocks of 2 x 2 quads of the base tessellation's grid (a quad face's
  * interior, Bfr's pattern at its inner rates), each two triangles a quad,
- * that the cut copied whole, far from every feature: where the coarsening
+ * that the cut left whole (far from every feature it copies them; nearer,
+ * the refinement and the cut leave many untouched): where the coarsening
  * may merge a block into two triangles (ch_cut_coarsen). A block's grid
  * points (i, j) in 0..2 are numbered 3 j + i; its sides 0..3 are j = 0,
  * i = 2, j = 2 and i = 0. */
 typedef struct ch_cut_blocks {
   int n;
-  int *tri;         /* 8 per block: its triangles in the output */
+  int *tri;         /* 8 per block: its triangles in the output (the
+                       first -1: the cut did not leave them whole) */
   int *vert;        /* 9 per block: its grid points' vertices */
   int *next;        /* 4 per block: the block across each side, -1 if none
                        (another face's, or not a whole block) */
@@ -43,16 +45,17 @@ typedef struct ch_cut_blocks {
                        (i, j) does, else -1 */
 } ch_cut_blocks;
 
-/* The whole blocks among base triangles t with far_where[t] < 0 (those
- * the cut copies whole; vertices are the tessellation's, as in the cut's
- * output), their triangles as base triangle indices until
+/* The blocks of tess's grid (vertices are the tessellation's, as in the
+ * cut's output), their triangles as base triangle indices until
  * ch_cut_blocks_place. None without tess->corner_st. Returns 0, or -1 out
  * of memory (out then empty). */
-int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, const int *far_where, ch_cut_blocks *out);
+int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch_cut_blocks *out);
 
 /* Renumbers the blocks' triangles from base triangles to the output's:
- * output_of_base[t] for base triangle t. */
-void ch_cut_blocks_place(ch_cut_blocks *b, const int *output_of_base);
+ * base triangle t's are first_out[t] .. first_out[t + 1] - 1 (first_out:
+ * one more than the base's triangles). A block any of whose triangles the
+ * cut did not leave as one is marked (its first triangle -1). */
+void ch_cut_blocks_place(ch_cut_blocks *b, const int *first_out);
 
 void ch_cut_blocks_free(ch_cut_blocks *b);
 
@@ -174,8 +177,8 @@ int ch_cut_out_tri(ch_cut_out *o, int a, int b, int c, const double *ua, const d
 long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_out *o, long extra, int max_rounds);
 
 /* Removes about `fewer` triangles where h is smooth: first o's flat
- * blocks (ch_cut_merge_blocks: exact, and without a search); then, unless
- * those took at least `enough`, the rest by collapses (2 triangles each),
+ * blocks (ch_cut_merge_blocks: exact, and without a search); then the
+ * rest, if any, by collapses (2 triangles each),
  * shortest first: a vertex inside a plain piece (h_step alone, off UV
  * seams) collapses along its shortest allowed edge into a neighbour that
  * keeps its place on the surface. o's positions must be evaluated. Serial
@@ -183,7 +186,7 @@ long ch_cut_densify(const ch_surface *surface, const ch_height *height, ch_cut_o
  * Returns how many it removed (fewer where no collapse is allowed), -1
  * when out of memory; *merged (or NULL) gets how many of them the merges
  * took. */
-long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough, long *merged);
+long ch_cut_coarsen(ch_cut_out *o, long fewer, long *merged);
 
 /* The longest edge a thinning may make around uv, on a coarse grid of
  * CH_CUT_EDGE_GRID^2 cells over the UV square: half the mean longest edge

@@ -9,8 +9,8 @@
  * terminal edges, Rivara 1984), longest edges first; on a tessellation of
  * quads cut in two that splits the diagonals, then the quads' sides (a
  * 4-8 mesh), so the triangles keep their shapes and no vertex hangs in
- * another's edge. Fewer: first the flat blocks of the base's grid far from
- * the features (ch_blocks.c), then shortest edges first, a vertex
+ * another's edge. Fewer: first the flat blocks of the base's grid the cut
+ * left whole (ch_blocks.c), then shortest edges first, a vertex
  * collapses into a neighbour that keeps its place on the surface, where
  * the link condition holds (Dey et al. 1999) and no triangle turns over. */
 #include <math.h>
@@ -951,14 +951,12 @@ done:
   return removed;
 }
 
-long ch_cut_coarsen(ch_cut_out *o, long fewer, long enough, long *merged_out) {
+long ch_cut_coarsen(ch_cut_out *o, long fewer, long *merged_out) {
   long merged = ch_cut_merge_blocks(o, fewer);
   ch_cut_blocks_free(&o->blocks);
   if (merged < 0) return -1;
   if (merged_out) *merged_out = merged;
-  /* (the collapses' fans and candidates cost 60-100 ms at 2.1M triangles
-   * however few they take) */
-  if (merged + 1 >= fewer || merged >= enough) return merged;
+  if (merged + 1 >= fewer) return merged;
   long removed = coarsen_greedy(o, fewer - merged);
   return removed < 0 ? -1 : merged + removed;
 }

@@ -230,9 +230,8 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   long extra = target > 0 ? target - (o->ntri - cleanup_estimate(o)) : 0;
   /* Short of the target by more than docs/spec.md §5 allows and by at
    * most DENSIFY_SHARE of it: the rest where h is smooth; over it by up to
-   * COARSEN_SHARE: fewer triangles there (the flat blocks' merges towards
-   * the target, then collapses only if the merges leave it more than
-   * LANDED over). A run within the 5% is left as it is. */
+   * COARSEN_SHARE: fewer triangles there. A run within the 5% is left as
+   * it is. */
   if (extra > LANDED * (double)target && extra <= DENSIFY_SHARE * (double)target) {
     ch_progress_reportf(progress, -1.0, "embedding: run %d, adding triangles where h is smooth", run);
     long added = ch_cut_densify(surface, height, o, extra, DENSIFY_ROUNDS);
@@ -242,7 +241,7 @@ static ch_status embed_finish(const ch_surface *surface, const ch_height *height
   } else if (-extra > LANDED * (double)target && -extra <= COARSEN_SHARE * (double)target) {
     /* over it: fewer triangles where h is smooth, the features' untouched */
     ch_progress_reportf(progress, -1.0, "embedding: run %d, coarsening where h is smooth", run);
-    long removed = ch_cut_coarsen(o, -extra, llround(-extra - LANDED * (double)target), &stats->merged);
+    long removed = ch_cut_coarsen(o, -extra, &stats->merged);
     if (removed < 0) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
     stats->densified = -removed;
   }
@@ -379,7 +378,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   ch_cut_out o = {0};
   far_set far = {0};
   ch_cut_blocks blocks = {0}; /* the far grid's (ch_cut_blocks_find) */
-  int *output_of_base = NULL; /* with blocks: each base triangle's first in the cut */
+  int *first_out = NULL;      /* with blocks: each base triangle's first in the cut (and one more) */
   ch_status st = CH_OK;
 
   /* The working mesh: the tessellation's vertices, and its triangles near
@@ -537,11 +536,11 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     goto done;
   }
   /* A run the finish may coarsen (aimed above its target, with no warp
-   * and no thinning to renumber the cut) finds the far grid's blocks the
-   * coarsening merges first (ch_blocks.c). */
+   * and no thinning to renumber the cut) finds the grid's blocks the
+   * coarsening merges first where the cut leaves them whole (ch_blocks.c). */
   if (pilot->count_only && !sampled && !(desc && desc->warp) && !thins(desc, reference_edge)) {
-    if (ch_cut_blocks_find(surface, tess, far.where, &blocks)) goto nomem;
-    if (blocks.n > 0 && !(output_of_base = ch_alloc_large((size_t)base_faces, sizeof *output_of_base, 0))) goto nomem;
+    if (ch_cut_blocks_find(surface, tess, &blocks)) goto nomem;
+    if (blocks.n > 0 && !(first_out = ch_alloc_large((size_t)base_faces + 1, sizeof *first_out, 0))) goto nomem;
   }
   /* All the run needs of the tessellation is read: where the caller does
    * not keep it (ch_embed_to_target's), it goes before the run's peak. */
@@ -780,7 +779,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       part[c].shared_uv = shared_uv;
       int t1 = (c + 1) * CUT_CHUNK < norder ? (c + 1) * CUT_CHUNK : norder;
       for (int t = c * CUT_CHUNK; t < t1 && !oom; t++) {
-        if (output_of_base && t < base_faces) output_of_base[t] = part[c].ntri; /* (within the part, for now) */
+        if (first_out && t <= base_faces) first_out[t] = part[c].ntri; /* (within the part, for now) */
         oom |= cut_in_order(&lb, &w, &far, t, tol, &part[c], &pstats[c]) != 0;
       }
       ch_cut_out_shrink(&part[c]); /* all parts live until the join: not twice their size */
@@ -862,10 +861,13 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
       }
       o.npos = o.cap_pos = (int)vbase[nchunks];
       o.ntri = o.cap_tri = (int)tbase[nchunks];
-      if (output_of_base) {
+      if (first_out) {
 #pragma omp parallel for schedule(static)
-        for (int t = 0; t < base_faces; t++) output_of_base[t] += (int)tbase[t / CUT_CHUNK];
-        ch_cut_blocks_place(&blocks, output_of_base);
+        for (int t = 0; t < base_faces; t++) first_out[t] += (int)tbase[t / CUT_CHUNK];
+        /* (after the base's, the triangles the refinement added, or none) */
+        first_out[base_faces] =
+            norder > base_faces ? first_out[base_faces] + (int)tbase[base_faces / CUT_CHUNK] : o.ntri;
+        ch_cut_blocks_place(&blocks, first_out);
         o.blocks = blocks;
         memset(&blocks, 0, sizeof blocks);
       }
@@ -930,7 +932,7 @@ nomem:
   st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for feature embedding");
 done:
   ch_cut_blocks_free(&blocks);
-  free(output_of_base);
+  free(first_out);
   free(shared_uv);
   free(edge_grid);
   free(edge_sampled);
