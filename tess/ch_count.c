@@ -47,10 +47,11 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
   long ceiling = 0; /* > 0: a base whose run went over the cap */
   int restarts = 0;
   double margin = desc->feature_margin;
+  double base_aim = 0.0; /* what the next base was chosen for */
   for (int pass = 0; pass < 8; pass++) {
     /* The pilot only counts; if it lands it is finished from its cut. */
     int count_only = pass < pilots;
-    ch_count_request rq = {count_only ? CH_COUNT_PILOT : CH_COUNT_FULL, base, coarsenings, runs + 1};
+    ch_count_request rq = {count_only ? CH_COUNT_PILOT : CH_COUNT_FULL, base, coarsenings, runs + 1, base_aim};
     ch_count_reply rp = {0};
     if ((st = fn(ctx, &rq, &rp))) break;
     runs++;
@@ -70,9 +71,10 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
         pilots = 0;
         auto_angle = 0;
         pass = -1;
+        base_aim = 0.0;
         continue;
       }
-      ch_count_request last = {CH_COUNT_FULL, fewest, coarsenings, runs + 1};
+      ch_count_request last = {CH_COUNT_FULL, fewest, coarsenings, runs + 1, 0.0};
       ch_count_reply lr = {0};
       if ((st = fn(ctx, &last, &lr))) break;
       runs++;
@@ -82,7 +84,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
       }
       double lmiss = fabs(lr.count - (double)target);
       if (lmiss < best_miss) {
-        ch_count_request keep = {CH_COUNT_KEEP, fewest, coarsenings, runs};
+        ch_count_request keep = {CH_COUNT_KEEP, fewest, coarsenings, runs, 0.0};
         ch_count_reply none = {0};
         if ((st = fn(ctx, &keep, &none))) break;
         best_miss = lmiss;
@@ -121,12 +123,13 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
       if (coarsenings < 4) {
         coarsenings = 4;
         pass = -1;
+        base_aim = 0.0;
         base = first_base;
         continue;
       }
     }
     if (!count_only && miss < best_miss) { /* keep the closest full run */
-      ch_count_request keep = {CH_COUNT_KEEP, base, coarsenings, runs};
+      ch_count_request keep = {CH_COUNT_KEEP, base, coarsenings, runs, 0.0};
       ch_count_reply none = {0};
       if ((st = fn(ctx, &keep, &none))) break;
       best_miss = miss;
@@ -154,6 +157,7 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
          * 66610, 65860 triangles). */
         coarsenings = has_u ? coarsenings + 1 : 4;
         pass = -1;
+        base_aim = 0.0;
         base = first_base;
         best_miss = INFINITY; /* a run at the finer step is no answer */
         continue;
@@ -168,9 +172,10 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
     if (nl < fewest) nl = fewest;
     if (nl == base) break;
     base = nl;
+    base_aim = aim;
   }
   if (!st && best_miss == INFINITY) { /* only pilots ran (the next base was a pilot's): that one in full */
-    ch_count_request rq = {CH_COUNT_FULL, base, coarsenings, runs + 1};
+    ch_count_request rq = {CH_COUNT_FULL, base, coarsenings, runs + 1, base_aim};
     ch_count_reply rp = {0};
     st = fn(ctx, &rq, &rp);
     runs++;

@@ -48,6 +48,8 @@ typedef struct ch_count_request {
   int coarsenings; /* PILOT, FULL: the u lines' angle step is the default
                       one times 1.5 this many times (0..4) */
   int run;         /* PILOT, FULL: 1, 2, ...: the number of this run */
+  double aim;      /* FULL: the count its base was chosen for (the target
+                      and the caller's margin); 0 where none was */
 } ch_count_request;
 
 enum { CH_COUNT_LEVELS = 16 };

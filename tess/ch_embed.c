@@ -535,10 +535,12 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
     st = ch_error_set(err, CH_ERR_INTERNAL, "feature embedding: a tessellation corner is outside its face's UV");
     goto done;
   }
-  /* A run the finish may coarsen (aimed above its target, with no warp
-   * and no thinning to renumber the cut) finds the grid's blocks the
-   * coarsening merges first where the cut leaves them whole (ch_blocks.c). */
-  if (pilot->count_only && !sampled && !(desc && desc->warp) && !thins(desc, reference_edge)) {
+  /* A run the finish will coarsen (aimed above its target by more than
+   * it may land, with no warp and no thinning to renumber the cut) finds
+   * the grid's blocks the coarsening merges first where the cut leaves
+   * them whole (ch_blocks.c); for a run that lands they were a fifth of a
+   * GB at 20M triangles, for nothing. */
+  if (pilot->count_only && pilot->takes_back && !sampled && !(desc && desc->warp) && !thins(desc, reference_edge)) {
     if (ch_cut_blocks_find(surface, tess, &blocks)) goto nomem;
     if (blocks.n > 0 && !(first_out = ch_alloc_large((size_t)base_faces + 1, sizeof *first_out, 0))) goto nomem;
   }
@@ -1079,6 +1081,7 @@ static ch_status target_run(void *ctx, const ch_count_request *rq, ch_count_repl
    * base. */
   r->pilot.count_only = 1;
   r->pilot.full = rq->kind == CH_COUNT_FULL;
+  r->pilot.takes_back = rq->kind == CH_COUNT_FULL && rq->aim > (1.0 + LANDED) * (double)r->target;
   r->pilot.run = rq->run;
   /* Pilots of large targets sample the surface (their count is what the
    * level model needs, not their cut; a pilot that would land is not

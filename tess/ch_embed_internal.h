@@ -66,6 +66,9 @@ typedef struct ch_embed_pilot {
                                    run's): freed (ch_tess_free) once the
                                    run has read it, release_corner_st
                                    then unused */
+  int takes_back;               /* with count_only: a run aimed far enough above
+                            its target that the finish will take some back
+                            (it then finds the grid's blocks: ch_blocks.c) */
 } ch_embed_pilot;
 
 /* ch_embed_build with the pilot knobs (NULL: as ch_embed_build). Same
