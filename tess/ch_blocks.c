@@ -34,8 +34,10 @@ enum { CENTRE = 4 };
 /* Where base triangle t sits in its face's grid: its block (within the
  * face, bi + nbu * bj) and its place in the block (two per quad: the
  * quad's corner it leaves out decides which), or -1 where it is not half
- * of a grid quad of a whole block. gi, gj: its corners' grid points. */
-static long grid_place(const double *st, int ru, int rv, int nbu, int nbv, long gi[3], long gj[3]) {
+ * of a grid quad of a whole block. *points: its corners' grid points in
+ * the block (i + 3 j, 0..8), four bits each, corner k's from bit 4 k. */
+static long grid_place(const double *st, int ru, int rv, int nbu, int nbv, int *points) {
+  long gi[3], gj[3];
   for (int k = 0; k < 3; k++) {
     double a = st[2 * k] * ru, b = st[2 * k + 1] * rv;
     gi[k] = lround(a);
@@ -59,6 +61,8 @@ static long grid_place(const double *st, int ru, int rv, int nbu, int nbv, long 
   }
   int missing = 6 - sum, quad = (int)(ci % 2) + 2 * (int)(cj % 2);
   if (missing < 0 || missing > 3 || seen != 15 - (1 << missing)) return -1;
+  *points = 0;
+  for (int k = 0; k < 3; k++) *points |= (int)((gi[k] - ci / 2 * 2) + 3 * (gj[k] - cj / 2 * 2)) << (4 * k);
   /* a quad's two triangles leave out opposite corners (0 and 3, or 1 and
    * 2): one of each pair below 2 */
   return 8 * ((ci / 2) + (long)nbu * (cj / 2)) + 2 * quad + (missing >= 2);
@@ -73,9 +77,10 @@ int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch
   long *first = malloc(((size_t)nf + 1) * sizeof *first);
   int *rate = malloc(2 * (size_t)(nf > 0 ? nf : 1) * sizeof *rate);
   long *place = ch_alloc_large((size_t)nt, sizeof *place, 0);
+  unsigned short *points = ch_alloc_large((size_t)nt, sizeof *points, 0); /* (grid_place's) */
   int *slot = NULL, *index = NULL;
   int status = -1;
-  if (!first || !rate || !place) goto done;
+  if (!first || !rate || !place || !points) goto done;
   first[0] = 0;
   for (int f = 0; f < nf; f++) {
     int r[2] = {0, 0};
@@ -91,10 +96,11 @@ int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch
   }
 #pragma omp parallel for schedule(static)
   for (int t = 0; t < nt; t++) {
-    int f = tess->triangle_face[t], ru = rate[2 * f], rv = rate[2 * f + 1];
-    long gi[3], gj[3], p = -1;
-    if (ru >= 2 && rv >= 2) p = grid_place(&tess->corner_st[6 * (size_t)t], ru, rv, ru / 2, rv / 2, gi, gj);
+    int f = tess->triangle_face[t], ru = rate[2 * f], rv = rate[2 * f + 1], g = 0;
+    long p = -1;
+    if (ru >= 2 && rv >= 2) p = grid_place(&tess->corner_st[6 * (size_t)t], ru, rv, ru / 2, rv / 2, &g);
     place[t] = p < 0 ? -1 : 8 * first[f] + p;
+    points[t] = (unsigned short)g;
   }
   /* Each block's eight triangles (in order: the same on any number of
    * threads); a place taken twice spoils its block. */
@@ -136,18 +142,16 @@ int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch
       int bi = (int)(lb % nbu), bj = (int)(lb / nbu), *v = &out->vert[9 * (size_t)k];
       for (int g = 0; g < 9; g++) v[g] = -1;
       for (int s = 0; s < 8; s++) {
-        int t = slot[8 * b + s];
-        long gi[3], gj[3];
-        grid_place(&tess->corner_st[6 * (size_t)t], ru, rv, nbu, nbv, gi, gj);
+        int t = slot[8 * b + s], g[3];
         out->tri[8 * (size_t)k + s] = t;
         for (int c = 0; c < 3; c++) {
-          int g = (int)(gi[c] - 2 * bi) + 3 * (int)(gj[c] - 2 * bj);
+          g[c] = points[t] >> (4 * c) & 15;
           int x = tm->corner_position[tm->face_start[t] + c];
-          if (v[g] >= 0 && v[g] != x) bad = 1;
-          v[g] = x;
+          if (v[g[c]] >= 0 && v[g[c]] != x) bad = 1;
+          v[g[c]] = x;
         }
         if (s == 0) {
-          long cross = (gi[1] - gi[0]) * (gj[2] - gj[0]) - (gi[2] - gi[0]) * (gj[1] - gj[0]);
+          int cross = (g[1] % 3 - g[0] % 3) * (g[2] / 3 - g[0] / 3) - (g[2] % 3 - g[0] % 3) * (g[1] / 3 - g[0] / 3);
           out->ccw[k] = cross > 0 ? 1 : -1;
         }
       }
@@ -166,6 +170,7 @@ done:
   free(first);
   free(rate);
   free(place);
+  free(points);
   free(slot);
   free(index);
   return status;
@@ -274,7 +279,6 @@ long ch_cut_merge_blocks(ch_cut_out *o, long fewer) {
     if (!in[k]) continue;
     const int *v = &bl->vert[9 * (size_t)k], *next = &bl->next[4 * (size_t)k];
     int *slots = &bl->tri[8 * (size_t)k];
-    uint64_t group = o->group[slots[0]];
     int ring[8], nr = 0, made[8][3], nm = 0;
     for (int s = 0; s < 4; s++) {
       ring[nr++] = corner_at[s];
@@ -311,8 +315,8 @@ long ch_cut_merge_blocks(ch_cut_out *o, long fewer) {
       c[0] = v[made[i][0]];
       c[1] = v[bl->ccw[k] > 0 ? made[i][1] : made[i][2]];
       c[2] = v[bl->ccw[k] > 0 ? made[i][2] : made[i][1]];
-      o->group[slots[order[i]]] = group;
-      for (int x = 0; x < 3; x++) o->corner_uv[3 * (size_t)slots[order[i]] + x] = -1;
+      /* (its group and corner UVs are the block's, as they were: one
+       * plain piece, every corner with its vertex's UV) */
     }
   }
   if (saved > 0) {

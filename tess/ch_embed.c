@@ -377,7 +377,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   ch_label_ctx lb = {0};
   ch_cut_out o = {0};
   far_set far = {0};
-  ch_cut_blocks blocks = {0}; /* the far grid's (ch_cut_blocks_find) */
+  ch_cut_blocks blocks = {0}; /* the grid's (ch_cut_blocks_find) */
   int *first_out = NULL;      /* with blocks: each base triangle's first in the cut (and one more) */
   ch_status st = CH_OK;
 
