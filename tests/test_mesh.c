@@ -1372,6 +1372,48 @@ static void test_write_errors(void) {
   ch_mesh_free(&m);
 }
 
+/* A malformed mesh in memory is refused before anything is written, the
+ * first bad face named (the check runs on all threads). */
+static void test_write_refuses_bad_meshes(void) {
+  enum { F = 50000 };
+  double pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  int *start = malloc((F + 1) * sizeof *start), *corner = malloc(3 * (size_t)F * sizeof *corner);
+  REQUIRE(start && corner);
+  for (int f = 0; f <= F; f++) start[f] = 3 * f;
+  for (int c = 0; c < 3 * F; c++) corner[c] = c % 3;
+  ch_mesh m = {.num_positions = 3,
+               .positions = pos,
+               .num_faces = F,
+               .face_start = start,
+               .num_corners = 3 * F,
+               .corner_position = corner};
+  const char *out = tmp_path("refused.obj");
+  struct stat st;
+  ch_error err = new_error(NULL);
+  CHECK(ch_mesh_write_obj(out, &m, &err) == CH_OK); /* well formed */
+  remove(out);
+  corner[3 * 40000 + 1] = 3; /* two bad faces: 40001 and (below) 30001 */
+  corner[3 * 30000 + 2] = -1;
+  err = new_error(NULL);
+  CHECK(ch_mesh_write_obj(out, &m, &err) == CH_ERR_INPUT);
+  CHECK_MSG(strstr(err.message, "face 30001: index out of range") != NULL, "%s", err.message);
+  CHECK(stat(out, &st) != 0);
+  corner[3 * 30000 + 2] = 2;
+  corner[3 * 40000 + 1] = 1;
+  start[20001] = 3 * F + 3; /* past the corners: faces 20001 and 20002 inconsistent */
+  err = new_error(NULL);
+  CHECK(ch_mesh_write_ply(tmp_path("refused.ply"), &m, &err) == CH_ERR_INPUT);
+  CHECK_MSG(strstr(err.message, "face 20001: inconsistent corner offsets") != NULL, "%s", err.message);
+  CHECK(stat(tmp_path("refused.ply"), &st) != 0);
+  start[20001] = -3; /* before the corners */
+  err = new_error(NULL);
+  CHECK(ch_mesh_write_obj(out, &m, &err) == CH_ERR_INPUT);
+  CHECK_MSG(strstr(err.message, "face 20001: inconsistent corner offsets") != NULL, "%s", err.message);
+  CHECK(stat(out, &st) != 0);
+  free(start);
+  free(corner);
+}
+
 int main(void) {
   const char *base = getenv("TMPDIR");
   snprintf(tmp_dir, sizeof tmp_dir, "%s/test_mesh.XXXXXX", base && *base ? base : "/tmp");
@@ -1406,6 +1448,7 @@ int main(void) {
   RUN(test_ply_large_and_wide);
   RUN(test_glb);
   RUN(test_write_errors);
+  RUN(test_write_refuses_bad_meshes);
   const char *made[] = {"stderr.txt", "round1.obj", "round2.obj", "st.obj", "cube1.ply", "cube2.ply",
                         "cube1.glb",  "cube2.glb"};
   for (size_t i = 0; i < sizeof made / sizeof made[0]; i++) remove(tmp_path(made[i]));
