@@ -189,9 +189,16 @@ typedef struct embed_kept {
 /* How short an edge the cleanup collapses: 1e-8 of the diagonal of the
  * positions' box (see embed_finish). */
 static double collapse_length(const double *pos, int n) {
-  double lo[3], hi[3];
-  ch_box3(pos, (size_t)(n > 0 ? n : 0), lo, hi);
-  double span[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+  double lo0 = INFINITY, lo1 = INFINITY, lo2 = INFINITY, hi0 = -INFINITY, hi1 = -INFINITY, hi2 = -INFINITY;
+  /* (ch_box3 on all threads: min and max are exact, so the same box) */
+#pragma omp parallel for schedule(static) reduction(min : lo0, lo1, lo2) reduction(max : hi0, hi1, hi2)
+  for (int i = 0; i < n; i++) {
+    const double *p = &pos[3 * (size_t)i];
+    lo0 = p[0] < lo0 ? p[0] : lo0, hi0 = p[0] > hi0 ? p[0] : hi0;
+    lo1 = p[1] < lo1 ? p[1] : lo1, hi1 = p[1] > hi1 ? p[1] : hi1;
+    lo2 = p[2] < lo2 ? p[2] : lo2, hi2 = p[2] > hi2 ? p[2] : hi2;
+  }
+  double span[3] = {hi0 - lo0, hi1 - lo1, hi2 - lo2};
   return n ? 1e-8 * sqrt(ch_dot3(span, span)) : 0.0;
 }
 
@@ -388,14 +395,19 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   w.cap_verts = w.nverts + w.nverts / 4 + 1024;
   w.verts = ch_alloc_large((size_t)w.cap_verts, sizeof *w.verts, 0);
   if (!w.verts) goto nomem;
-  double uv_area = 0.0, longest_edge = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : longest_edge)
+  double uv_area = 0.0, longest2 = 0.0;
+  /* (squared lengths compared, one square root at the end: hypot and fmax
+   * are library calls, 15 ms over a million triangles) */
+#pragma omp parallel for schedule(static) reduction(max : longest2)
   for (int t = 0; t < base_faces; t++) {
     const double *uv[3];
     base_corner_uvs(tm, t, uv);
-    for (int k = 0; k < 3; k++)
-      longest_edge = fmax(longest_edge, hypot(uv[(k + 1) % 3][0] - uv[k][0], uv[(k + 1) % 3][1] - uv[k][1]));
+    for (int k = 0; k < 3; k++) {
+      double du = uv[(k + 1) % 3][0] - uv[k][0], dv = uv[(k + 1) % 3][1] - uv[k][1], l2 = du * du + dv * dv;
+      longest2 = l2 > longest2 ? l2 : longest2;
+    }
   }
+  double longest_edge = sqrt(longest2);
   int sampled = pilot->count_only && !pilot->full && pilot->sampled;
   int quarter = sampled && base_faces >= SAMPLE_QUARTER_BASE; /* (see sample_tile) */
   double sampled_area = 0.0;
