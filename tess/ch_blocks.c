@@ -40,9 +40,14 @@ static long grid_place(const double *st, int ru, int rv, int nbu, int nbv, int *
   long gi[3], gj[3];
   for (int k = 0; k < 3; k++) {
     double a = st[2 * k] * ru, b = st[2 * k + 1] * rv;
-    gi[k] = lround(a);
-    gj[k] = lround(b);
-    if (!(fabs(a - (double)gi[k]) <= GRID_TOL && fabs(b - (double)gj[k]) <= GRID_TOL)) return -1;
+    if (!(fabs(a) < 0x1p30 && fabs(b) < 0x1p30)) return -1;
+    /* the nearest integers by adding and taking away 2^52 (lround is a
+     * library call, 15 ms over a million triangles; the two differ only at
+     * halves, which are off the grid either way) */
+    double ra = (a + 0x1p52) - 0x1p52, rb = (b + 0x1p52) - 0x1p52;
+    if (!(fabs(a - ra) <= GRID_TOL && fabs(b - rb) <= GRID_TOL)) return -1;
+    gi[k] = (long)ra;
+    gj[k] = (long)rb;
   }
   long ci = gi[0], cj = gj[0], xi = gi[0], xj = gj[0];
   for (int k = 1; k < 3; k++) {
@@ -107,20 +112,36 @@ int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch
   slot = ch_alloc_large(8 * (size_t)nb, sizeof *slot, 0);
   index = ch_alloc_large((size_t)nb, sizeof *index, 0);
   if (!slot || !index) goto done;
-  for (size_t i = 0; i < 8 * (size_t)nb; i++) slot[i] = -1;
-  for (long b = 0; b < nb; b++) index[b] = 0;
-  for (int t = 0; t < nt; t++) {
-    long p = place[t];
-    if (p < 0) continue;
-    if (slot[p] >= 0) index[p / 8] = -1;
-    slot[p] = t;
+#pragma omp parallel
+  {
+#pragma omp for schedule(static)
+    for (long b = 0; b < nb; b++) {
+      index[b] = 0;
+      for (int s = 0; s < 8; s++) slot[8 * b + s] = -1;
+    }
+    /* Where two triangles take one place, one of them finds the other's
+     * there (whichever wrote last): the block is spoiled either way. */
+#pragma omp for schedule(static)
+    for (int t = 0; t < nt; t++)
+      if (place[t] >= 0) {
+#pragma omp atomic write
+        slot[place[t]] = t;
+      }
+#pragma omp for schedule(static)
+    for (int t = 0; t < nt; t++)
+      if (place[t] >= 0 && slot[place[t]] != t) {
+#pragma omp atomic write
+        index[place[t] / 8] = -1;
+      }
+#pragma omp for schedule(static)
+    for (long b = 0; b < nb; b++) {
+      int whole = index[b] == 0;
+      for (int s = 0; s < 8 && whole; s++) whole = slot[8 * b + s] >= 0;
+      index[b] = whole ? 1 : -1;
+    }
   }
   int n = 0;
-  for (long b = 0; b < nb; b++) {
-    int whole = index[b] == 0;
-    for (int s = 0; s < 8 && whole; s++) whole = slot[8 * b + s] >= 0;
-    index[b] = whole ? n++ : -1;
-  }
+  for (long b = 0; b < nb; b++) index[b] = index[b] > 0 ? n++ : -1;
   if (n == 0) {
     status = 0;
     goto done;
@@ -132,35 +153,42 @@ int ch_cut_blocks_find(const ch_surface *surface, const ch_tess_result *tess, ch
   if (!out->tri || !out->vert || !out->next || !out->ccw) goto done;
   out->n = n;
   int bad = 0;
+  /* (by block, not by face: a plane is one face) */
 #pragma omp parallel for schedule(static) reduction(| : bad)
-  for (int f = 0; f < nf; f++) {
+  for (long b = 0; b < nb; b++) {
+    int k = index[b];
+    if (k < 0) continue;
+    int f = 0, f1 = nf; /* the face whose blocks hold b: the last with first[f] <= b */
+    while (f1 - f > 1) {
+      int mid = f + (f1 - f) / 2;
+      if (first[mid] <= b)
+        f = mid;
+      else
+        f1 = mid;
+    }
     int ru = rate[2 * f], rv = rate[2 * f + 1], nbu = ru / 2, nbv = rv / 2;
-    for (long lb = 0; lb < (long)nbu * nbv; lb++) {
-      long b = first[f] + lb;
-      int k = index[b];
-      if (k < 0) continue;
-      int bi = (int)(lb % nbu), bj = (int)(lb / nbu), *v = &out->vert[9 * (size_t)k];
-      for (int g = 0; g < 9; g++) v[g] = -1;
-      for (int s = 0; s < 8; s++) {
-        int t = slot[8 * b + s], g[3];
-        out->tri[8 * (size_t)k + s] = t;
-        for (int c = 0; c < 3; c++) {
-          g[c] = points[t] >> (4 * c) & 15;
-          int x = tm->corner_position[tm->face_start[t] + c];
-          if (v[g[c]] >= 0 && v[g[c]] != x) bad = 1;
-          v[g[c]] = x;
-        }
-        if (s == 0) {
-          int cross = (g[1] % 3 - g[0] % 3) * (g[2] / 3 - g[0] / 3) - (g[2] % 3 - g[0] % 3) * (g[1] / 3 - g[0] / 3);
-          out->ccw[k] = cross > 0 ? 1 : -1;
-        }
+    long lb = b - first[f];
+    int bi = (int)(lb % nbu), bj = (int)(lb / nbu), *v = &out->vert[9 * (size_t)k];
+    for (int g = 0; g < 9; g++) v[g] = -1;
+    for (int s = 0; s < 8; s++) {
+      int t = slot[8 * b + s], g[3];
+      out->tri[8 * (size_t)k + s] = t;
+      for (int c = 0; c < 3; c++) {
+        g[c] = points[t] >> (4 * c) & 15;
+        int x = tm->corner_position[tm->face_start[t] + c];
+        if (v[g[c]] >= 0 && v[g[c]] != x) bad = 1;
+        v[g[c]] = x;
       }
-      const int di[4] = {0, 1, 0, -1}, dj[4] = {-1, 0, 1, 0};
-      for (int s = 0; s < 4; s++) {
-        int ni = bi + di[s], nj = bj + dj[s];
-        out->next[4 * (size_t)k + s] =
-            ni >= 0 && ni < nbu && nj >= 0 && nj < nbv ? index[first[f] + ni + (long)nbu * nj] : -1;
+      if (s == 0) {
+        int cross = (g[1] % 3 - g[0] % 3) * (g[2] / 3 - g[0] / 3) - (g[2] % 3 - g[0] % 3) * (g[1] / 3 - g[0] / 3);
+        out->ccw[k] = cross > 0 ? 1 : -1;
       }
+    }
+    const int di[4] = {0, 1, 0, -1}, dj[4] = {-1, 0, 1, 0};
+    for (int s = 0; s < 4; s++) {
+      int ni = bi + di[s], nj = bj + dj[s];
+      out->next[4 * (size_t)k + s] =
+          ni >= 0 && ni < nbu && nj >= 0 && nj < nbv ? index[first[f] + ni + (long)nbu * nj] : -1;
     }
   }
   if (bad) ch_cut_blocks_free(out); /* (a grid point on two vertices: not a grid after all) */
