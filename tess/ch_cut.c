@@ -618,9 +618,22 @@ static void normal_block(const ch_cut_out *o, double thin, const int *start, con
 static void close_ranks(double **array, int width, int nb, const int *at, const int *made, int *dest_at) {
   dest_at[0] = 0;
   for (int b = 0; b < nb; b++) {
-    if (dest_at[b] != at[b] && made[b] > 0)
-      memmove(&(*array)[(size_t)width * (size_t)dest_at[b]], &(*array)[(size_t)width * (size_t)at[b]],
-              (size_t)width * (size_t)made[b] * sizeof **array);
+    double *to = &(*array)[(size_t)width * (size_t)dest_at[b]], *from = &(*array)[(size_t)width * (size_t)at[b]];
+    size_t n = (size_t)width * (size_t)made[b];
+    if (to != from && n > 0) {
+      if (to + n <= from) {
+        /* Apart (a block holds fewer items than corners): copied on all
+         * threads, a huge page at a time, as the copy is where those pages
+         * are first touched (on one thread, 20 ms at 2.1M triangles). */
+        enum { CHUNK = (2 << 20) / sizeof(double) };
+        size_t chunks = (n + CHUNK - 1) / CHUNK;
+#pragma omp parallel for schedule(static)
+        for (size_t k = 0; k < chunks; k++)
+          memcpy(to + k * CHUNK, from + k * CHUNK, (n - k * CHUNK < CHUNK ? n - k * CHUNK : CHUNK) * sizeof *to);
+      } else {
+        memmove(to, from, n * sizeof *to);
+      }
+    }
     dest_at[b + 1] = dest_at[b] + made[b];
   }
   double *q = realloc(*array, (size_t)width * (size_t)(dest_at[nb] > 0 ? dest_at[nb] : 1) * sizeof **array);
