@@ -329,7 +329,8 @@ static ch_status over_cap(ch_error *err, const ch_embed_pilot *pilot, double cap
 static void free_working_mesh(ch_refine_mesh *w) {
   free(w->verts);
   free(w->tris);
-  ch_refine_free_edges(w->edges, w->nedges);
+  free(w->edges);
+  ch_refine_pools_free(w);
   free(w->tri_edge);
   memset(w, 0, sizeof *w);
 }
@@ -394,7 +395,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   w.nverts = tm->num_positions;
   w.cap_verts = w.nverts + w.nverts / 4 + 1024;
   w.verts = ch_alloc_large((size_t)w.cap_verts, sizeof *w.verts, 0);
-  if (!w.verts) goto nomem;
+  if (!w.verts || ch_refine_pools_init(&w)) goto nomem;
   double uv_area = 0.0, longest2 = 0.0;
   /* (squared lengths compared, one square root at the end: hypot and fmax
    * are library calls, 15 ms over a million triangles) */

@@ -80,9 +80,52 @@ static uint64_t span_label(const ch_label_ctx *lb, const span *s, double x) {
   return ch_label_at(lb, uv);
 }
 
-void ch_refine_free_edges(ch_refine_edge *edges, int n) {
-  for (int i = 0; i < n; i++) free(edges[i].cross);
-  free(edges);
+int ch_refine_pools_init(ch_refine_mesh *w) {
+  int n = omp_get_max_threads();
+  /* (each on a cache line of its own) */
+  w->pools = aligned_alloc(64, (size_t)n * sizeof *w->pools);
+  if (!w->pools) return -1;
+  memset(w->pools, 0, (size_t)n * sizeof *w->pools);
+  w->npools = n;
+  return 0;
+}
+
+void ch_refine_pools_free(ch_refine_mesh *w) {
+  for (int i = 0; i < w->npools; i++) {
+    for (int b = 0; b < w->pools[i].nblocks; b++) free(w->pools[i].blocks[b]);
+    free(w->pools[i].blocks);
+  }
+  free(w->pools);
+  w->pools = NULL;
+  w->npools = 0;
+}
+
+/* n crossings from the calling thread's pool (NULL when out of memory). */
+static ch_refine_crossing *pool_take(const ch_refine_mesh *w, int n) {
+  enum { BLOCK = 1 << 20 }; /* (a 2.1M-triangle run's lists take about 40 MB) */
+  int t = omp_get_thread_num();
+  if (t >= w->npools) return NULL;
+  ch_refine_pool *p = &w->pools[t];
+  size_t bytes = (size_t)n * sizeof(ch_refine_crossing);
+  if (!p->block || p->size - p->used < bytes) {
+    size_t size = bytes > BLOCK ? bytes : BLOCK;
+    if (p->nblocks == p->cap) {
+      int cap = p->cap ? 2 * p->cap : 16;
+      void **blocks = realloc(p->blocks, (size_t)cap * sizeof *blocks);
+      if (!blocks) return NULL;
+      p->blocks = blocks;
+      p->cap = cap;
+    }
+    char *block = malloc(size);
+    if (!block) return NULL;
+    p->blocks[p->nblocks++] = block;
+    p->block = block;
+    p->size = size;
+    p->used = 0;
+  }
+  ch_refine_crossing *out = (ch_refine_crossing *)(p->block + p->used);
+  p->used += bytes;
+  return out;
 }
 
 /* The unique edges of the triangles, sorted by vertex pair (a counting
@@ -644,11 +687,11 @@ int ch_refine_on_seam(const ch_refine_mesh *w, int v, const double uv[2]) {
 /* Gives e an array of exactly the count crossings of list: edges hold
  * their crossings until the cut, and a per-edge array grown by doubling
  * from a large first capacity took gigabytes. 0, or -1 out of memory. */
-static int keep_crossings(ch_refine_edge *e, const ch_refine_crossing *list, int count) {
+static int keep_crossings(const ch_refine_mesh *w, ch_refine_edge *e, const ch_refine_crossing *list, int count) {
   e->cross = NULL;
   e->ncross = 0;
   if (count > 0) {
-    if (!(e->cross = malloc((size_t)count * sizeof *e->cross))) return -1;
+    if (!(e->cross = pool_take(w, count))) return -1;
     memcpy(e->cross, list, (size_t)count * sizeof *e->cross);
     e->ncross = count;
   }
@@ -747,7 +790,7 @@ int ch_refine_crossings(const ch_label_ctx *lb, const ch_refine_mesh *w, ch_refi
         break;
       }
   }
-  return keep_crossings(e, list, count);
+  return keep_crossings(w, e, list, count);
 }
 
 void ch_refine_label_vertices(const ch_label_ctx *lb, ch_refine_mesh *w, int from) {
@@ -855,10 +898,9 @@ int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i
       }
     }
     if (!chain) continue;
-    if (keep_crossings(h, list, count)) return -1;
+    if (keep_crossings(w, h, list, count)) return -1;
   }
-  if (e->cross) { /* (as ch_refine_split left them before) */
-    free(e->cross);
+  if (e->cross) { /* (as ch_refine_split left them before; the pool keeps the list) */
     e->cross = NULL;
     e->ncross = 0;
   }

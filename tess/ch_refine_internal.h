@@ -52,6 +52,18 @@ typedef struct ch_refine_edge {
   int half[2];               /* when split: the halves from a and from b */
 } ch_refine_edge;
 
+/* Where the edges' crossing lists live: blocks per thread, handed out in
+ * order and freed all at once with the working mesh (a malloc per crossed
+ * edge was 600k small chunks at 2.1M triangles, and a serial pass freeing
+ * them). Padded to a cache line: each thread bumps its own. */
+typedef struct ch_refine_pool {
+  char *block;       /* the block being filled */
+  size_t used, size; /* in it */
+  void **blocks;     /* every block, to free */
+  int nblocks, cap;
+  char pad[24];
+} ch_refine_pool;
+
 /* The working mesh: the tessellation, each corner with its (s,t) in its
  * face, refined in place (owns its arrays; ch_embed frees them). */
 typedef struct ch_refine_mesh {
@@ -64,7 +76,17 @@ typedef struct ch_refine_mesh {
   int nedges, cap_edges;
   int *tri_edge; /* 3 per triangle */
   int cap_tri_edge;
+  ch_refine_pool *pools; /* one per thread (ch_refine_pools_init): the edges' crossings */
+  int npools;
 } ch_refine_mesh;
+
+/* Makes w's crossing pools, one for each of omp_get_max_threads(); 0 or -1
+ * when out of memory. */
+int ch_refine_pools_init(ch_refine_mesh *w);
+
+/* Frees every crossing list of w at once (the edges' cross pointers then
+ * dangle: free the edges too, or forget them). */
+void ch_refine_pools_free(ch_refine_mesh *w);
 
 /* The boundary of a triangle as a cycle of nodes: its corners and, between
  * them, the crossings of its edges. Each crossing joins the piece before it
@@ -181,9 +203,6 @@ int ch_refine_inherit_crossings(const ch_label_ctx *lb, ch_refine_mesh *w, int i
 
 /* The UV and (s,t) of edge e at fraction x from e->a, in its canonical triangle. */
 void ch_refine_edge_point(const ch_refine_mesh *w, const ch_refine_edge *e, double x, double uv[2], double st[2]);
-
-/* Frees the first n edges' crossings and the array. */
-void ch_refine_free_edges(ch_refine_edge *edges, int n);
 
 /* The boundary's nodes of triangle t into nodes[cap]; -1 if there are more
  * (the triangle is then refined, or fanned once refinement is over). */

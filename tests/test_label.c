@@ -331,6 +331,7 @@ static void test_inherited_crossings(void) {
                            {.a = 0, .b = 3, .tri = 1, .k = 0, .ncross = -1, .mid = -1},
                            {.a = 1, .b = 3, .tri = 2, .k = 0, .ncross = -1, .mid = -1}};
     ch_refine_mesh w = {.verts = v, .nverts = 4, .tris = t, .ntris = 3, .edges = e, .nedges = 3};
+    REQUIRE(ch_refine_pools_init(&w) == 0);
     CHECK(ch_refine_crossings(&sc.lb, &w, &e[0], delta) == 0);
     crossings += e[0].ncross;
     CHECK(ch_refine_inherit_crossings(&sc.lb, &w, 0, delta) == 0);
@@ -358,9 +359,8 @@ static void test_inherited_crossings(void) {
         worse += bad > search_bad;
         search_right += search_bad == 0;
       }
-      free(fresh.cross);
-      free(e[j].cross);
     }
+    ch_refine_pools_free(&w); /* (every list at once) */
   }
   CHECK_MSG(worse == 0 && search_right == 0,
             "%d inherited lists differ from the search's: %d disagree more with the labels, %d where the search's "
