@@ -8,6 +8,9 @@
 #include <time.h>
 
 #include <omp.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include "ch_alloc.h"
 #include "ch_math.h"
@@ -108,6 +111,40 @@ static void test_resize(void) {
   free(p);
 }
 
+/* ch_alloc_large zeroes every byte of a large array, on 1 to 3 threads,
+ * whatever its alignment to huge pages (the head before the first is
+ * zeroed apart): memory filled and freed just before (from the heap, as
+ * main() has glibc keep it) comes back as zeros. ch_alloc_prefault leaves
+ * an array that can be filled. */
+static void test_large_zero(void) {
+#ifdef __GLIBC__
+  mallopt(M_MMAP_MAX, 0);
+#endif
+  const size_t sizes[] = {(8u << 20) + 1, (8u << 20) + 4097, (21u << 20) + 123, 3u << 20};
+  int zeros = 1, filled = 1, threads_before = omp_get_max_threads();
+  for (int threads = 1; threads <= 3; threads++)
+    for (int k = 0; k < 4; k++) {
+      omp_set_num_threads(threads);
+      unsigned char *old = malloc(sizes[k]);
+      REQUIRE(old);
+      memset(old, 0xab, sizes[k]);
+      free(old);
+      unsigned char *p = ch_alloc_large(sizes[k], 1, 1);
+      REQUIRE(p);
+      for (size_t i = 0; i < sizes[k]; i++) zeros &= p[i] == 0;
+      free(p);
+      p = ch_alloc_large(sizes[k], 1, 0);
+      REQUIRE(p);
+      ch_alloc_prefault(p, sizes[k]);
+      for (size_t i = 0; i < sizes[k]; i++) p[i] = (unsigned char)(i * 7);
+      for (size_t i = 0; i < sizes[k]; i++) filled &= p[i] == (unsigned char)(i * 7);
+      free(p);
+    }
+  omp_set_num_threads(threads_before);
+  CHECK(zeros);
+  CHECK(filled);
+}
+
 /* The clock runs forward with wall time: a 30 ms sleep reads as 30 ms or
  * more (and, even on a loaded machine, well under 10 s). */
 /* ch_sort_buckets against the serial stable counting sort: every bucket's
@@ -173,6 +210,7 @@ int main(void) {
   RUN(test_angle);
   RUN(test_grow);
   RUN(test_resize);
+  RUN(test_large_zero);
   RUN(test_sort);
   RUN(test_select);
   RUN(test_clock);

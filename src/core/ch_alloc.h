@@ -15,6 +15,12 @@ extern "C" {
  * first-touch page faults otherwise cost as much as a pass over the data. */
 void *ch_alloc_large(size_t count, size_t size, int zero);
 
+/* Touches each page of [p, p + bytes) of a large array (as from
+ * ch_alloc_large) on all threads before a pass fills it, so that the page
+ * faults are shared evenly, whatever order the pass writes in; the
+ * contents are then undefined. Below a few megabytes, nothing. */
+void ch_alloc_prefault(void *p, size_t bytes);
+
 /* Resizes *array, which holds old_count elements of size bytes, to
  * new_count, keeping the first min(old, new) (0 on success; -1 on overflow
  * or when out of memory, *array then untouched). Growth to a large size
