@@ -396,6 +396,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   w.cap_verts = w.nverts + w.nverts / 4 + 1024;
   w.verts = ch_alloc_large((size_t)w.cap_verts, sizeof *w.verts, 0);
   if (!w.verts || ch_refine_pools_init(&w)) goto nomem;
+  ch_alloc_prefault(w.verts, (size_t)w.nverts * sizeof *w.verts); /* (the room past nverts stays untouched) */
   double uv_area = 0.0, longest2 = 0.0;
   /* (squared lengths compared, one square root at the end: hypot and fmax
    * are library calls, 15 ms over a million triangles) */
@@ -519,6 +520,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   stats.far_triangles = far.nfar;
   w.cap_tris = far.nactive + base_faces / 4 + 1024;
   w.tris = ch_alloc_large((size_t)w.cap_tris, sizeof *w.tris, 0);
+  ch_alloc_prefault(w.tris, (size_t)w.ntris * sizeof *w.tris);
   far.far_v = malloc(3 * (size_t)(far.nfar > 0 ? far.nfar : 1) * sizeof *far.far_v);
   if (!w.tris || !far.far_v) goto nomem;
   int failed = 0;

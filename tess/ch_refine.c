@@ -989,6 +989,10 @@ ch_status ch_refine_split(ch_refine_mesh *w, const int *split_edges, int nsplit,
     goto fail;
   w->cap_tri_edge = cap_edge_index;
   memset(fr, 0, (size_t)n);
+  /* (the children land past n0 in parent order, from whichever thread
+   * takes the parent: two threads writing into one fresh huge page wait
+   * for each other's fault) */
+  ch_alloc_prefault(w->tris + n0, (size_t)added * sizeof *w->tris);
 #pragma omp parallel for schedule(dynamic, 64)
   for (int pi = 0; pi < nparents; pi++) {
     int t = parent[pi], mask = split_mask(w, edge_split, t), child0 = first[pi];
