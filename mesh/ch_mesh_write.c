@@ -17,16 +17,18 @@
 #include "ch_file.h"
 #include "ch_le_internal.h"
 
-/* Whether face f's corner offsets and indices are in range. */
-static int face_writable(const ch_mesh *m, int f) {
+enum { FACE_OK, FACE_BAD_OFFSETS, FACE_BAD_INDEX };
+
+/* What is wrong with face f, if anything: its corner offsets, or an index. */
+static int face_fault(const ch_mesh *m, int f) {
   if (m->face_start[f] < 0 || m->face_start[f + 1] < m->face_start[f] || m->face_start[f + 1] > m->num_corners)
-    return 0;
+    return FACE_BAD_OFFSETS;
   for (int c = m->face_start[f]; c < m->face_start[f + 1]; c++)
     if (m->corner_position[c] < 0 || m->corner_position[c] >= m->num_positions ||
         (m->corner_uv && (m->corner_uv[c] < 0 || m->corner_uv[c] >= m->num_uvs || !m->uvs)) ||
         (m->corner_normal && (m->corner_normal[c] < 0 || m->corner_normal[c] >= m->num_normals || !m->normals)))
-      return 0;
-  return 1;
+      return FACE_BAD_INDEX;
+  return FACE_OK;
 }
 
 /* The writers trust the counts but never index outside the arrays: a
@@ -44,12 +46,11 @@ static ch_status check_writable(const ch_mesh *m, const char *path, ch_error *er
   int first_bad = m->num_faces;
 #pragma omp parallel for schedule(static) reduction(min : first_bad)
   for (int f = 0; f < m->num_faces; f++)
-    if (!face_writable(m, f) && f < first_bad) first_bad = f;
+    if (face_fault(m, f) != FACE_OK && f < first_bad) first_bad = f;
   if (first_bad == m->num_faces) return CH_OK;
-  int f = first_bad;
-  if (m->face_start[f] < 0 || m->face_start[f + 1] < m->face_start[f] || m->face_start[f + 1] > m->num_corners)
-    return ch_error_set(err, CH_ERR_INPUT, "%s: face %d: inconsistent corner offsets", path, f + 1);
-  return ch_error_set(err, CH_ERR_INPUT, "%s: face %d: index out of range", path, f + 1);
+  return ch_error_set(err, CH_ERR_INPUT, "%s: face %d: %s", path, first_bad + 1,
+                      face_fault(m, first_bad) == FACE_BAD_OFFSETS ? "inconsistent corner offsets"
+                                                                   : "index out of range");
 }
 
 /* ---- OBJ ---------------------------------------------------------------- */

@@ -82,8 +82,7 @@ static uint64_t span_label(const ch_label_ctx *lb, const span *s, double x) {
 
 int ch_refine_pools_init(ch_refine_mesh *w) {
   int n = omp_get_max_threads();
-  /* (each on a cache line of its own) */
-  w->pools = aligned_alloc(64, (size_t)n * sizeof *w->pools);
+  w->pools = aligned_alloc(_Alignof(ch_refine_pool), (size_t)n * sizeof *w->pools);
   if (!w->pools) return -1;
   memset(w->pools, 0, (size_t)n * sizeof *w->pools);
   w->npools = n;
@@ -109,15 +108,9 @@ static ch_refine_crossing *pool_take(const ch_refine_mesh *w, int n) {
   size_t bytes = (size_t)n * sizeof(ch_refine_crossing);
   if (!p->block || p->size - p->used < bytes) {
     size_t size = bytes > BLOCK ? bytes : BLOCK;
-    if (p->nblocks == p->cap) {
-      int cap = p->cap ? 2 * p->cap : 16;
-      void **blocks = realloc(p->blocks, (size_t)cap * sizeof *blocks);
-      if (!blocks) return NULL;
-      p->blocks = blocks;
-      p->cap = cap;
-    }
-    char *block = malloc(size);
-    if (!block) return NULL;
+    char *block = NULL;
+    if (ch_alloc_grow((void **)&p->blocks, &p->cap, p->nblocks + 1, sizeof *p->blocks, 16) || !(block = malloc(size)))
+      return NULL;
     p->blocks[p->nblocks++] = block;
     p->block = block;
     p->size = size;

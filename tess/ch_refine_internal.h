@@ -55,13 +55,12 @@ typedef struct ch_refine_edge {
 /* Where the edges' crossing lists live: blocks per thread, handed out in
  * order and freed all at once with the working mesh (a malloc per crossed
  * edge was 600k small chunks at 2.1M triangles, and a serial pass freeing
- * them). Padded to a cache line: each thread bumps its own. */
+ * them). Aligned to a cache line: each thread bumps its own. */
 typedef struct ch_refine_pool {
-  char *block;       /* the block being filled */
-  size_t used, size; /* in it */
-  void **blocks;     /* every block, to free */
+  _Alignas(64) char *block; /* the block being filled (a cache line each) */
+  size_t used, size;        /* in it */
+  void **blocks;            /* every block, to free */
   int nblocks, cap;
-  char pad[24];
 } ch_refine_pool;
 
 /* The working mesh: the tessellation, each corner with its (s,t) in its
