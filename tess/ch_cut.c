@@ -851,12 +851,11 @@ static int exact_normal(thin_context *x, int c, int k, int v, const double uv[2]
   const ch_curve *cv = &lb->set->curves[c];
   if (!x->known[v]) {
     int seg = -1;
-    double d = ch_label_groove_distance_in(lb, c, uv, &seg, 0), t = d / cv->width;
+    double u = 0.0, d = ch_label_groove_distance_in(lb, c, uv, &seg, &u, 0), t = d / cv->width;
     x->known[v] = 2;
     if (!(fabs(t) < 0.5 - 1e-6) || seg < 0) return 0;
     const ch_segment *sg = &lb->set->segments[seg];
-    double u, cp[2], *g = x->gradient[v];
-    ch_bezier_closest(sg->p, sg->is_line, uv, &u);
+    double cp[2], *g = x->gradient[v];
     ch_bezier_eval(sg->p, u, cp);
     double r = ch_dist2d(uv[0] - cp[0], uv[1] - cp[1]);
     if (r > 1e-12) {

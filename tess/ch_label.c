@@ -997,7 +997,7 @@ uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]) {
  * boxes (grown by reach); over all of c's segments where the cell has none
  * of them, or (without `beyond`) none within reach. */
 double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double *boxes, int c,
-                                   const double uv[2], double reach, int beyond, int *segment) {
+                                   const double uv[2], double reach, int beyond, int *segment, double *param) {
   double d2, t;
   int seg = ch_curve_closest_in_cell(lb->set, grid, boxes, c, uv, reach, beyond, &d2, &t);
   if (seg < 0 || (!(d2 <= reach * reach) && !beyond)) {
@@ -1011,9 +1011,11 @@ double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, 
       d2 = ch_bezier_closest(lb->set->segments[seg].p, lb->set->segments[seg].is_line, uv, &t);
     }
     if (segment) *segment = seg;
+    if (param) *param = t;
     return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
   }
   if (segment) *segment = seg;
+  if (param) *param = t;
   return sqrt(d2) * ch_curve_side(lb->set, seg, t, uv);
 }
 
@@ -1022,14 +1024,15 @@ double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, 
  * segments, or with `cell_beyond` the closest of those in the cell if
  * there are any (enough to bracket a level inside the groove, and a scan
  * of a long curve less). */
-double ch_label_groove_distance_in(const ch_label_ctx *lb, int c, const double uv[2], int *segment, int cell_beyond) {
+double ch_label_groove_distance_in(const ch_label_ctx *lb, int c, const double uv[2], int *segment, double *param,
+                                   int cell_beyond) {
   const ch_groove_field *gf = &lb->height->grooves;
   return ch_label_signed_distance_in(lb, &lb->groove_grid, ch_groove_field_boxes(gf), c, uv,
-                                     0.5 * lb->set->curves[c].width, cell_beyond, segment);
+                                     0.5 * lb->set->curves[c].width, cell_beyond, segment, param);
 }
 
 double ch_label_groove_distance(const ch_label_ctx *lb, int c, const double uv[2]) {
-  return ch_label_groove_distance_in(lb, c, uv, NULL, 0);
+  return ch_label_groove_distance_in(lb, c, uv, NULL, NULL, 0);
 }
 
 /* h in a given piece at a point on its boundary: h_step read at `inside`

@@ -103,16 +103,18 @@ uint64_t ch_label_at(const ch_label_ctx *lb, const double uv[2]);
 
 /* Curve c's signed distance at uv from closest_in_cell over grid and
  * boxes (4 per segment, grown by reach); over all of c's segments where the cell has none
- * of them, or (without `beyond`) none within reach. */
+ * of them, or (without `beyond`) none within reach. *segment and *param
+ * (either may be NULL) get the closest point's segment and parameter. */
 double ch_label_signed_distance_in(const ch_label_ctx *lb, const ch_grid *grid, const double *boxes, int c,
-                                   const double uv[2], double reach, int beyond, int *segment);
+                                   const double uv[2], double reach, int beyond, int *segment, double *param);
 
 /* Signed distance s from uv to groove curve c: over c's segments in the
  * grooves' grid cell (boxes grown by w/2); beyond w/2, over all of c's
  * segments, or with `cell_beyond` the closest of those in the cell if
  * there are any (enough to bracket a level inside the groove, and a scan
  * of a long curve less). */
-double ch_label_groove_distance_in(const ch_label_ctx *lb, int c, const double uv[2], int *segment, int cell_beyond);
+double ch_label_groove_distance_in(const ch_label_ctx *lb, int c, const double uv[2], int *segment, double *param,
+                                   int cell_beyond);
 
 /* ch_label_groove_distance_in without the segment, over all of c's
  * segments beyond w/2. */
