@@ -595,6 +595,19 @@ static void normal_block(const ch_cut_out *o, double thin, const int *start, con
                          ch_mesh *m, uint64_t *groups) {
   int n = at;
   for (int p = v0; p < v1; p++) {
+    /* A vertex's corners are in triangles scattered over the cut's order
+     * (a row of the base away, often): their corners and groups are asked
+     * for four vertices ahead, and the positions they name two ahead. */
+    if (p + 4 < v1)
+      for (int i = start[p + 4]; i < start[p + 5]; i++) {
+        __builtin_prefetch(&o->tri[order[i] - order[i] % 3]);
+        __builtin_prefetch(&o->group[order[i] / 3]);
+      }
+    if (p + 2 < v1)
+      for (int i = start[p + 2]; i < start[p + 3]; i++) {
+        const int *v = &o->tri[order[i] - order[i] % 3];
+        for (int j = 0; j < 3; j++) __builtin_prefetch(&o->pos[3 * (size_t)v[j]]);
+      }
     int k = 0;
     for (int i = start[p]; i < start[p + 1]; i++) {
       int c = order[i], born = k, j = group_slot(groups, &k, o->group[c / 3]);
