@@ -644,6 +644,23 @@ static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, i
   }
 }
 
+/* Whether the label at uv is groove c's alone to decide: every groove
+ * segment whose box (grown by half its width) holds uv is one of c's, as
+ * ch_label_at reads them (ch_groove_field_eval), and neither step curves
+ * nor a warp's line sets enter it. */
+static int groove_alone_at(const ch_label_ctx *lb, int c, const double uv[2]) {
+  if (lb->has_steps || lb->level_t) return 0;
+  const ch_groove_field *f = &lb->height->grooves;
+  const int *items;
+  int n = ch_grid_query(&f->grid, uv[0], uv[1], &items);
+  for (int k = 0; k < n; k++) {
+    const double *b = f->boxes[items[k]];
+    if (uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]) continue;
+    if (lb->set->segments[items[k]].curve != c) return 0;
+  }
+  return 1;
+}
+
 /* No label is all ones (a label's groove part uses its low 30 bits). */
 #define NO_LABEL UINT64_MAX
 
@@ -673,6 +690,30 @@ static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, u
   level_root(lb, e, kind, c, seg, target, CROSSING_TOL, &a, &b, &fa, &fb, history);
   double near = (fa * f0 > 0.0) ? a : b, far = near == a ? b : a;
   if (!(near < far)) return 0;
+  /* A u groove's line where that groove alone decides the labels past
+   * it: its piece steps there (the root stands within a quarter of the
+   * bracket of the level, by the slope, and inside the groove the carve
+   * is never 0), so the label past it is the one expected without a
+   * read (a third of a run's labels on ornament). The root must be this
+   * search's: inside (x0, x1) and t passing the level the way it goes
+   * from x0 to x1 (from a line just crossed, Newton's method finds that
+   * line again, where t passes it the other way: the label read there
+   * showed l0 still); and its closest point inside its segment, away from
+   * an open end's cap, where t's jump can fall within the bracket of a
+   * line (glyphs: 1 edge in 250k, whose label past both was another). */
+  if (kind == LEVEL_LINE && expect != NO_LABEL && history->rc == (int)c &&
+      fabs(history->rx - 0.5 * (near + far)) <= 0.5 * CROSSING_TOL && near > x0 && far < x1 &&
+      (history->rs > 0.0) == (f1 > f0) && history->np > 1e-9 && history->np < 1.0 - 1e-9 && fabs(target) < 0.5 &&
+      lb->set->curves[c].profile.kind == CH_PROFILE_U) {
+    double uv[2];
+    span_point(e, far, uv);
+    if (groove_alone_at(lb, (int)c, uv)) {
+      *lo = near;
+      *hi = far;
+      *lhi = expect;
+      return 1;
+    }
+  }
   static const double widen[] = {0.0, 1e-13, 1e-11, 1e-9};
   for (int k = 0; k < 4; k++) {
     double l = fmax(x0, near - widen[k]), h = fmin(x1, far + widen[k]);
