@@ -26,6 +26,10 @@ void ch_label_free(ch_label_ctx *lb) {
   free(lb->crease_start);
   free(lb->crease_t);
   free(lb->chord_tol);
+  free(lb->chord_curvature);
+  free(lb->chord_kink);
+  free(lb->chord_ends);
+  free(lb->chord_end_start);
   free(lb->step_boxes);
   free(lb->step_outer);
   ch_grid_free(&lb->step_grid);
@@ -416,6 +420,150 @@ static int cap_hidden(const ch_label_ctx *lb, int s, int end) {
     if (gs.active == sg->curve) return 0;
   }
   return 1;
+}
+
+/* The largest curvature of a quadratic segment: with B(t) = p0 + 2tA +
+ * t^2 Q, |B' x B''| / |B'|^3 = |A x Q| / (2 |A + tQ|^3), largest where
+ * |A + tQ| is least on [0, 1]. */
+static double segment_curvature(const ch_segment *sg) {
+  if (sg->is_line) return 0.0;
+  const double(*p)[2] = sg->p;
+  double A[2] = {p[1][0] - p[0][0], p[1][1] - p[0][1]};
+  double Q[2] = {p[2][0] - 2.0 * p[1][0] + p[0][0], p[2][1] - 2.0 * p[1][1] + p[0][1]};
+  double qq = ch_dot2(Q, Q), t = qq > 0.0 ? -ch_dot2(A, Q) / qq : 0.0;
+  t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+  double m[2] = {A[0] + t * Q[0], A[1] + t * Q[1]}, l = ch_dist2d(m[0], m[1]);
+  return l > 0.0 ? fabs(ch_cross2(A, Q)) / (2.0 * l * l * l) : INFINITY;
+}
+
+/* The least distance between segments a and b, from 33 points along a
+ * (their spacing taken off, so never more than the true one). */
+static double segment_gap(const ch_segment *a, const ch_segment *b) {
+  enum { POINTS = 32 };
+  double best = INFINITY, len = 0.0, prev[2];
+  for (int i = 0; i <= POINTS; i++) {
+    double q[2], t;
+    ch_segment_point(a, (double)i / POINTS, q);
+    if (i > 0) len = fmax(len, ch_dist2d(q[0] - prev[0], q[1] - prev[1]));
+    prev[0] = q[0], prev[1] = q[1];
+    best = fmin(best, sqrt(ch_bezier_closest(b->p, b->is_line, q, &t)));
+  }
+  return best - len;
+}
+
+/* Whether segments a and b of curve cv lie more than `apart` from each
+ * other along its path (arc[s]: the length of the subpath up to segment
+ * s, from cv's first; closed subpaths the shorter way round); segments of
+ * different subpaths are. */
+static int path_apart(const ch_curve_set *set, const ch_curve *cv, const double *arc, int a, int b, double apart) {
+  if (a == b) return 0;
+  for (int p = cv->first_subpath; p < cv->first_subpath + cv->num_subpaths; p++) {
+    const ch_subpath *sp = &set->subpaths[p];
+    int f = sp->first_segment, l = f + sp->num_segments;
+    if (!(a >= f && a < l)) continue;
+    if (!(b >= f && b < l)) return 1;
+    int lo = a < b ? a : b, hi = a < b ? b : a, i0 = f - cv->first_segment;
+    double total = arc[l - cv->first_segment] - arc[i0];
+    /* (from the end of the earlier to the start of the later) */
+    double along = arc[hi - cv->first_segment] - arc[lo + 1 - cv->first_segment];
+    if (sp->closed) along = fmin(along, total - (arc[hi + 1 - cv->first_segment] - arc[lo - cv->first_segment]));
+    return along > apart;
+  }
+  return 1;
+}
+
+/* The chord bounds of the u grooves (ch_label_chord_within). A path of
+ * more than CHORD_SEGMENTS segments, or more than CHORD_ENDS open ends,
+ * gets none (its segments are compared pairwise). */
+enum { CHORD_SEGMENTS = 256, CHORD_ENDS = 16 };
+static ch_status find_chord_bounds(ch_label_ctx *lb, ch_error *err) {
+  const ch_curve_set *set = lb->set;
+  int nc = set->num_curves;
+  lb->chord_curvature = malloc((size_t)(nc > 0 ? nc : 1) * sizeof *lb->chord_curvature);
+  lb->chord_kink = calloc((size_t)(nc > 0 ? nc : 1), sizeof *lb->chord_kink);
+  lb->chord_end_start = calloc((size_t)nc + 1, sizeof *lb->chord_end_start);
+  lb->chord_ends = malloc((size_t)(2 * nc * CHORD_ENDS + 1) * sizeof *lb->chord_ends);
+  if (!lb->chord_curvature || !lb->chord_kink || !lb->chord_end_start || !lb->chord_ends)
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the grooves' chords");
+  int ne = 0;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int c = 0; c < nc; c++) {
+    const ch_curve *cv = &set->curves[c];
+    double k = INFINITY, kink = 0.0;
+    if (cv->kind == CH_CURVE_GROOVE && cv->profile.kind == CH_PROFILE_U && cv->num_segments <= CHORD_SEGMENTS) {
+      int s0 = cv->first_segment, s1 = s0 + cv->num_segments, ends = 0;
+      double arc[CHORD_SEGMENTS + 1]; /* each subpath's length up to a segment (chords of 16 pieces) */
+      arc[0] = 0.0;
+      for (int s = s0; s < s1; s++) {
+        double len = 0.0, a[2], b[2];
+        ch_segment_point(&set->segments[s], 0.0, a);
+        for (int i = 1; i <= 16; i++, a[0] = b[0], a[1] = b[1]) {
+          ch_segment_point(&set->segments[s], i / 16.0, b);
+          len += ch_dist2d(b[0] - a[0], b[1] - a[1]);
+        }
+        arc[s - s0 + 1] = arc[s - s0] + len;
+      }
+      k = 0.0;
+      for (int s = s0; s < s1; s++) {
+        const ch_segment *sg = &set->segments[s];
+        k = fmax(k, segment_curvature(sg));
+        ends += (sg->prev < 0) + (sg->next < 0);
+        if (sg->next >= 0) {
+          double a[2], b[2];
+          ch_bezier_tangent(sg->p, 1.0, a);
+          ch_bezier_tangent(set->segments[sg->next].p, 0.0, b);
+          kink = fmax(kink, ch_angle(fabs(ch_cross2(a, b)), ch_dot2(a, b)));
+        }
+        /* a medial axis inside the groove: the path back within its
+         * width of itself after going more than twice that along it (the
+         * segments nearer along it are the curvature's) */
+        for (int o = s0; o < s1 && k < INFINITY; o++)
+          if (path_apart(set, cv, arc, s, o, 2.0 * cv->width) && segment_gap(sg, &set->segments[o]) < cv->width)
+            k = INFINITY;
+      }
+      if (ends > CHORD_ENDS || kink > 0.1) k = INFINITY;
+    }
+    lb->chord_curvature[c] = k;
+    lb->chord_kink[c] = kink;
+  }
+  for (int c = 0; c < nc; c++) {
+    const ch_curve *cv = &set->curves[c];
+    lb->chord_end_start[c] = ne;
+    if (lb->chord_curvature[c] < INFINITY)
+      for (int s = cv->first_segment; s < cv->first_segment + cv->num_segments; s++) {
+        const ch_segment *sg = &set->segments[s];
+        for (int end = 0; end < 2; end++)
+          if (end ? sg->next < 0 : sg->prev < 0) {
+            lb->chord_ends[2 * ne] = sg->p[end ? 2 : 0][0];
+            lb->chord_ends[2 * ne + 1] = sg->p[end ? 2 : 0][1];
+            ne++;
+          }
+      }
+  }
+  lb->chord_end_start[nc] = ne;
+  return CH_OK;
+}
+
+int ch_label_chord_within(const ch_label_ctx *lb, int c, double line, const double p[2], const double q[2],
+                          const double mid[2], double err_max) {
+  double k = lb->chord_curvature[c];
+  const ch_curve *cv = &lb->set->curves[c];
+  double w = cv->width, d = fabs(line) * w, len = ch_dist2d(q[0] - p[0], q[1] - p[1]);
+  if (!(k * d <= 0.5)) return 0; /* (INFINITY: no bound) */
+  for (int e = lb->chord_end_start[c]; e < lb->chord_end_start[c + 1]; e++) {
+    const double *x = &lb->chord_ends[2 * e];
+    if (ch_dist2d(mid[0] - x[0], mid[1] - x[1]) <= 0.5 * w + len) return 0; /* its cap's rings */
+  }
+  /* The line is the path's offset at d: curvature at most k / (1 - k d)
+   * on its inner side; across a joint turning by a, a corner on the
+   * inner side (off the chord by len a / 4 at most, taken twice) and an
+   * arc of radius d on the outer (d a^2 / 8). Its sagitta over the chord
+   * is t's distance from the line at mid times w (t = s / w, |grad s| =
+   * 1), exact on a circle's offsets; a tenth more for the curvature's
+   * change along the chord. */
+  double a = lb->chord_kink[c], kl = k / (1.0 - k * d);
+  double sagitta = len * len * kl / 8.0 + 0.5 * len * a + d * a * a / 8.0;
+  return 1.1 * sagitta / w * fabs(cv->depth) <= 0.5 * err_max;
 }
 
 /* The open ends coarse_at_cap looks at (those not hidden), bucketed like
@@ -849,6 +997,7 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
   if (!st && lb->has_steps) st = find_step_outer(lb, err);
   if (!st) st = find_step_corners(lb, err);
   if (!st) st = find_open_ends(lb, err);
+  if (!st) st = find_chord_bounds(lb, err);
   if (st) {
     ch_label_free(lb);
     return st;

@@ -69,6 +69,14 @@ typedef struct ch_label_ctx {
   int mask_res;
   double *chord_tol;    /* per curve: how far h along a chord may leave the
                           mesh's (a groove's line curves away from its chords) */
+  /* Per u groove, what bounds how far its lines curve away from a chord
+   * (ch_label_chord_within): the largest curvature of its path and the
+   * largest turn at a joint of two segments (curvature INFINITY: no
+   * bound, where the path comes within its width of itself away from a
+   * joint or turns sharply); and its open ends (2 doubles each, from
+   * chord_end_start[c]), whose caps curve the lines round them. */
+  double *chord_curvature, *chord_kink, *chord_ends;
+  int *chord_end_start;
   double wall_tol;      /* a jump of h above this is a wall */
   double junction_size; /* triangles holding a junction are refined to this */
   double cap_angle;     /* around an open end, edges span at most this angle */
@@ -122,6 +130,15 @@ double ch_label_groove_distance(const ch_label_ctx *lb, int c, const double uv[2
 
 /* The break lines of groove c at level L (the finer sets of u grooves). */
 const double *ch_label_lines_of(const ch_label_ctx *lb, int c, int L, int *nb);
+
+/* Whether a chord from p to q between two points of u groove c's line at
+ * level t = line is proven to keep within err_max of h at its middle mid
+ * (|t(mid) - line| |depth|, the chord test of the refinement), from the
+ * path's curvature and turns alone (the sagitta of the line's curve,
+ * which is the offset of the path at line w, over the chord); 0 where
+ * there is no such bound and the test must read t at mid. */
+int ch_label_chord_within(const ch_label_ctx *lb, int c, double line, const double p[2], const double q[2],
+                          const double mid[2], double err_max);
 
 /* Whether uv lies in a quiet cell (label 0 within the longest mesh edge
  * around it: see the labeler's busy mask). */

@@ -1603,6 +1603,10 @@ int ch_refine_needed(const ch_label_ctx *lb, const ch_refine_mesh *w, int t, int
        * against t at its ends. */
       double tp, tq, line;
       if (line_between(lb, p->lprev, p->lnext, &line)) {
+        /* (most chords are short for the curve they follow: the path's
+         * curvature proves them within the tolerance without a read) */
+        if (ch_label_chord_within(lb, c, line, p->uv, q->uv, mid, lb->chord_tol[c] * ch_label_chord_factor(lb, mid)))
+          continue;
         tp = tq = line; /* both ends lie on that line (to 1e-12 of their edges) */
       } else {
         tp = ch_label_groove_distance(lb, c, p->uv) / cv->width;

@@ -468,6 +468,98 @@ static void test_crossings_found(void) {
   scene_close(&sc);
 }
 
+/* The point at angle a from centre where u groove c's t = line, by
+ * bisection along the ray (t is monotone across the groove there); 0 if
+ * the ray does not cross that line within the groove. */
+static int ray_on_line(const label_scene *sc, int c, const double centre[2], double r, double a, double line,
+                       double uv[2]) {
+  double w = sc->set.curves[c].width, lo = r - 0.6 * w, hi = r + 0.6 * w, p[2];
+  double flo, fhi;
+  p[0] = centre[0] + lo * cos(a), p[1] = centre[1] + lo * sin(a);
+  flo = ch_label_groove_distance(&sc->lb, c, p) / w - line;
+  p[0] = centre[0] + hi * cos(a), p[1] = centre[1] + hi * sin(a);
+  fhi = ch_label_groove_distance(&sc->lb, c, p) / w - line;
+  if (!(flo * fhi < 0.0)) return 0;
+  for (int it = 0; it < 200 && hi - lo > 1e-15; it++) {
+    double m = 0.5 * (lo + hi);
+    p[0] = centre[0] + m * cos(a), p[1] = centre[1] + m * sin(a);
+    double fm = ch_label_groove_distance(&sc->lb, c, p) / w - line;
+    if ((fm < 0.0) == (flo < 0.0))
+      lo = m, flo = fm;
+    else
+      hi = m;
+  }
+  double m = 0.5 * (lo + hi);
+  uv[0] = centre[0] + m * cos(a), uv[1] = centre[1] + m * sin(a);
+  /* (a change of sign may be t's jump past an open end, not the line) */
+  return fabs(ch_label_groove_distance(&sc->lb, c, uv) / w - line) < 1e-9;
+}
+
+/* The chord test's bound (ch_label_chord_within) against the read it
+ * spares: on the lines of a u circle and of a u half circle with open
+ * ends, random chords between two points of one line (found by bisection
+ * along rays from the centre, independently of the search), each proven
+ * one reads within half the tolerance asked at its middle (what the bound
+ * proves); most are proven; near the half circle's ends, where its cap
+ * curves the lines, none is. */
+static void test_chord_bound(void) {
+  static const char scene[] =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<circle cx='30' cy='50' r='20' data-profile='u' data-width='4' data-depth='0.02'/>"
+      "<path d='M 65 30 A 20 20 0 0 1 65 70' data-profile='u' data-width='4' data-depth='0.02'/>"
+      "</svg>";
+  label_scene sc;
+  CHECK(scene_open(&sc, scene, "chords.svg", 0.02, 0.005));
+  if (!sc.set.num_curves) return;
+  int proven = 0, tried = 0, wrong = 0, proven_at_ends = 0, at_ends = 0;
+  for (int trial = 0; trial < 4000; trial++) {
+    int c = trial % 2;
+    const ch_curve *cv = &sc.set.curves[c];
+    double centre[2] = {c == 0 ? 0.30 : 0.65, 0.5}, r = 0.2, uv[2][2];
+    int nb;
+    const double *br = ch_label_lines_of(&sc.lb, c, 0, &nb);
+    double line = br[1 + (int)(ch_test_rnd() * (nb - 2))];
+    /* the half circle runs on the right of its centre, its ends straight
+     * up and down; every other of its chords on a cap's ring, by rays
+     * from the end (the rings are circles about it, beyond it) */
+    double a0 = c == 0 ? 2.0 * CH_PI * ch_test_rnd() : CH_PI * (ch_test_rnd() - 0.5) * 0.9;
+    double da = (0.002 + 0.05 * ch_test_rnd()) / r;
+    if (c == 1 && trial % 4 == 1) {
+      const ch_segment *sg = &sc.set.segments[cv->first_segment];
+      double end[2] = {sg->p[0][0], sg->p[0][1]}, out = end[1] > centre[1] ? 1.0 : -1.0;
+      r = fabs(line) * cv->width;
+      a0 = out * CH_PI * (0.1 + 0.6 * ch_test_rnd());
+      da = 0.2 * ch_test_rnd();
+      centre[0] = end[0], centre[1] = end[1];
+    }
+    if (!ray_on_line(&sc, c, centre, r, a0, line, uv[0]) || !ray_on_line(&sc, c, centre, r, a0 + da, line, uv[1]))
+      continue;
+    double mid[2] = {0.5 * (uv[0][0] + uv[1][0]), 0.5 * (uv[0][1] + uv[1][1])};
+    /* tolerances from under to forty times what the chord's sagitta on
+     * the circle (radius r + line w) would give */
+    double len = ch_dist2d(uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]), rr = 0.2 - fabs(line) * cv->width;
+    double tol = (0.5 + 40.0 * ch_test_rnd()) * len * len / (8.0 * rr) / cv->width * fabs(cv->depth);
+    tried++;
+    int near_end = 0;
+    for (int k = 0; k < 2 && c == 1; k++) {
+      const ch_segment *sg = &sc.set.segments[k ? cv->first_segment + cv->num_segments - 1 : cv->first_segment];
+      const double *end = sg->p[k ? 2 : 0];
+      near_end |= ch_dist2d(mid[0] - end[0], mid[1] - end[1]) < 0.5 * cv->width;
+    }
+    at_ends += near_end;
+    if (!ch_label_chord_within(&sc.lb, c, line, uv[0], uv[1], mid, tol)) continue;
+    proven++;
+    double err = fabs(ch_label_groove_distance(&sc.lb, c, mid) / cv->width - line) * fabs(cv->depth);
+    wrong += !(err <= 0.5 * tol); /* (the bound proves half of it) */
+    proven_at_ends += near_end;
+  }
+  CHECK_MSG(wrong == 0 && proven_at_ends == 0, "%d of %d proven chords read beyond the tolerance, %d proven at an end",
+            wrong, proven, proven_at_ends);
+  CHECK_MSG(tried > 2000 && proven > tried / 2 && at_ends > 200, "%d of %d chords proven, %d at an end", proven, tried,
+            at_ends);
+  scene_close(&sc);
+}
+
 int main(void) {
   RUN(test_labels);
   RUN(test_crossing_loops);
@@ -476,5 +568,6 @@ int main(void) {
   RUN(test_mirrored_tie);
   RUN(test_inherited_crossings);
   RUN(test_crossings_found);
+  RUN(test_chord_bound);
   TEST_MAIN_END();
 }
