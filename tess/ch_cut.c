@@ -298,10 +298,14 @@ static int emit_junction(const cut_context *cx, const ch_refine_node *nodes, con
     const ch_refine_node *a = &nodes[idx[pos[k]]], *b = &nodes[idx[(pos[k] + 1) % len]];
     uint64_t piece = a->lnext;
     double target[2] = {(juv[0] + a->uv[0] + b->uv[0]) / 3.0, (juv[1] + a->uv[1] + b->uv[1]) / 3.0}, q[2];
-    uint64_t at_target = ch_label_at(cx->lb, target);
-    if (at_junction == piece || at_target != piece) {
-      /* the junction itself in the piece (a step off it), or the piece
-       * not where it was expected: bisection for any point of it */
+    uint64_t at_target = at_junction == piece ? piece : ch_label_at(cx->lb, target);
+    if (at_junction == piece) {
+      /* the junction itself in the piece: a step off it towards the
+       * piece (where bisection from it ended, 30 labels later, wherever
+       * the piece holds the way there) */
+      ch_refine_lerp2(juv, target, ldexp(1.0, -JUNCTION_BISECTIONS), q);
+    } else if (at_target != piece) {
+      /* the piece not where it was expected: bisection for any point of it */
       double lo = 0.0, hi = 1.0;
       for (int it = 0; it < JUNCTION_BISECTIONS; it++) {
         double mid = 0.5 * (lo + hi);
