@@ -437,8 +437,17 @@ static double segment_curvature(const ch_segment *sg) {
 }
 
 /* The least distance between segments a and b, from 33 points along a
- * (their spacing taken off, so never more than the true one). */
-static double segment_gap(const ch_segment *a, const ch_segment *b) {
+ * (their spacing taken off, so never more than the true one), or, where
+ * it is surely more than `enough`, the distance of their control
+ * points' boxes (which hold them). */
+static double segment_gap(const ch_segment *a, const ch_segment *b, double enough) {
+  double ga = 0.0;
+  for (int i = 0; i < 2; i++) {
+    double alo = ch_min3(a->p[0][i], a->p[1][i], a->p[2][i]), ahi = ch_max3(a->p[0][i], a->p[1][i], a->p[2][i]);
+    double blo = ch_min3(b->p[0][i], b->p[1][i], b->p[2][i]), bhi = ch_max3(b->p[0][i], b->p[1][i], b->p[2][i]);
+    ga = fmax(ga, fmax(blo - ahi, alo - bhi));
+  }
+  if (ga > enough) return ga;
   enum { POINTS = 32 };
   double best = INFINITY, len = 0.0, prev[2];
   for (int i = 0; i <= POINTS; i++) {
@@ -518,7 +527,8 @@ static ch_status find_chord_bounds(ch_label_ctx *lb, ch_error *err) {
          * width of itself after going more than twice that along it (the
          * segments nearer along it are the curvature's) */
         for (int o = s0; o < s1 && k < INFINITY; o++)
-          if (path_apart(set, cv, arc, s, o, 2.0 * cv->width) && segment_gap(sg, &set->segments[o]) < cv->width)
+          if (path_apart(set, cv, arc, s, o, 2.0 * cv->width) &&
+              segment_gap(sg, &set->segments[o], cv->width) < cv->width)
             k = INFINITY;
       }
       if (ends > CHORD_ENDS || kink > 0.1) k = INFINITY;
