@@ -62,6 +62,16 @@ static int scene_open(label_scene *sc, const char *text, const char *name, doubl
   return 1;
 }
 
+/* A scene as the embedding's crossing search sees it at mean edge
+ * `edge`: the step radius four edges, junctions an eighth of an edge,
+ * walls 1e-5 of the largest |h| a curve sets. */
+static int search_scene_open(label_scene *sc, const char *text, const char *name, double edge, double largest_h) {
+  if (!scene_open(sc, text, name, 4.0 * edge, edge)) return 0;
+  sc->lb.junction_size = edge / 8.0;
+  sc->lb.wall_tol = 1e-5 * largest_h + 1e-12;
+  return 1;
+}
+
 static void scene_close(label_scene *sc) {
   ch_label_free(&sc->lb);
   ch_height_free(&sc->height);
@@ -307,10 +317,8 @@ static void test_inherited_crossings(void) {
       "</svg>";
   label_scene sc;
   double edge = 0.02;
-  CHECK(scene_open(&sc, scene, "inherit.svg", 4.0 * edge, edge));
+  CHECK(search_scene_open(&sc, scene, "inherit.svg", edge, 0.03));
   if (!sc.set.num_curves) return;
-  sc.lb.junction_size = edge / 8.0;
-  sc.lb.wall_tol = 1e-5 * 0.03 + 1e-12; /* (the embedding's: 1e-5 of the largest |h| a curve sets) */
   double delta = 0.25 * 0.08;           /* a quarter of the thinnest groove, as the embedding's */
   int halves = 0, inherited = 0, differ = 0, worse = 0, search_right = 0, crossings = 0;
   for (int trial = 0; trial < 1500; trial++) {
@@ -394,10 +402,8 @@ static void test_crossings_found(void) {
       "</svg>";
   label_scene sc;
   double edge = 0.02;
-  CHECK(scene_open(&sc, scene, "found.svg", 4.0 * edge, edge));
+  CHECK(search_scene_open(&sc, scene, "found.svg", edge, 0.02));
   if (!sc.set.num_curves) return;
-  sc.lb.junction_size = edge / 8.0;
-  sc.lb.wall_tol = 1e-5 * 0.02 + 1e-12;
   double delta = 0.25 * 0.06, eps = 1e-9;
   int stroke = sc.set.segments[0].curve, edges = 0, crossings = 0, wrong_sides = 0, wrong_h = 0, mismatched = 0;
   int jumps = 0, axis_checked = 0, axis_wrong = 0;
