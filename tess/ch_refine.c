@@ -644,10 +644,32 @@ static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, i
   }
 }
 
-/* Whether the label at uv is groove c's alone to decide: every groove
- * segment whose box (grown by half its width) holds uv is one of c's, as
- * ch_label_at reads them (ch_groove_field_eval), and neither step curves
- * nor a warp's line sets enter it. */
+/* The distance from q to the triangle a b c (0 inside it): a lower bound
+ * on the distance to a quadratic segment with those control points, which
+ * their triangle holds. */
+static double triangle_distance(const double a[2], const double b[2], const double c[2], const double q[2]) {
+  const double *p[3] = {a, b, c};
+  double area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]), best = INFINITY;
+  int inside = 1;
+  for (int k = 0; k < 3; k++) {
+    const double *u = p[k], *v = p[(k + 1) % 3];
+    double e[2] = {v[0] - u[0], v[1] - u[1]}, w[2] = {q[0] - u[0], q[1] - u[1]}, ee = ch_dot2(e, e);
+    double side = e[0] * w[1] - e[1] * w[0];
+    inside &= area >= 0.0 ? side >= 0.0 : side <= 0.0;
+    double t = ee > 0.0 ? ch_dot2(w, e) / ee : 0.0;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    best = fmin(best, ch_dist2d(w[0] - t * e[0], w[1] - t * e[1]));
+  }
+  return inside && area != 0.0 ? 0.0 : best;
+}
+
+/* Whether the label at uv is groove c's alone to decide: every other
+ * groove's segment whose box (grown by half its width) holds uv, as
+ * ch_label_at reads them (ch_groove_field_eval), is farther than that
+ * half width from it (its control triangle is), so carves nothing there;
+ * and neither step curves nor a warp's line sets enter it. (The boxes
+ * alone: a rosette's circles hold each other's grooves in their quarter
+ * segments' boxes, and most of ornament's lines were read.) */
 static int groove_alone_at(const ch_label_ctx *lb, int c, const double uv[2]) {
   if (lb->has_steps || lb->level_t) return 0;
   const ch_groove_field *f = &lb->height->grooves;
@@ -656,7 +678,11 @@ static int groove_alone_at(const ch_label_ctx *lb, int c, const double uv[2]) {
   for (int k = 0; k < n; k++) {
     const double *b = f->boxes[items[k]];
     if (uv[0] < b[0] || uv[0] > b[2] || uv[1] < b[1] || uv[1] > b[3]) continue;
-    if (lb->set->segments[items[k]].curve != c) return 0;
+    const ch_segment *sg = &lb->set->segments[items[k]];
+    if (sg->curve == c) continue;
+    /* (a margin of 1e-9 of the width for the rounding of either distance) */
+    if (!(triangle_distance(sg->p[0], sg->p[1], sg->p[2], uv) > 0.5 * lb->set->curves[sg->curve].width * (1.0 + 1e-9)))
+      return 0;
   }
   return 1;
 }
