@@ -441,12 +441,10 @@ static double segment_curvature(const ch_segment *sg) {
  * it is surely more than `enough`, the distance of their control
  * points' boxes (which hold them). */
 static double segment_gap(const ch_segment *a, const ch_segment *b, double enough) {
-  double ga = 0.0;
-  for (int i = 0; i < 2; i++) {
-    double alo = ch_min3(a->p[0][i], a->p[1][i], a->p[2][i]), ahi = ch_max3(a->p[0][i], a->p[1][i], a->p[2][i]);
-    double blo = ch_min3(b->p[0][i], b->p[1][i], b->p[2][i]), bhi = ch_max3(b->p[0][i], b->p[1][i], b->p[2][i]);
-    ga = fmax(ga, fmax(blo - ahi, alo - bhi));
-  }
+  double ba[4], bb[4], ga = 0.0;
+  ch_segment_box(a, 0.0, ba);
+  ch_segment_box(b, 0.0, bb);
+  for (int i = 0; i < 2; i++) ga = fmax(ga, fmax(bb[i] - ba[2 + i], ba[i] - bb[2 + i]));
   if (ga > enough) return ga;
   enum { POINTS = 32 };
   double best = INFINITY, len = 0.0, prev[2];
@@ -501,17 +499,9 @@ static ch_status find_chord_bounds(ch_label_ctx *lb, ch_error *err) {
     double k = INFINITY, kink = 0.0;
     if (cv->kind == CH_CURVE_GROOVE && cv->profile.kind == CH_PROFILE_U && cv->num_segments <= CHORD_SEGMENTS) {
       int s0 = cv->first_segment, s1 = s0 + cv->num_segments, ends = 0;
-      double arc[CHORD_SEGMENTS + 1]; /* each subpath's length up to a segment (chords of 16 pieces) */
+      double arc[CHORD_SEGMENTS + 1]; /* the path's length up to each segment (path_apart) */
       arc[0] = 0.0;
-      for (int s = s0; s < s1; s++) {
-        double len = 0.0, a[2], b[2];
-        ch_segment_point(&set->segments[s], 0.0, a);
-        for (int i = 1; i <= 16; i++, a[0] = b[0], a[1] = b[1]) {
-          ch_segment_point(&set->segments[s], i / 16.0, b);
-          len += ch_dist2d(b[0] - a[0], b[1] - a[1]);
-        }
-        arc[s - s0 + 1] = arc[s - s0] + len;
-      }
+      for (int s = s0; s < s1; s++) arc[s - s0 + 1] = arc[s - s0] + ch_bezier_length(set->segments[s].p);
       k = 0.0;
       for (int s = s0; s < s1; s++) {
         const ch_segment *sg = &set->segments[s];

@@ -494,12 +494,12 @@ static int offset_crossing(const ch_segment *sg, const span *e, double d, double
 }
 
 /* Where span e crosses the continuation of segment sg beyond its open
- * start (at_start) or end: the line through that end along its tangent,
- * across which the side of the points nearest the end flips
+ * start (at_start) or end P (set): the line through that end along its
+ * tangent, across which the side of the points nearest the end flips
  * (ch_curve_side), so t jumps from |t| to -|t|; -1 where e runs parallel
  * to it. */
-static double open_end_flip(const ch_segment *sg, int at_start, const span *e) {
-  double T[2], P[2];
+static double open_end_flip(const ch_segment *sg, int at_start, const span *e, double P[2]) {
+  double T[2];
   ch_bezier_tangent(sg->p, at_start ? 0.0 : 1.0, T);
   ch_segment_point(sg, at_start ? 0.0 : 1.0, P);
   double D[2] = {e->b[0] - e->a[0], e->b[1] - e->a[1]}, w[2] = {P[0] - e->a[0], P[1] - e->a[1]};
@@ -592,7 +592,8 @@ static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, i
     if (kind == LEVEL_LINE && !flip_tried && read_seg >= 0) {
       const ch_segment *sg = &lb->set->segments[read_seg];
       int at_start = history->np <= 0.0 && sg->prev < 0, at_end = history->np >= 1.0 && sg->next < 0;
-      double u = fmin(*a, *b), v = fmax(*a, *b), xs = at_start || at_end ? open_end_flip(sg, at_start, e) : -1.0;
+      double P[2], u = fmin(*a, *b), v = fmax(*a, *b);
+      double xs = at_start || at_end ? open_end_flip(sg, at_start, e, P) : -1.0;
       if (xs > u && xs < v) {
         flip_tried = 1;
         double fu = u == *a ? *fa : *fb, fv = v == *a ? *fa : *fb; /* (their signs: the bracket's ends) */
@@ -610,9 +611,7 @@ static void level_root(const ch_label_ctx *lb, const span *e, level_kind kind, i
          * (an edge grazing the cap), both crossings hidden from the
          * bracket's signs; the distance's least point tells. */
         if ((fu > 0.0) == (fl > 0.0)) {
-          double P[2], w[2], D[2] = {e->b[0] - e->a[0], e->b[1] - e->a[1]};
-          ch_segment_point(sg, at_start ? 0.0 : 1.0, P);
-          w[0] = P[0] - e->a[0], w[1] = P[1] - e->a[1];
+          double w[2] = {P[0] - e->a[0], P[1] - e->a[1]}, D[2] = {e->b[0] - e->a[0], e->b[1] - e->a[1]};
           double xp = ch_dot2(w, D) / ch_dot2(D, D);
           if (xp > u && xp < xl) {
             double fp = level_value(lb, e, kind, c, seg, xp, NULL, NULL) - target;
@@ -707,8 +706,9 @@ static int narrow_to_level(const ch_label_ctx *lb, const span *e, uint64_t l0, u
    * through the last ones (level_guess) rather than false position alone
    * (where two grooves cross on ornament: 8.6 -> 7.0 reads a root, each
    * of two carves). */
-  level_cache local = LEVEL_CACHE_EMPTY;
+  level_cache local;
   if (!history) {
+    local = (level_cache)LEVEL_CACHE_EMPTY;
     history = &local;
     history_add(history, (int)c, x0, f0 + target);
     history_add(history, (int)c, x1, f1 + target);
