@@ -543,20 +543,24 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
  * vertex among the triangles of the same group (piece, or wall), so they
  * are smooth inside a piece and split at its boundary.
  *
- * Two parallel walks over the vertices, each thread a block of them in
- * order, each vertex its own corners (in triangle order, from a counting
- * sort). The first gives a corner a new UV unless it is the vertex's first
- * UV, and counts the groups at each vertex; the second sums each group's
- * weights into that group's normal and makes it unit once the vertex is
- * done. UVs and normals are numbered by vertex, then by the corner where
- * each is born: the same on any number of threads, and near their
- * vertices in the file. A block writes its UVs from its first corner's
- * index on (it has no more UVs than corners) and the blocks close ranks
- * after the walk; the normals, counted by then, are written in place, in
- * an array made where o's UVs were (made before those went, it grew the
- * peak by 35 MB at 2.1M). Numbered by corner, as before, the ranks took a
- * serial pass and the sums a random walk of every corner's arrays of
- * their own. */
+ * A parallel walk over the vertices, each thread a block of them in order,
+ * each vertex its own corners (in triangle order, from a counting sort),
+ * gives a corner a new UV unless it is the vertex's first UV, and a corner
+ * its group's normal. UVs and normals are numbered by vertex, then by the
+ * corner where each is born: the same on any number of threads, and near
+ * their vertices in the file. A block writes its UVs from its first
+ * corner's index on (it has no more UVs than corners) and the blocks close
+ * ranks after the walk; the normals, counted by then, are made where o's
+ * UVs were (made before those went, it grew the peak by 35 MB at 2.1M).
+ *
+ * The weights are then summed in triangle order: each thread reads every
+ * corner, in the order they lie in memory, and adds the weights of those
+ * of its block's vertices. The walk by vertex read each corner's triangle
+ * from a row of the base away (a third of its time was those loads), and
+ * a vertex's triangles are too far apart in the cut's order (those the
+ * refinement added come after the base's) for chunks of triangles to hold
+ * most of them. A normal gets its corners' weights in corner order either
+ * way: the same sums, to the bit, on any number of threads. */
 
 /* Where group g's normal is among the k (*k) of the vertex at hand, in
  * groups; a new one is added last. */
@@ -567,9 +571,9 @@ static int group_slot(uint64_t *groups, int *k, uint64_t g) {
   return j;
 }
 
-/* The first walk over vertices [v0, v1), writing from UV `at`; returns the
- * UVs it made, and *normals the normals the second walk will make (one per
- * group at each vertex). groups: room for the largest vertex's corners. */
+/* The walk over vertices [v0, v1), writing from UV `at`; returns the UVs it
+ * made, and *normals the normals it gave the corners, numbered from 0 in
+ * the block. groups: room for the largest vertex's corners. */
 static int uv_block(const ch_cut_out *o, const int *start, const int *order, int v0, int v1, int at, ch_mesh *m,
                     uint64_t *groups, int *normals) {
   int n = at, count = 0;
@@ -586,7 +590,7 @@ static int uv_block(const ch_cut_out *o, const int *start, const int *order, int
       } else {
         m->corner_uv[c] = first;
       }
-      group_slot(groups, &k, o->group[c / 3]);
+      m->corner_normal[c] = count + group_slot(groups, &k, o->group[c / 3]);
     }
     count += k;
   }
@@ -594,38 +598,16 @@ static int uv_block(const ch_cut_out *o, const int *start, const int *order, int
   return n - at;
 }
 
-/* The second walk, writing from normal `at` (groups as above). */
-static void normal_block(const ch_cut_out *o, double thin, const int *start, const int *order, int v0, int v1, int at,
-                         ch_mesh *m, uint64_t *groups) {
-  int n = at;
-  for (int p = v0; p < v1; p++) {
-    /* A vertex's corners are in triangles scattered over the cut's order
-     * (a row of the base away, often): their corners and groups are asked
-     * for four vertices ahead, and the positions they name two ahead. */
-    if (p + 4 < v1)
-      for (int i = start[p + 4]; i < start[p + 5]; i++) {
-        __builtin_prefetch(&o->tri[order[i] - order[i] % 3]);
-        __builtin_prefetch(&o->group[order[i] / 3]);
-      }
-    if (p + 2 < v1)
-      for (int i = start[p + 2]; i < start[p + 3]; i++) {
-        const int *v = &o->tri[order[i] - order[i] % 3];
-        for (int j = 0; j < 3; j++) __builtin_prefetch(&o->pos[3 * (size_t)v[j]]);
-      }
-    int k = 0;
-    for (int i = start[p]; i < start[p + 1]; i++) {
-      int c = order[i], born = k, j = group_slot(groups, &k, o->group[c / 3]);
-      double *sum = &m->normals[3 * (size_t)(n + j)], wc[3];
-      if (j == born) sum[0] = sum[1] = sum[2] = 0.0; /* (the sum starts from +0, as it always did) */
-      corner_weight(o, thin, (size_t)c / 3, c % 3, wc);
-      for (int x = 0; x < 3; x++) sum[x] += wc[x];
-      m->corner_normal[c] = n + j;
-    }
-    for (int j = 0; j < k; j++) {
-      double *s = &m->normals[3 * (size_t)(n + j)];
-      if (!ch_normalize3(s)) s[0] = s[1] = 0.0, s[2] = 1.0; /* only zero-area triangles here: any unit vector */
-    }
-    n += k;
+/* The weights of the corners of vertices [v0, v1), summed into their
+ * normals in corner order. */
+static void sum_block(const ch_cut_out *o, double thin, int v0, int v1, ch_mesh *m) {
+  size_t nc = 3 * (size_t)o->ntri;
+  for (size_t c = 0; c < nc; c++) {
+    int v = o->tri[c];
+    if (v < v0 || v >= v1) continue;
+    double wc[3], *sum = &m->normals[3 * (size_t)m->corner_normal[c]];
+    corner_weight(o, thin, c / 3, (int)(c % 3), wc);
+    for (int x = 0; x < 3; x++) sum[x] += wc[x];
   }
 }
 
@@ -715,21 +697,27 @@ ch_status ch_cut_build_mesh(ch_cut_out *o, double thin, ch_mesh *m, ch_error *er
   normal_at[0] = 0;
   for (int b = 0; b < nb; b++) normal_at[b + 1] = normal_at[b] + made_normals[b];
   m->num_normals = normal_at[nb];
-  m->normals = ch_alloc_large(3 * (size_t)(m->num_normals > 0 ? m->num_normals : 1), sizeof *m->normals, 0);
+  m->normals = ch_alloc_large(3 * (size_t)(m->num_normals > 0 ? m->num_normals : 1), sizeof *m->normals, 1);
   if (!m->normals) goto nomem;
-#pragma omp parallel for schedule(static, 1) num_threads(nb)
-  for (int b = 0; b < nb; b++)
-    normal_block(o, thin, start, order, first_vertex[b], first_vertex[b + 1], normal_at[b], m, groups[b]);
-  free(o->group);
-  o->group = NULL;
-  /* Each corner's UV from where its block wrote it to where it landed. */
+  /* Each corner's UV from where its block wrote it to where it landed,
+   * and its normal's number from its block's to the mesh's. */
   if (nb > 1) {
 #pragma omp parallel for schedule(static)
     for (size_t c = 0; c < nc; c++) {
       int v = o->tri[c], b = 0;
       while (v >= first_vertex[b + 1]) b++;
       m->corner_uv[c] -= first_corner[b] - uv_at[b];
+      m->corner_normal[c] += normal_at[b];
     }
+  }
+#pragma omp parallel for schedule(static, 1) num_threads(nb)
+  for (int b = 0; b < nb; b++) sum_block(o, thin, first_vertex[b], first_vertex[b + 1], m);
+  free(o->group);
+  o->group = NULL;
+#pragma omp parallel for schedule(static)
+  for (int n = 0; n < m->num_normals; n++) {
+    double *s = &m->normals[3 * (size_t)n];
+    if (!ch_normalize3(s)) s[0] = s[1] = 0.0, s[2] = 1.0; /* only zero-area triangles here: any unit vector */
   }
   for (int b = 0; b < nb; b++) free(groups[b]);
   free(groups);
