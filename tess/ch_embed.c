@@ -366,6 +366,14 @@ static int edge_level(const ch_refine_mesh *w, const ch_refine_edge *e, int base
   return d < 1 ? 1 : d >= CH_EMBED_LEVELS ? CH_EMBED_LEVELS - 1 : (int)d;
 }
 
+/* The output vertices edge e's crossings make: one each, two on a wall
+ * (heights apart by more than tol). */
+static long crossing_copies(const ch_refine_edge *e, double tol) {
+  long n = 0;
+  for (int c = 0; c < e->ncross; c++) n += fabs(e->cross[c].ha - e->cross[c].hb) <= tol ? 1 : 2;
+  return n;
+}
+
 static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess, const ch_height *height,
                            const ch_embed_desc *desc, const ch_embed_pilot *pilot, ch_mesh *out,
                            ch_embed_stats *stats_out, embed_kept *kept, ch_error *err) {
@@ -692,19 +700,49 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
   /* Output vertices: the working vertices, then the crossings' copies
    * (one, or two on a wall), numbered edge by edge and filled in parallel. */
   {
+    /* (counted by blocks of edges in parallel, then numbered from each
+     * block's start: the numbers one pass in edge order gives) */
+    enum { COUNT_BLOCK = 1 << 14 };
+    int nblocks = (w.nedges + COUNT_BLOCK - 1) / COUNT_BLOCK, at_level[CH_EMBED_LEVELS] = {0};
     int *first = malloc(((size_t)w.nedges + 1) * sizeof *first);
-    if (!first) goto nomem;
+    long *block_at = malloc(((size_t)nblocks + 1) * sizeof *block_at);
+    if (!first || !block_at) {
+      free(first);
+      free(block_at);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : at_level[:CH_EMBED_LEVELS])
+    for (int b = 0; b < nblocks; b++) {
+      long n = 0;
+      for (int i = b * COUNT_BLOCK, i1 = i + COUNT_BLOCK < w.nedges ? i + COUNT_BLOCK : w.nedges; i < i1; i++) {
+        const ch_refine_edge *e = &w.edges[i];
+        if (e->ncross <= 0) continue;
+        at_level[edge_level(&w, e, base_positions, mean_edge)] += e->ncross;
+        n += crossing_copies(e, tol);
+      }
+      block_at[b] = n;
+    }
     long total = w.nverts;
-    for (int i = 0; i < w.nedges; i++) {
-      first[i] = (int)total;
-      const ch_refine_edge *e = &w.edges[i];
-      if (e->ncross > 0) stats.crossings_at_level[edge_level(&w, e, base_positions, mean_edge)] += e->ncross;
-      for (int c = 0; c < e->ncross; c++) total += fabs(e->cross[c].ha - e->cross[c].hb) <= tol ? 1 : 2;
-      if (total >= INT32_MAX / 3) {
-        free(first);
-        goto nomem;
+    for (int b = 0; b < nblocks; b++) {
+      long n = block_at[b];
+      block_at[b] = total;
+      total += n;
+    }
+    for (int d = 0; d < CH_EMBED_LEVELS; d++) stats.crossings_at_level[d] += at_level[d];
+    if (total >= INT32_MAX / 3) {
+      free(first);
+      free(block_at);
+      goto nomem;
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int b = 0; b < nblocks; b++) {
+      long k = block_at[b];
+      for (int i = b * COUNT_BLOCK, i1 = i + COUNT_BLOCK < w.nedges ? i + COUNT_BLOCK : w.nedges; i < i1; i++) {
+        first[i] = (int)k;
+        if (w.edges[i].ncross > 0) k += crossing_copies(&w.edges[i], tol);
       }
     }
+    free(block_at);
     if (sampled) {
       /* What the tiles' cut adds over their base triangles, scaled by the
        * area (as are the crossings and splits by level). */
@@ -751,6 +789,7 @@ static ch_status embed_run(const ch_surface *surface, const ch_tess_result *tess
 #pragma omp parallel for schedule(dynamic, 1024) reduction(+ : crossings, walls)
     for (int i = 0; i < w.nedges; i++) {
       ch_refine_edge *e = &w.edges[i];
+      if (e->ncross <= 0) continue; /* (most: their triangles not read) */
       int face = w.tris[e->tri].face, k = first[i];
       for (int c = 0; c < e->ncross; c++) {
         ch_refine_crossing *x = &e->cross[c];
