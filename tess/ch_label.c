@@ -113,6 +113,44 @@ static int groove_lines(const ch_curve *c, double tolerance, double angle, doubl
   return n;
 }
 
+/* groove_lines takes a few thousand evaluations of the profile per line
+ * (the chord rule's bisections): grooves with the same profile, width and
+ * rules (ornament's strokes, a glyph set's) share the lines of the first.
+ * The last MEMO_SIZE distinct ones are remembered, by where their lines
+ * are in the array being filled. */
+enum { MEMO_SIZE = 16 };
+typedef struct lines_memo {
+  const ch_curve *curve;
+  double tolerance, angle, slope, min_spacing;
+  int at, n;
+} lines_memo;
+
+static int same_lines_asked(const lines_memo *m, const ch_curve *c, double tolerance, double angle, double slope,
+                            double min_spacing) {
+  const ch_profile *a = &m->curve->profile, *b = &c->profile;
+  if (m->tolerance != tolerance || m->angle != angle || m->slope != slope || m->min_spacing != min_spacing ||
+      m->curve->width != c->width || a->kind != b->kind || a->num_points != b->num_points)
+    return 0;
+  for (int i = 0; i < a->num_points; i++)
+    if (a->t[i] != b->t[i] || a->h[i] != b->h[i]) return 0;
+  return 1;
+}
+
+/* groove_lines into t[at..], or a copy of the same lines found earlier in
+ * t (memo: MEMO_SIZE entries, *count of them used, round robin). */
+static int groove_lines_memo(lines_memo *memo, int *count, const ch_curve *c, double tolerance, double angle,
+                             double slope, double min_spacing, double *t, int at, int max) {
+  for (int i = 0; i < *count && i < MEMO_SIZE; i++)
+    if (same_lines_asked(&memo[i], c, tolerance, angle, slope, min_spacing)) {
+      memmove(t + at, t + memo[i].at, (size_t)memo[i].n * sizeof *t);
+      return memo[i].n;
+    }
+  int n = groove_lines(c, tolerance, angle, slope, min_spacing, t + at, max);
+  memo[*count % MEMO_SIZE] = (lines_memo){c, tolerance, angle, slope, min_spacing, at, n};
+  (*count)++;
+  return n;
+}
+
 /* The density the warped mesh has at uv: sqrt(slope_u slope_v) of the
  * mesh's metric (ch_warp_mesh_slopes; the mesh's edge is e / that). */
 double ch_label_mesh_density(const ch_warp *w, const double uv[2]) {
@@ -923,6 +961,8 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
     }
   }
   int nl = 0; /* lines of the finer sets */
+  lines_memo crease_memo[MEMO_SIZE], level_memo[MEMO_SIZE];
+  int crease_memos = 0, level_memos = 0;
   for (int c = 0; c < nc; c++) {
     lb->crease_start[c] = n;
     if (set->curves[c].kind == CH_CURVE_GROOVE) {
@@ -957,14 +997,14 @@ ch_status ch_label_init(ch_label_ctx *lb, const ch_height *height, const ch_warp
       /* Near the rim the lines crowd where P is vertical: down to 1/50 of
        * the mean edge (about 8e-5 UV at 130k triangles, 2e-5 at 2.1M). */
       double spacing = fmax(2.0 * MIN_SPLIT_LENGTH, mean_edge / 50.0);
-      n += groove_lines(cv, tol, angle, slope, spacing, lb->crease_t + n, MAX_LINES);
+      n += groove_lines_memo(crease_memo, &crease_memos, cv, tol, angle, slope, spacing, lb->crease_t, n, MAX_LINES);
       /* the finer sets of a u groove (level L: the angle step and the
        * rim's spacing / 2^L, as the mesh there is 2^L times finer) */
       for (int L = 1; lb->level_t && cv->profile.kind == CH_PROFILE_U && L < LEVELS; L++) {
         lb->level_start[c * LEVELS + L] = nl;
         double a = fmax(CH_PI / 180.0, angle / (double)(1 << L));
         double sp = fmax(2.0 * MIN_SPLIT_LENGTH, spacing / (double)(1 << L));
-        nl += groove_lines(cv, tol, a, slope, sp, lb->level_t + nl, MAX_LINES);
+        nl += groove_lines_memo(level_memo, &level_memos, cv, tol, a, slope, sp, lb->level_t, nl, MAX_LINES);
       }
     }
     if (lb->level_t) {
