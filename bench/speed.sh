@@ -30,6 +30,11 @@ sizes=("$@")
 dir=out/speed
 mkdir -p "$dir"
 now() { date +%s.%N; }
+# Before each timed command: no output of an earlier run is left, so none
+# of the three replaces a file inside its time (Blender's was deleted
+# after each run, chisel's replaced; freeing a 250 MB OBJ's pages takes
+# 20-45 ms) and each starts right after one was deleted.
+fresh() { rm -f "$dir/chisel.obj" "$dir/blender.obj"; }
 repeat=${SPEED_REPEAT:-3}
 # the smallest and the largest of the numbers on stdin, "min (max)"
 span() { sort -g | sed -n '1p;$p' | paste -sd' ' | awk '{ printf "%.2f (%.2f)", $1, ($2 == "" ? $1 : $2) }'; }
@@ -49,6 +54,7 @@ for n in "${sizes[@]}"; do
   best=
   for _ in $(seq "$repeat"); do
     if [ $have_blender = 1 ]; then
+      fresh
       t0=$(now)
       line=$(blender -b --factory-startup --python bench/blender/displace.py -- "$base" "$dir/h_y.exr" \
         "$dir/blender.obj" "$n" "$strength" "$midlevel" 2>&1 | grep '^blender:')
@@ -59,6 +65,7 @@ for n in "${sizes[@]}"; do
       rm -f "$dir/blender.obj"
     fi
     # chisel at Blender's count, so both make the same number of triangles
+    fresh
     t0=$(now)
     "$build/chisel" displace "$base" "$svg" -o "$dir/chisel.obj" --target-tris "$bl_tris" --stats 2>"$dir/stats.txt"
     t1=$(now)
@@ -70,6 +77,7 @@ for n in "${sizes[@]}"; do
       cp "$dir/stats.txt" "$dir/stats_best.txt"
     fi
     # the naive mesh of the same size, no embedding: what the embedding costs
+    fresh
     t0=$(now)
     "$build/chisel" displace "$base" "$svg" -o "$dir/chisel.obj" --target-tris "$bl_tris" --no-snap 2>/dev/null
     t1=$(now)
