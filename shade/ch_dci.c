@@ -680,12 +680,13 @@ static int ghosts_update(const ghost *g, size_t count, int width, const float *b
   return 1;
 }
 
-static ch_status reblur(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci *d, float *values, int channels,
-                        float *sigma, ch_error *err) {
-  ch_samples *s = &d->samples;
-  int W = s->width, H = s->height;
-  size_t n = (size_t)W * H;
-  /* Distance to the nearest sharp step curve caps the radius. */
+/* The cap on the blur radius, per texel (W x H over rect): a third of the
+ * distance to the nearest sharp step curve over sqrt 2, INFINITY where there
+ * is none; *cap NULL when no step curve is sharp. Made before the DCI's
+ * own samples, so that the two sets of samples are not held at once (they
+ * were most of the peak memory of a displacement with blurred steps). */
+static ch_status sharp_caps(const ch_curve_set *set, int W, int H, const double rect[4], float **cap, ch_error *err) {
+  *cap = NULL;
   unsigned char *sharp = calloc((size_t)(set->num_curves > 0 ? set->num_curves : 1), 1);
   if (!sharp) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
   int any_sharp = 0;
@@ -694,14 +695,28 @@ static ch_status reblur(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci
     any_sharp |= sharp[c];
   }
   ch_samples sharp_samples = {0};
-  if (any_sharp) {
-    ch_status st = ch_samples_build_subset(set, sharp, W, H, s->rect, CH_DCI_SAMPLE_BAND, &sharp_samples, err);
-    if (st) {
-      free(sharp);
-      return st;
-    }
-  }
+  ch_status st =
+      any_sharp ? ch_samples_build_subset(set, sharp, W, H, rect, CH_DCI_SAMPLE_BAND, 0, &sharp_samples, err) : CH_OK;
   free(sharp);
+  if (st || !any_sharp) return st;
+  size_t n = (size_t)W * H;
+  if (!(*cap = malloc(n * sizeof **cap))) {
+    ch_samples_free(&sharp_samples);
+    return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
+  }
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; i++)
+    (*cap)[i] = sharp_samples.curve[i] >= 0 ? sharp_samples.distance[i] / (3.0f * 1.41421356f) : INFINITY;
+  ch_samples_free(&sharp_samples);
+  return CH_OK;
+}
+
+/* cap: sharp_caps' (NULL: no cap). */
+static ch_status reblur(const ch_dci_desc *desc, ch_dci *d, float *values, int channels, float *sigma, const float *cap,
+                        ch_error *err) {
+  ch_samples *s = &d->samples;
+  int W = s->width, H = s->height;
+  size_t n = (size_t)W * H;
   /* In warped UV a radius in UV spans its axis' slope times as many texels
    * along that axis: one radius field per pass, each capped. */
   int scaled = desc->blur_scale[0] || desc->blur_scale[1];
@@ -710,24 +725,21 @@ static ch_status reblur(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci
   if (!tmp || (scaled && !sigma_y)) {
     free(tmp);
     free(sigma_y);
-    ch_samples_free(&sharp_samples);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the reblur");
   }
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; i++) {
-    float cap = INFINITY;
-    if (any_sharp && sharp_samples.curve[i] >= 0) cap = sharp_samples.distance[i] / (3.0f * 1.41421356f);
+    float cap_i = cap ? cap[i] : INFINITY;
     float sx = sigma[i], sy = sigma[i];
     if (scaled) {
       if (desc->blur_scale[0]) sx *= desc->blur_scale[0][i % (size_t)W];
       if (desc->blur_scale[1]) sy *= desc->blur_scale[1][i / (size_t)W];
     }
-    sx = sx > cap ? cap : sx;
-    sy = sy > cap ? cap : sy;
+    sx = sx > cap_i ? cap_i : sx;
+    sy = sy > cap_i ? cap_i : sy;
     sigma[i] = sx > 0.0f ? sx : 0.0f;
     if (scaled) sigma_y[i] = sy > 0.0f ? sy : 0.0f;
   }
-  ch_samples_free(&sharp_samples);
   d->blur = sigma;
   blur_pass(W, H, channels, sigma, values, tmp, 0);
   blur_pass(W, H, channels, scaled ? sigma_y : sigma, tmp, values, 1);
@@ -743,15 +755,23 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   int R = desc->resolution;
   double rect[4] = {desc->rect[0], desc->rect[1], desc->rect[2], desc->rect[3]};
   if (rect[0] == 0.0 && rect[1] == 0.0 && rect[2] == 0.0 && rect[3] == 0.0) rect[2] = rect[3] = 1.0;
-  double t0 = ch_progress_seconds();
-  ch_status st = ch_samples_build(set, R, R, rect, CH_DCI_SAMPLE_BAND, &d->samples, err);
-  if (st) return st;
-  d->seconds_samples = ch_progress_seconds() - t0;
-  ch_samples *s = &d->samples;
-  size_t n = (size_t)R * R;
   int any_blur = 0;
   for (int c = 0; c < set->num_curves; c++)
     if (set->curves[c].kind == CH_CURVE_STEP && set->curves[c].blur > 0.0) any_blur = 1;
+  double t0 = ch_progress_seconds();
+  float *cap = NULL;
+  ch_status st = any_blur ? sharp_caps(set, R, R, rect, &cap, err) : CH_OK;
+  if (st) return st;
+  double seconds_caps = ch_progress_seconds() - t0;
+  t0 = ch_progress_seconds();
+  st = ch_samples_build_subset(set, NULL, R, R, rect, CH_DCI_SAMPLE_BAND, !desc->no_colors, &d->samples, err);
+  if (st) {
+    free(cap);
+    return st;
+  }
+  d->seconds_samples = ch_progress_seconds() - t0;
+  ch_samples *s = &d->samples;
+  size_t n = (size_t)R * R;
   int colors = desc->no_colors ? 0 : s->num_colors;
   int channels = 1 + colors;
   float *values = malloc(n * channels * sizeof *values);
@@ -762,6 +782,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   if (!values || (any_blur && !sigma) || !d->fixed || !d->h || (colors && !d->rgb)) {
     free(values);
     free(sigma);
+    free(cap);
     ch_dci_free(d);
     return ch_error_set(err, CH_ERR_NOMEM, "out of memory for a %dx%d diffusion-curve image", R, R);
   }
@@ -797,6 +818,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
       free(taken);
       free(values);
       free(sigma);
+      free(cap);
       ch_dci_free(d);
       return st;
     }
@@ -856,11 +878,12 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   d->seconds_diffuse = ch_progress_seconds() - t0;
   if (!st && any_blur) {
     t0 = ch_progress_seconds();
-    st = reblur(set, desc, d, values, channels, sigma, err);
+    st = reblur(desc, d, values, channels, sigma, cap, err);
     if (!st) sigma = NULL; /* now d->blur */
-    d->seconds_blur = ch_progress_seconds() - t0;
+    d->seconds_blur = seconds_caps + ch_progress_seconds() - t0;
   }
   free(sigma);
+  free(cap);
   if (st) {
     free(values);
     ch_dci_free(d);

@@ -161,11 +161,11 @@ static uint8_t side_bits(const ch_curve_set *set, int seg, double t, const doubl
 
 ch_status ch_samples_build(const ch_curve_set *set, int W, int H, const double rect[4], double band,
                            ch_samples *s, ch_error *err) {
-  return ch_samples_build_subset(set, NULL, W, H, rect, band, s, err);
+  return ch_samples_build_subset(set, NULL, W, H, rect, band, 1, s, err);
 }
 
 ch_status ch_samples_build_subset(const ch_curve_set *set, const unsigned char *use_curve, int W, int H,
-                                  const double rect[4], double band, ch_samples *s, ch_error *err) {
+                                  const double rect[4], double band, int colors, ch_samples *s, ch_error *err) {
   memset(s, 0, sizeof *s);
   if (W < 1 || H < 1 || W > CH_IMAGE_MAX_SIDE || H > CH_IMAGE_MAX_SIDE)
     return ch_error_set(err, CH_ERR_INPUT, "sample grid %dx%d outside 1..%d", W, H, CH_IMAGE_MAX_SIDE);
@@ -183,7 +183,7 @@ ch_status ch_samples_build_subset(const ch_curve_set *set, const unsigned char *
   s->texel[1] = (rect[3] - rect[1]) / H;
   s->band = band;
   for (int c = 0; c < set->num_curves; c++)
-    if (set->curves[c].kind == CH_CURVE_STEP && set->curves[c].has_colors && (!use_curve || use_curve[c]))
+    if (colors && set->curves[c].kind == CH_CURVE_STEP && set->curves[c].has_colors && (!use_curve || use_curve[c]))
       s->num_colors = 3;
   size_t n = (size_t)W * H;
   chain_info ci = {0};

@@ -57,10 +57,11 @@ ch_status ch_samples_build(const ch_curve_set *set, int width, int height, const
                            double band, ch_samples *out, ch_error *err);
 
 /* The same over the step curves c with use_curve[c] != 0 only (use_curve
- * has set->num_curves entries; NULL means every step curve). */
-ch_status ch_samples_build_subset(const ch_curve_set *set, const unsigned char *use_curve, int width,
-                                  int height, const double rect[4], double band, ch_samples *out,
-                                  ch_error *err);
+ * has set->num_curves entries; NULL means every step curve); colors 0
+ * leaves the colours out (num_colors 0, color NULL) even where curves have
+ * them: a quarter of the samples' memory that only a colour DCI reads. */
+ch_status ch_samples_build_subset(const ch_curve_set *set, const unsigned char *use_curve, int width, int height,
+                                  const double rect[4], double band, int colors, ch_samples *out, ch_error *err);
 
 void ch_samples_free(ch_samples *samples);
 
