@@ -556,10 +556,10 @@ static void corner_weight(const ch_cut_out *o, double thin, size_t t, int k, dou
  * The weights are then summed in triangle order: each thread reads every
  * corner, in the order they lie in memory, and adds the weights of those
  * of its block's vertices. The walk by vertex read each corner's triangle
- * from a row of the base away (a third of its time was those loads), and
- * a vertex's triangles are too far apart in the cut's order (those the
- * refinement added come after the base's) for chunks of triangles to hold
- * most of them. A normal gets its corners' weights in corner order either
+ * from a row of the base away and waited on those loads (it took as long
+ * with the weights' arithmetic left out), and a vertex's triangles are too
+ * far apart in the cut's order (those the refinement added come after the
+ * base's) for chunks of triangles to hold most of them. A normal gets its corners' weights in corner order either
  * way: the same sums, to the bit, on any number of threads. */
 
 /* Where group g's normal is among the k (*k) of the vertex at hand, in

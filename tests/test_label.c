@@ -566,6 +566,46 @@ static void test_chord_bound(void) {
   scene_close(&sc);
 }
 
+/* Grooves that share a profile, width and depth share their u lines
+ * (ch_label_init computes them once): each groove's lines, among 24
+ * grooves of 20 kinds (more than the kinds it remembers; some repeated,
+ * one after others pushed it out; two with the width of a remembered one
+ * but another profile or depth), are those of a scene holding that groove
+ * alone. */
+static void test_shared_lines(void) {
+  static const struct {
+    double width, depth;
+    const char *profile;
+  } g[] = {{4, .02, "u"},  {5, .02, "u"},  {6, .02, "u"},  {7, .02, "u"},  {8, .02, "u"},  {9, .02, "u"},
+           {10, .02, "u"}, {11, .02, "u"}, {12, .02, "u"}, {13, .02, "u"}, {14, .02, "u"}, {15, .02, "u"},
+           {16, .02, "u"}, {17, .02, "u"}, {18, .02, "u"}, {19, .02, "u"}, {4, .02, "u"},  {6, .02, "u"},
+           {20, .02, "u"}, {5, .02, "u"},  {5, .02, "v"},  {6, .03, "u"},  {4, .02, "u"},  {8, .02, "u"}};
+  enum { N = sizeof g / sizeof *g };
+  char all[8192], one[512];
+  int len = snprintf(all, sizeof all, "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>");
+  for (int i = 0; i < N; i++)
+    len += snprintf(all + len, sizeof all - (size_t)len,
+                    "<path d='M 5 %d L 95 %d' data-profile='%s' data-width='%g' data-depth='%g'/>", 4 + 4 * i,
+                    4 + 4 * i, g[i].profile, 0.1 * g[i].width, g[i].depth);
+  snprintf(all + len, sizeof all - (size_t)len, "</svg>");
+  label_scene sc;
+  REQUIRE(scene_open(&sc, all, "shared.svg", 0.02, 0.002));
+  for (int i = 0; i < N; i++) {
+    snprintf(one, sizeof one,
+             "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+             "<path d='M 5 %d L 95 %d' data-profile='%s' data-width='%g' data-depth='%g'/></svg>",
+             4 + 4 * i, 4 + 4 * i, g[i].profile, 0.1 * g[i].width, g[i].depth);
+    label_scene alone;
+    REQUIRE(scene_open(&alone, one, "one.svg", 0.02, 0.002));
+    int n_all = 0, n_one = 0;
+    const double *t_all = ch_label_lines_of(&sc.lb, i, 0, &n_all), *t_one = ch_label_lines_of(&alone.lb, 0, 0, &n_one);
+    CHECK(n_all == n_one && n_all >= 3);
+    CHECK(n_all == n_one && memcmp(t_all, t_one, (size_t)n_all * sizeof *t_all) == 0);
+    scene_close(&alone);
+  }
+  scene_close(&sc);
+}
+
 int main(void) {
   RUN(test_labels);
   RUN(test_crossing_loops);
@@ -575,5 +615,6 @@ int main(void) {
   RUN(test_inherited_crossings);
   RUN(test_crossings_found);
   RUN(test_chord_bound);
+  RUN(test_shared_lines);
   TEST_MAIN_END();
 }
