@@ -50,11 +50,12 @@ static inline void ch_cross3(const double a[3], const double b[3], double out[3]
  * by atan(x) = pi/4 + atan((x - 1) / (x + 1)), then a rational function of
  * degree 4/5 in x^2; about 1e-16 relative error). */
 static inline double ch_atan01(double x) {
-  double y = 0.0, bits = 0.0;
-  if (x > 0.66) {
-    y = 0.25 * CH_PI, bits = 0.5 * 6.123233995736765886130e-17; /* (pi/4's low bits) */
-    x = (x - 1.0) / (x + 1.0);
-  }
+  /* (both arguments, then selects, not a branch: loops over many angles
+   * vectorise, and which way a value goes is data) */
+  double reduced = (x - 1.0) / (x + 1.0);
+  double y = x > 0.66 ? 0.25 * CH_PI : 0.0,
+         bits = x > 0.66 ? 0.5 * 6.123233995736765886130e-17 : 0.0; /* (pi/4's low bits) */
+  x = x > 0.66 ? reduced : x;
   double z = x * x;
   double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z - 7.500855792314704667340e1) * z -
               1.228866684490136173410e2) *
@@ -66,15 +67,19 @@ static inline double ch_atan01(double x) {
              1.945506571482613964425e2;
   return y + (x * (z * p / q) + x + bits);
 }
+/* ch_angle for s > 0, without a branch (see ch_atan01). */
+static inline double ch_angle_positive(double s, double c) {
+  double ac = fabs(c);
+  double r = ch_atan01((s <= ac ? s : ac) / (s <= ac ? ac : s)), a = s <= ac ? r : 0.5 * CH_PI - r;
+  return c < 0.0 ? CH_PI - a : a;
+}
 /* atan2(s, c) for s >= 0 (an angle in [0, pi] from its sine and cosine
  * times one length, as |a x b| and a . b): inlined, where glibc's atan2
  * is a call (the output's normals take 5% less time). Within 4.5e-16 (an
  * ulp of pi) of atan2 in radians (tests/test_math.c). */
 static inline double ch_angle(double s, double c) {
-  double ac = fabs(c);
   if (!(s > 0.0)) return signbit(c) ? CH_PI : 0.0; /* (atan2(+0, -0) is pi) */
-  double a = s <= ac ? ch_atan01(s / ac) : 0.5 * CH_PI - ch_atan01(ac / s);
-  return c < 0.0 ? CH_PI - a : a;
+  return ch_angle_positive(s, c);
 }
 /* Scales v to unit length; returns 0 (v unchanged) when its length is 0 or
  * not finite. */
