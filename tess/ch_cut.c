@@ -624,7 +624,7 @@ static void batch_flush(weight_batch *b, double thin, ch_mesh *m) {
 }
 
 /* The weights of the corners of vertices [v0, v1), summed into their
- * normals in corner order (corner_weight's, a batch at a time). */
+ * normals in corner order, a batch at a time. */
 static void sum_block(const ch_cut_out *o, double thin, int v0, int v1, ch_mesh *m) {
   static const int next[3] = {1, 2, 0}, prev[3] = {2, 0, 1};
   size_t nc = 3 * (size_t)o->ntri;
