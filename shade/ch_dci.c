@@ -772,7 +772,7 @@ ch_status ch_dci_build(const ch_curve_set *set, const ch_dci_desc *desc, ch_dci 
   d->seconds_samples = ch_progress_seconds() - t0;
   ch_samples *s = &d->samples;
   size_t n = (size_t)R * R;
-  int colors = desc->no_colors ? 0 : s->num_colors;
+  int colors = s->num_colors; /* (0 with no_colors: the samples were made without) */
   int channels = 1 + colors;
   float *values = malloc(n * channels * sizeof *values);
   float *sigma = any_blur ? malloc(n * sizeof *sigma) : NULL;
