@@ -146,7 +146,9 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
      * model of the last where their counts fall as the base grows
      * (thinning makes the count bumpy: bricks at 130k). */
     double next;
-    if (count_only || pass == pilots) {
+    /* (a pilot finished from its cut, which then missed, has no full run
+     * before it for a secant) */
+    if (count_only || pass <= pilots) {
       next = ch_count_level_base(aim, &measured);
       if (count_only && next < (double)target / 8.0 && auto_angle && coarsenings < 4) {
         /* The u lines would take more than 7/8 of the triangles and starve

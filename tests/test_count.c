@@ -43,6 +43,10 @@ typedef struct fake {
   double cap;      /* > 0: a run whose count would pass it stops there */
   int estimated;   /* pilots reply estimated counts (a sampled pilot: no cut to finish) */
   int pilots;      /* PILOT requests */
+  double finish_shift;        /* a FINISH's count is the cut's times 1 + this (the cleanup, the thinning) */
+  ch_count_reply pilot_reply; /* the last PILOT's */
+  long full_base[8];          /* the bases FULL runs asked for */
+  int fulls;
 } fake;
 
 static double fake_base(long b) { return (double)b * (1.0 + 0.004 * sin((double)b)); }
@@ -87,9 +91,12 @@ static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply 
         return CH_OK;
       }
       if (rq->kind == CH_COUNT_FULL) f->min_full = fmin(f->min_full, rp->count);
+      if (rq->kind == CH_COUNT_PILOT) f->pilot_reply = *rp;
+      if (rq->kind == CH_COUNT_FULL && f->fulls < 8) f->full_base[f->fulls++] = rq->base;
       break;
     case CH_COUNT_FINISH:
       if (f->last != CH_COUNT_PILOT || f->estimated) f->bad++;
+      f->last_full *= 1.0 + f->finish_shift;
       rp->count = f->last_full;
       f->min_full = fmin(f->min_full, rp->count);
       break;
@@ -211,6 +218,20 @@ static void test_estimated_pilot(void) {
   CHECK(r.runs == 2 && fabs(r.count - 100000.0) <= 5000.0);
 }
 
+/* A pilot that lands within 4% (93750 + 3600 at the pilot's base of
+ * 6250, for 100000) is finished from its cut, but the finish comes out
+ * 8% over (the cleanup, the thinning): no full run before it, so the
+ * next base is the level model's of that pilot (there is no secant yet),
+ * and its full run lands. */
+static void test_finished_pilot_misses(void) {
+  fake f = {.kind = SQRT_MODEL, .c0 = 93750.0 + 3600.0, .c1 = 0.0, .finish_shift = 0.08};
+  ch_count_result r = search(&f, 100000, 0, 0);
+  CHECK_MSG(f.fulls == 1, "%d full runs", f.fulls);
+  long want = (long)llround(ch_count_level_base(100000.0, &f.pilot_reply));
+  CHECK_MSG(f.full_base[0] == want, "base %ld, the level model's %ld", f.full_base[0], want);
+  CHECK_MSG(r.runs == 2 && fabs(r.count - 100000.0) <= 5000.0, "%d runs, %.0f", r.runs, r.count);
+}
+
 static void test_bumpy(void) {
   long targets[] = {60000, 130000, 520000};
   for (int i = 0; i < 3; i++)
@@ -313,6 +334,7 @@ int main(void) {
   RUN(test_sqrt_model);
   RUN(test_margin);
   RUN(test_estimated_pilot);
+  RUN(test_finished_pilot_misses);
   RUN(test_bumpy);
   RUN(test_out_of_reach);
   RUN(test_u_lines);
