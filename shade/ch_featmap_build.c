@@ -546,7 +546,7 @@ static ch_status build_pieces(const ch_curve_set *set, const unsigned char *use,
       if (segment_events(p, R, i, ev)) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for curve crossings");
     }
     size_t ne = ev->n - first;
-    qsort(ev->v + first, ne, sizeof *ev->v, cmp_event);
+    if (ne > 1) qsort(ev->v + first, ne, sizeof *ev->v, cmp_event); /* (ev->v is NULL before any event) */
     int ns = sp->num_segments;
     /* Pieces between consecutive events; the ends of an open subpath, or
      * the wrap of a closed one. */

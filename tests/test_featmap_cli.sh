@@ -76,6 +76,17 @@ OMP_NUM_THREADS=2 "$chisel" featmap "$svg" --res 48 -o "$tmp/maps2.exr" --png "$
 checks=$((checks + 1))
 cmp -s "$tmp/maps1.exr" "$tmp/maps2.exr" && cmp -s "$tmp/maps1.png" "$tmp/maps2.png" &&
   cmp -s "$tmp/maps1.exr" "$maps" || fail "featmap: different bytes on 1 and 2 threads"
+# a groove crossing no lattice line (a ring inside one cell), first in the
+# file: its pieces come before any crossing is listed (UBSan once stopped
+# at sorting that empty list)
+cat >"$tmp/ring.svg" <<'SVG'
+<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 100 100">
+  <circle cx="53" cy="53" r="1.5" data-kind="groove" data-width="0.5" data-depth="0.01" data-profile="u"/>
+  <path d="M 10 20 L 90 70" data-kind="groove" data-width="2" data-depth="0.01" data-profile="v"/>
+</svg>
+SVG
+expect 0 "$chisel" featmap "$tmp/ring.svg" --res 16 -o "$tmp/ring.exr" && [ -s "$tmp/ring.exr" ] ||
+  fail "featmap of a ring inside one cell"
 steps=$models/curves/steps_simple.svg
 expect 0 "$chisel" featmap "$steps" --res 32 --dci-res 128 -o "$tmp/steps.exr" --linear --no-fallback ||
   fail "featmap of step curves"
