@@ -272,7 +272,6 @@ long ch_cut_merge_blocks(ch_cut_out *o, long fewer) {
   unsigned char *in = calloc((size_t)n, 1);
   signed char *open = malloc((size_t)n); /* per merged block: its sides still split */
   int *remap = ch_alloc_large((size_t)(o->npos > 0 ? o->npos : 1), sizeof *remap, 0);
-  int *tri = NULL;
   long saved = -1;
   if (!ok || !in || !open || !remap) goto done;
 #pragma omp parallel for schedule(static)
@@ -347,19 +346,11 @@ long ch_cut_merge_blocks(ch_cut_out *o, long fewer) {
        * plain piece, every corner with its vertex's UV) */
     }
   }
-  if (saved > 0) {
-    if (!(tri = ch_alloc_large(3 * (size_t)o->ntri, sizeof *tri, 0))) {
-      saved = -1;
-      goto done;
-    }
-    ch_cut_out_compact(o, remap, tri);
-    tri = NULL; /* (now o's) */
-  }
+  if (saved > 0) ch_cut_out_compact(o, remap, NULL);
 done:
   free(ok);
   free(in);
   free(open);
   free(remap);
-  free(tri);
   return saved;
 }

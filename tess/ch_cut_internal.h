@@ -123,8 +123,9 @@ void ch_cut_out_move_vertex(ch_cut_out *o, int to, int from);
 
 /* Drops the vertices v with remap[v] < 0 and the triangles whose first
  * corner is < 0, keeping the order; remap becomes the vertices' new
- * indices, and tri (room for 3 * o->ntri) o's triangles (o->tri is freed).
- * The same on any number of threads. */
+ * indices, and tri (room for 3 * o->ntri) o's triangles (o->tri is freed),
+ * or with tri NULL the triangles stay in o->tri. The same on any number of
+ * threads. */
 void ch_cut_out_compact(ch_cut_out *o, int *remap, int *tri);
 
 /* Frees o's arrays and zeroes it. */
