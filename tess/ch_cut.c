@@ -177,8 +177,22 @@ static int emit_region(const ch_refine_node *nodes, int m, const int *idx, int l
       piece = nodes[idx[i]].lnext;
       break;
     }
-  int apex = 0;
-  for (int a = 0; a < len && len > 3; a++) {
+  /* A region whose nodes all lie on one edge has no area: where a line
+   * pokes through an edge between two crossings of another (a groove's
+   * line past the one before it, between two of the edge's samples), the
+   * pieces between their chords lie on that edge, and the triangles on
+   * both sides of it may cut them off. Fanned from different nodes, the
+   * two copies doubled back on each other as two different pairs of
+   * triangles, and the edge was in four faces. From the lowest vertex,
+   * they are the same triangles facing opposite ways: pillows, which the
+   * cleanup takes out (ch_mesh_remove_pillows); where only one side cuts
+   * such a piece off, its triangles close the mesh along the edge. */
+  int one_edge = len >= 3, apex = 0;
+  for (int i = 0; i < len && one_edge; i++)
+    one_edge = nodes[idx[i]].corner < 0 && nodes[idx[i]].edge == nodes[idx[0]].edge;
+  for (int a = 1; a < len && one_edge; a++)
+    if (node_copy(&nodes[idx[a]], piece) < node_copy(&nodes[idx[apex]], piece)) apex = a;
+  for (int a = 0; a < len && len > 3 && !one_edge; a++) {
     int flat = 0;
     for (int i = 1; i + 1 < len && !flat; i++)
       flat = flat_uv(nodes[idx[a]].uv, nodes[idx[(a + i) % len]].uv, nodes[idx[(a + i + 1) % len]].uv);
