@@ -439,6 +439,41 @@ static uint32_t fingerprint(const int *c, int low) {
   return h == COMPARE_CORNERS ? h - 1 : h;
 }
 
+/* Drops the positions among cand[0..n) (sorted, distinct) that no face
+ * uses, renumbering the corners: a pillow's own corners would print as
+ * loose vertices. 0, or -1 out of memory. */
+static int drop_loose_positions(ch_mesh *m, const int *cand, size_t n) {
+  unsigned char *used = calloc(n ? n : 1, 1);
+  if (!used) return -1;
+  size_t nc = (size_t)m->num_corners;
+#pragma omp parallel for schedule(static)
+  for (size_t c = 0; c < nc; c++) {
+    size_t k = count_below(cand, n, (size_t)m->corner_position[c]);
+    if (k < n && cand[k] == m->corner_position[c]) {
+#pragma omp atomic write
+      used[k] = 1;
+    }
+  }
+  int *gone = malloc((n ? n : 1) * sizeof *gone);
+  size_t ngone = 0;
+  if (!gone) {
+    free(used);
+    return -1;
+  }
+  for (size_t k = 0; k < n; k++)
+    if (!used[k]) gone[ngone++] = cand[k];
+  free(used);
+  if (ngone) {
+    remove_elements(m->positions, 3 * sizeof *m->positions, (size_t)m->num_positions, gone, ngone);
+#pragma omp parallel for schedule(static)
+    for (size_t c = 0; c < nc; c++)
+      m->corner_position[c] -= (int)count_below(gone, ngone, (size_t)m->corner_position[c]);
+    m->num_positions -= (int)ngone;
+  }
+  free(gone);
+  return 0;
+}
+
 int ch_mesh_remove_pillows(ch_mesh *m) {
   if (m->num_faces == 0 || m->num_corners != 3 * m->num_faces) return 0;
   int nf = m->num_faces, np = m->num_positions, nt = omp_get_max_threads();
@@ -560,7 +595,20 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
     int distinct = 0;
     for (int i = 0; i < gone.n; i++)
       if (distinct == 0 || gone.f[distinct - 1] != gone.f[i]) gone.f[distinct++] = gone.f[i];
+    /* their corners, before the faces go */
+    vlist corners = {0};
+    for (int i = 0; i < distinct && !oom; i++)
+      for (int k = 0; k < 3 && !oom; k++) oom |= vlist_push(&corners, cp[3 * (size_t)gone.f[i] + (size_t)k]);
     drop_faces(m, gone.f, (size_t)distinct);
+    if (!oom) {
+      qsort(corners.f, (size_t)corners.n, sizeof *corners.f, cmp_int);
+      int nd = 0;
+      for (int i = 0; i < corners.n; i++)
+        if (nd == 0 || corners.f[nd - 1] != corners.f[i]) corners.f[nd++] = corners.f[i];
+      oom |= drop_loose_positions(m, corners.f, (size_t)nd) != 0;
+    }
+    free(corners.f);
+    if (oom) goto done;
   }
   removed = dropped;
 done:

@@ -788,8 +788,9 @@ static void test_collapse_vertex_copies(void) {
 }
 
 /* A flap (a triangle and its reverse) hanging off the diagonal of a quad
- * goes, leaving the quad; a reversed copy of one of the quad's own
- * triangles stays (removing both would open a hole). */
+ * goes, leaving the quad, and its own vertex with it (a loose vertex in
+ * the OBJ otherwise); a reversed copy of one of the quad's own triangles
+ * stays (removing both would open a hole). */
 static void test_remove_pillows(void) {
   static const double pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5, 0.5, 1};
   static const double uv[] = {0, 0, 1, 0, 1, 1, 0, 1, 0.5, 0.5};
@@ -799,9 +800,19 @@ static void test_remove_pillows(void) {
   CHECK(ch_mesh_remove_pillows(&s.m) == 2);
   CHECK(s.m.num_faces == 2 && s.m.corner_position[3] == 0 && s.m.corner_position[4] == 2 &&
         s.m.corner_position[5] == 3);
+  CHECK(s.m.num_positions == 4 && memcmp(s.m.positions, pos, 12 * sizeof *pos) == 0);
   static const int faces2[][4] = {{0, 1, 2, -1}, {0, 2, 3, -1}, {2, 1, 0, -1}};
   make_mesh(&s, 5, pos, uv, 3, faces2);
   CHECK(ch_mesh_remove_pillows(&s.m) == 0 && s.m.num_faces == 3);
+  /* the flap's vertex first of the positions after the corner: those
+   * after it move down by one, and the corners with them */
+  static const double pos3[] = {0, 0, 0, 0.5, 0.5, 1, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+  static const int faces3[][4] = {{0, 2, 3, -1}, {0, 3, 1, -1}, {0, 3, 4, -1}, {3, 0, 1, -1}};
+  static const int want3[][3] = {{0, 1, 2}, {0, 2, 3}};
+  make_mesh(&s, 5, pos3, uv, 4, faces3);
+  CHECK(ch_mesh_remove_pillows(&s.m) == 2);
+  CHECK(s.m.num_positions == 4 && faces_are(&s.m, 2, want3));
+  CHECK(s.m.positions[3] == 1.0 && s.m.positions[4] == 0.0 && s.m.positions[9] == 0.0 && s.m.positions[10] == 1.0);
 }
 
 /* A mesh of GRID x GRID unit squares, the triangles a-b-c and a-c-d each
@@ -947,7 +958,9 @@ static void test_collapse_and_pillows_in_parallel(void) {
       }
     copy_mesh(&before, &m);
     CHECK_MSG(ch_mesh_remove_pillows(&m) == 2 * flaps, "%d threads", t);
-    CHECK_MSG(grid_is(&m, &before, drop, before.num_positions, NULL), "%d threads: %d faces", t, m.num_faces);
+    /* (the flaps' own vertices go with them: no loose ones) */
+    CHECK_MSG(grid_is(&m, &before, drop, GRID_POSITIONS, NULL), "%d threads: %d faces, %d positions", t, m.num_faces,
+              m.num_positions);
     ch_mesh_free(&m);
     ch_mesh_free(&before);
   }
