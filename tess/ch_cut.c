@@ -419,6 +419,20 @@ static int emit_walls(const ch_refine_node *nodes, int m, ch_cut_out *o, ch_embe
     uint64_t r1 = nodes[p].lnext, r2 = nodes[p].lprev;
     int v[4] = {node_copy(&nodes[p], r1), node_copy(&nodes[q], r1), node_copy(&nodes[q], r2), node_copy(&nodes[p], r2)};
     const double *uv[4] = {nodes[p].uv, nodes[q].uv, nodes[q].uv, nodes[p].uv};
+    /* A chord along an edge (both ends on it: a step curve poking
+     * through) may stand its wall in the triangles on both sides: split
+     * from its lowest vertex, the two are the same triangles facing
+     * opposite ways, pillows the cleanup takes out (as emit_region's
+     * pieces along an edge), not two quads on different diagonals. */
+    if (nodes[p].corner < 0 && nodes[q].corner < 0 && nodes[p].edge == nodes[q].edge) {
+      int low = 0;
+      for (int k = 1; k < 4; k++) low = v[k] < v[low] ? k : low;
+      int rv[4];
+      const double *ruv[4];
+      for (int k = 0; k < 4; k++) rv[k] = v[(low + k) % 4], ruv[k] = uv[(low + k) % 4];
+      bad |= out_quad(o, rv, ruv, WALL_GROUP);
+      continue;
+    }
     bad |= out_quad(o, v, uv, WALL_GROUP);
   }
   stats->wall_triangles += o->ntri - before;

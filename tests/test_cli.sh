@@ -305,6 +305,13 @@ expect 0 "$chisel" displace "$models/tablet.obj" "$models/curves/glyphs.svg" -o 
   --camera 0.2,0.3,0.25,0.3,0.4,0,50 || true
 expect 0 "$chisel" info "$tmp/wt.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" \
   "$tmp/stdout" || fail "displace --camera, tablet + glyphs: not closed and manifold"
+# The same for a step curve's wall along an edge: relief's walls read
+# through the diffusion image's reconstruction over the tablet stood on
+# both sides of one edge (four faces on it).
+expect 0 "$chisel" displace "$models/tablet.obj" "$models/curves/relief.svg" -o "$tmp/wr.obj" --target-tris 50000 \
+  --snap-to recon3 || true
+expect 0 "$chisel" info "$tmp/wr.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" \
+  "$tmp/stdout" || fail "displace --snap-to recon3, tablet + relief: not closed and manifold"
 if command -v python3 >/dev/null; then
   checks=$((checks + 1))
   python3 - "$tmp/w.exr" "$tmp/w.obj" "$tmp/s.obj" "$tests/tools" <<'EOF' || fail "displace --camera: warped maps and density"
