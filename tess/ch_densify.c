@@ -842,8 +842,8 @@ void ch_cut_out_compact(ch_cut_out *o, int *remap, int *tri) {
           for (int k = 0; k < 3; k++) o->tri[3 * to + (size_t)k] = remap[o->tri[3 * t + (size_t)k]];
           to++;
         }
-    for (int b = 1; b < COMPACT_BLOCKS;
-         b++) /* (toff[b] <= the block's start, and block b + 1 starts past toff[b + 1]) */
+    /* (toff[b] <= block b's start, and block b + 1 starts past toff[b + 1]) */
+    for (int b = 1; b < COMPACT_BLOCKS; b++)
       memmove(&o->tri[3 * (size_t)toff[b]], &o->tri[3 * block_at(nt, b)],
               3 * (size_t)(toff[b + 1] - toff[b]) * sizeof *o->tri);
   }
