@@ -224,8 +224,8 @@ ch_status build(const ch_mesh *mesh, ch_scheme scheme, ch_surface *S, ch_error *
       if (!used[v]) continue;
       if (!ch_normalize3(&vn[3 * v]))
         return ch_error_set(err, CH_ERR_INPUT,
-                            "base mesh: position %d: the faces around it have no area, so it has "
-                            "no normal",
+                            "base mesh: position %d (counting from 0): the faces around it have no "
+                            "area, or as much facing one way as the other, so it has no normal",
                             v);
     }
   }

@@ -262,6 +262,9 @@ no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$tests/data/mesh/zero_area_face.obj" "$svg" -o "$tmp/x.obj" --no-snap \
   && one_line_with "zero_area_face.obj: face 2 has zero area"
 no_file "$tmp/x.obj"
+expect 2 "$chisel" displace "$tests/data/mesh/opposite_faces.obj" "$svg" -o "$tmp/x.obj" --no-snap \
+  && one_line_with "opposite_faces.obj: base mesh: position 1 (counting from 0)"
+no_file "$tmp/x.obj"
 expect 2 "$chisel" displace "$models/plane.obj" "$tests/data/svg/bad/negative_width.svg" -o "$tmp/x.obj" --no-snap \
   && one_line_with "negative data-width"
 no_file "$tmp/x.obj"

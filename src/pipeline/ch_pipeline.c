@@ -219,6 +219,11 @@ ch_status ch_pipeline_displace(const ch_displace_desc *desc, ch_displace_result 
   const ch_warp *warp = NULL; /* set when the camera gives a warp */
   ch_progress_reportf(progress, -1.0, "the base surface (%d faces)", mesh.num_faces);
   st = ch_surface_create(&mesh, desc->scheme, &surface, err);
+  if (st == CH_ERR_INPUT && err) { /* its messages name the mesh, not the file */
+    char what[sizeof err->message];
+    snprintf(what, sizeof what, "%s", err->message);
+    ch_error_set(err, st, "%s: %s", base, what);
+  }
   ch_mesh_free(&mesh); /* the surface holds what it needs of it */
   double t_surface = omp_get_wtime();
   out->seconds.surface = t_surface - t_read;
