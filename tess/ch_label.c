@@ -93,12 +93,22 @@ static int groove_lines(const ch_curve *c, double tolerance, double angle, doubl
           lo = mid;
       }
     else
-      hi = 0.0;
+      hi = -1.0; /* (none by the chord rule) */
     if (!angle_done) {
       double k = ceil(theta_a / angle * (1.0 - 1e-9) + 0.5) - 1.0; /* the largest (k - 1/2) angle < theta_a */
-      double q = tan((k - 0.5) * angle) / (2.0 * slope), x = q / sqrt(1.0 + q * q);
-      hi = fmax(hi, 0.5 * x);
+      /* (where the slope is tiny against the angle step, an object in
+       * millimetres, the lines crowd at the rim closer than x's rounding:
+       * a line that rounds onto a is passed over for the next, which
+       * otherwise came out as a again, for ever) */
+      for (; k >= 1.0; k -= 1.0) {
+        double q = tan((k - 0.5) * angle) / (2.0 * slope), x = q / sqrt(1.0 + q * q);
+        if (0.5 * x < a) {
+          hi = fmax(hi, 0.5 * x);
+          break;
+        }
+      }
     }
+    if (!(hi >= 0.0 && hi < a)) break; /* (no line inside a: none is left to place) */
     /* Lines closer than this to the previous one would ask for edges
      * below the refinement limit where they curve (around an end), or
      * spend more on the rim's last sliver than the density warrants. */

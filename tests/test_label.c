@@ -606,8 +606,38 @@ static void test_shared_lines(void) {
   scene_close(&sc);
 }
 
+/* A u groove on an object far larger than its depth (a tablet modelled
+ * in millimetres, 1e5 units to the UV square, a groove 0.02 deep): the
+ * displaced profile's slope is so small that the lines the angle step
+ * asks for crowd at the rims closer than a double can tell apart, and
+ * placing them once went round for ever. The lines are finite, strictly
+ * increasing and symmetric, from rim to rim; at a scale of 1 the same
+ * groove's are too. */
+static void test_lines_at_any_scale(void) {
+  static const char *text =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+      "<path d='M 5 50 L 95 50' data-profile='u' data-width='2' data-depth='0.02'/></svg>";
+  static const double scales[] = {1.0, 1e3, 1e5, 1e-5};
+  for (int s = 0; s < 4; s++) {
+    label_scene sc = {0};
+    ch_error err = {0};
+    REQUIRE(ch_curves_parse_svg(text, strlen(text), "scale.svg", &sc.set, &err) == CH_OK);
+    ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
+    REQUIRE(ch_height_init(&sc.height, &sc.set, &hd, &err) == CH_OK);
+    REQUIRE(ch_label_init(&sc.lb, &sc.height, NULL, 0.02, 0.0, 7.0 * CH_PI / 180.0, scales[s], 0.002, 0.004, &err) ==
+            CH_OK);
+    int n = 0;
+    const double *t = ch_label_lines_of(&sc.lb, 0, 0, &n);
+    int ok = n >= 2 && t[0] == -0.5 && t[n - 1] == 0.5;
+    for (int i = 0; i + 1 < n && ok; i++) ok = isfinite(t[i]) && t[i] < t[i + 1] && t[i] == -t[n - 1 - i];
+    CHECK_MSG(ok, "scale %g: %d lines", scales[s], n);
+    scene_close(&sc);
+  }
+}
+
 int main(void) {
   RUN(test_labels);
+  RUN(test_lines_at_any_scale);
   RUN(test_crossing_loops);
   RUN(test_nested_loops);
   RUN(test_hidden_caps);
