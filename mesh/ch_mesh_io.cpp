@@ -64,8 +64,10 @@ using OpenMesh::FaceHandle;
 using OpenMesh::HalfedgeHandle;
 using OpenMesh::EdgeHandle;
 
-// Largest file we read whole: far beyond a base mesh.
-const size_t kMaxFileSize = (size_t)1 << 31;
+// Largest file we read whole: far beyond a base mesh, and beyond what
+// displace writes at 20M triangles (a 2.5 GB OBJ), which info and study
+// read back.
+const size_t kMaxFileSize = (size_t)1 << 34;
 const long long kMax = CH_MESH_MAX_ELEMENTS;
 
 enum class Format { OBJ, PLY, OFF, STL };
