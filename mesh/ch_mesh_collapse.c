@@ -36,6 +36,15 @@ static int cmp_int(const void *x, const void *y) {
   return a < b ? -1 : a > b;
 }
 
+/* Sorts f[0..n) and keeps one of each value; returns how many. */
+static int sort_distinct(int *f, int n) {
+  qsort(f, (size_t)n, sizeof *f, cmp_int);
+  int u = 0;
+  for (int i = 0; i < n; i++)
+    if (u == 0 || f[u - 1] != f[i]) f[u++] = f[i];
+  return u;
+}
+
 /* Whether two triangles have the same three corners (in any order). */
 static int same_corners(const int *c, const int *d) {
   int same = 1;
@@ -149,11 +158,7 @@ static int neighbours(const ch_mesh *m, const vlist *inc, const uint64_t *dead, 
       (*out)[n++] = w;
     }
   }
-  qsort(*out, (size_t)n, sizeof **out, cmp_int);
-  int u = 0;
-  for (int i = 0; i < n; i++)
-    if (u == 0 || (*out)[u - 1] != (*out)[i]) (*out)[u++] = (*out)[i];
-  return u;
+  return sort_distinct(*out, n);
 }
 
 int ch_mesh_collapse_short_edges(ch_mesh *m, double eps) {
@@ -591,22 +596,13 @@ int ch_mesh_remove_pillows(ch_mesh *m) {
   if (oom) goto done;
   if (dropped) {
     /* (a face in two pairs is dropped once) */
-    qsort(gone.f, (size_t)gone.n, sizeof *gone.f, cmp_int);
-    int distinct = 0;
-    for (int i = 0; i < gone.n; i++)
-      if (distinct == 0 || gone.f[distinct - 1] != gone.f[i]) gone.f[distinct++] = gone.f[i];
+    int distinct = sort_distinct(gone.f, gone.n);
     /* their corners, before the faces go */
     vlist corners = {0};
     for (int i = 0; i < distinct && !oom; i++)
       for (int k = 0; k < 3 && !oom; k++) oom |= vlist_push(&corners, cp[3 * (size_t)gone.f[i] + (size_t)k]);
     drop_faces(m, gone.f, (size_t)distinct);
-    if (!oom) {
-      qsort(corners.f, (size_t)corners.n, sizeof *corners.f, cmp_int);
-      int nd = 0;
-      for (int i = 0; i < corners.n; i++)
-        if (nd == 0 || corners.f[nd - 1] != corners.f[i]) corners.f[nd++] = corners.f[i];
-      oom |= drop_loose_positions(m, corners.f, (size_t)nd) != 0;
-    }
+    if (!oom) oom |= drop_loose_positions(m, corners.f, (size_t)sort_distinct(corners.f, corners.n)) != 0;
     free(corners.f);
     if (oom) goto done;
   }

@@ -823,25 +823,21 @@ void ch_cut_out_compact(ch_cut_out *o, int *remap, int *tri) {
       }
     }
   }
-  if (tri) {
+  /* each block's kept triangles, renumbered, to where they go in tri, or
+   * in place to the front of its own range */
+  int *dest = tri ? tri : o->tri;
 #pragma omp parallel for schedule(static)
-    for (int b = 0; b < COMPACT_BLOCKS; b++)
-      for (size_t t = block_at(nt, b), to = (size_t)toff[b]; t < block_at(nt, b + 1); t++)
-        if (o->tri[3 * t] >= 0) {
-          for (int k = 0; k < 3; k++) tri[3 * to + (size_t)k] = remap[o->tri[3 * t + (size_t)k]];
-          to++;
-        }
+  for (int b = 0; b < COMPACT_BLOCKS; b++)
+    for (size_t t = block_at(nt, b), to = tri ? (size_t)toff[b] : block_at(nt, b); t < block_at(nt, b + 1); t++)
+      if (o->tri[3 * t] >= 0) {
+        for (int k = 0; k < 3; k++) dest[3 * to + (size_t)k] = remap[o->tri[3 * t + (size_t)k]];
+        to++;
+      }
+  if (tri) {
     free(o->tri);
     o->tri = tri;
     o->cap_tri = o->ntri; /* (what tri holds) */
   } else {
-#pragma omp parallel for schedule(static)
-    for (int b = 0; b < COMPACT_BLOCKS; b++)
-      for (size_t t = block_at(nt, b), to = block_at(nt, b); t < block_at(nt, b + 1); t++)
-        if (o->tri[3 * t] >= 0) {
-          for (int k = 0; k < 3; k++) o->tri[3 * to + (size_t)k] = remap[o->tri[3 * t + (size_t)k]];
-          to++;
-        }
     /* (toff[b] <= block b's start, and block b + 1 starts past toff[b + 1]) */
     for (int b = 1; b < COMPACT_BLOCKS; b++)
       memmove(&o->tri[3 * (size_t)toff[b]], &o->tri[3 * block_at(nt, b)],
