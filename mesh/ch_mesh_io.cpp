@@ -482,7 +482,9 @@ void share(int n, const std::vector<float> &list, const int *idx, size_t corners
     throw std::bad_alloc();
 }
 
-void build_uvs(const Importer &imp, Built &b) {
+// Returns whether the UVs came per vertex (exporters split such vertices
+// at UV seams; see weld_positions).
+bool build_uvs(const Importer &imp, Built &b) {
   size_t nf = imp.face_has_uv.size();
   size_t with = (size_t)std::count(imp.face_has_uv.begin(), imp.face_has_uv.end(), 1);
   if (with > 0) {
@@ -491,11 +493,12 @@ void build_uvs(const Importer &imp, Built &b) {
       fail("face %zu has no texture coordinates while other faces have them", f + imp.base);
     }
     share(2, imp.face_uv, nullptr, imp.corners.size(), &b.uvs, &b.corner_uv, &b.num_uvs);
-  } else {
-    for (int v : imp.corners)
-      if (!imp.vert_has_uv[v]) return;  // no (complete) per-vertex UVs either
-    share(2, imp.vert_uv, imp.corners.data(), imp.corners.size(), &b.uvs, &b.corner_uv, &b.num_uvs);
+    return false;
   }
+  for (int v : imp.corners)
+    if (!imp.vert_has_uv[v]) return false;  // no (complete) per-vertex UVs either
+  share(2, imp.vert_uv, imp.corners.data(), imp.corners.size(), &b.uvs, &b.corner_uv, &b.num_uvs);
+  return true;
 }
 
 void build_normals(const Importer &imp, Built &b, const char *name, ch_error *err) {
@@ -514,6 +517,46 @@ void build_normals(const Importer &imp, Built &b, const char *name, ch_error *er
   share(3, imp.vert_n, imp.corners.data(), imp.corners.size(), &b.normals, &b.corner_normal, &b.num_normals);
 }
 
+// A PLY or OFF with UVs per vertex has one set of attributes per vertex, so
+// an exporter splits a vertex wherever its UV differs (Blender's PLY at every
+// UV seam): one point appears as several vertices at the same coordinates,
+// and the base surface falls apart there, each side tessellated and cut on
+// its own (the displaced mesh open along every seam). They are welded back
+// into one position, the first copy's, as glTF's are (docs/spec.md §1); the
+// positions keep their order. Returns each vertex's position and fills
+// kept with the positions' coordinates.
+std::vector<int> weld_positions(const std::vector<double> &pos, std::vector<double> &kept) {
+  size_t n = pos.size() / 3, size = 16;
+  while (size < 2 * n) size *= 2;
+  std::vector<int> slot(size, -1), at(n);
+  auto key = [&](size_t i, int k) { return pos[3 * i + k] == 0.0 ? 0.0 : pos[3 * i + k]; }; /* -0 is 0 */
+  kept.clear();
+  kept.reserve(pos.size());
+  int count = 0;
+  for (size_t i = 0; i < n; i++) {
+    uint64_t h = 0x9e3779b97f4a7c15u;
+    for (int k = 0; k < 3; k++) {
+      double v = key(i, k);
+      uint64_t bits;
+      memcpy(&bits, &v, sizeof bits);
+      h = (h ^ bits) * 0xff51afd7ed558ccdu;
+    }
+    size_t s = (size_t)(h ^ (h >> 29)) & (size - 1);
+    for (; slot[s] >= 0; s = (s + 1) & (size - 1)) {
+      size_t j = (size_t)slot[s];
+      if (key(i, 0) == key(j, 0) && key(i, 1) == key(j, 1) && key(i, 2) == key(j, 2)) break;
+    }
+    if (slot[s] < 0) {
+      slot[s] = (int)i;
+      at[i] = count++;
+      kept.insert(kept.end(), {pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]});
+    } else {
+      at[i] = at[(size_t)slot[s]];
+    }
+  }
+  return at;
+}
+
 void to_mesh(const Importer &imp, const char *name, ch_mesh *out, ch_error *err) {
   int nv = imp.vertex_count();
   for (size_t f = 0; f + 1 < imp.face_start.size(); f++)
@@ -524,17 +567,50 @@ void to_mesh(const Importer &imp, const char *name, ch_mesh *out, ch_error *err)
         fail("face %zu: vertex index %d out of range (0..%d)", f, imp.corners[c], nv - 1);
       }
   Built b;
-  build_uvs(imp, b);
+  // (OBJ indexes positions and UVs apart, and is read here only as the
+  // reference for chisel's own OBJ reader; UVs per face corner, as chisel's
+  // own PLY has them, need no split vertices)
+  bool weld = build_uvs(imp, b) && imp.format != Format::OBJ;
   build_normals(imp, b, name, err);
+  std::vector<double> welded_pos;
+  std::vector<int> face_start, corners;
+  if (weld) {
+    std::vector<int> at = weld_positions(imp.pos, welded_pos);
+    // A face with two corners at one position once welded has an edge on
+    // itself: left out, its corners' UVs and normals with it.
+    size_t nf = imp.face_start.size() - 1, dropped = 0, c_out = 0;
+    std::vector<int> seen;
+    face_start.reserve(nf + 1);
+    face_start.push_back(0);
+    corners.reserve(imp.corners.size());
+    for (size_t f = 0; f < nf; f++) {
+      seen.clear();
+      for (int c = imp.face_start[f]; c < imp.face_start[f + 1]; c++) seen.push_back(at[(size_t)imp.corners[c]]);
+      if (first_repeat(seen) >= 0) {
+        dropped++;
+        continue;
+      }
+      for (int c = imp.face_start[f]; c < imp.face_start[f + 1]; c++, c_out++) {
+        corners.push_back(at[(size_t)imp.corners[c]]);
+        if (b.corner_uv) b.corner_uv[c_out] = b.corner_uv[c];
+        if (b.corner_normal) b.corner_normal[c_out] = b.corner_normal[c];
+      }
+      face_start.push_back((int)corners.size());
+    }
+    if (dropped)
+      ch_warn(err, "%s: %zu face%s with two corners at one position (vertices at equal coordinates) left out", name,
+              dropped, dropped == 1 ? "" : "s");
+    nv = (int)(welded_pos.size() / 3);
+  }
   ch_mesh m;
   memset(&m, 0, sizeof m);
   try {
     m.num_positions = nv;
-    m.positions = c_array(imp.pos);
-    m.num_faces = (int)imp.face_has_uv.size();
-    m.face_start = c_array(imp.face_start);
-    m.num_corners = (int)imp.corners.size();
-    m.corner_position = c_array(imp.corners);
+    m.positions = c_array(weld ? welded_pos : imp.pos);
+    m.num_faces = (int)(weld ? face_start : imp.face_start).size() - 1;
+    m.face_start = c_array(weld ? face_start : imp.face_start);
+    m.num_corners = (int)(weld ? corners : imp.corners).size();
+    m.corner_position = c_array(weld ? corners : imp.corners);
     m.num_uvs = b.num_uvs;
     m.uvs = b.uvs;
     m.corner_uv = b.corner_uv;

@@ -218,6 +218,10 @@ tris=$(sed -n 's/^ *faces *\([0-9]*\) (\([0-9]*\) triangles.*/\2/p' "$tmp/stdout
 expect 0 "$chisel" displace "$models/torus.obj" "$svg" -o "$tmp/st.obj" --target-tris 30000 --scheme catmark || true
 expect 0 "$chisel" info "$tmp/st.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" "$tmp/stdout" \
   || fail "snapped torus not closed"
+# A cube written as exporters write PLY (its vertices split at every UV seam): displaced closed, as its OBJ.
+expect 0 "$chisel" displace "$tests/data/mesh/cube_split.ply" "$svg" -o "$tmp/cube.obj" --target-tris 20000 || true
+expect 0 "$chisel" info "$tmp/cube.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" \
+  "$tmp/stdout" || fail "a cube from a PLY split at its UV seams not closed"
 # The README's scene: the glyphs laid out on the tablet's front chart. Every triangle is cut (no warning) and
 # the mesh is closed.
 expect 0 "$chisel" displace "$models/tablet.obj" "$models/tablet_glyphs.svg" -o "$tmp/tab.obj" --target-tris 130000 &&

@@ -267,6 +267,49 @@ static void test_ply(void) {
   ch_mesh_free(&m);
 }
 
+/* A PLY keeps one UV per vertex, so exporters split every vertex on a UV
+ * seam (Blender's PLY does): the reader welds equal coordinates back into
+ * one position, so the cube is closed again and reads as cube.obj does. */
+static void test_ply_welded(void) {
+  ch_mesh a, b;
+  warnings w;
+  REQUIRE(read_data("cube.obj", &a, NULL) == CH_OK);
+  REQUIRE(read_data("cube_split.ply", &b, &w) == CH_OK);
+  CHECK_MSG(w.count == 0, "%s", w.text);
+  CHECK_MSG(b.num_positions == 8 && b.num_faces == 6 && b.num_corners == 24 && b.num_uvs == 18,
+            "%d positions, %d faces, %d corners, %d UVs", b.num_positions, b.num_faces, b.num_corners, b.num_uvs);
+  /* the same position and UV at every corner (numbered in another order:
+   * the PLY lists its vertices face by face), and corners share a number
+   * where they share a position */
+  int same = a.num_corners == b.num_corners;
+  for (int c = 0; same && c < a.num_corners; c++) {
+    same = memcmp(corner_pos(&a, c), corner_pos(&b, c), 3 * sizeof(double)) == 0 &&
+           memcmp(corner_uv(&a, c), corner_uv(&b, c), 2 * sizeof(double)) == 0;
+    for (int d = 0; d < c; d++)
+      same &= (a.corner_position[c] == a.corner_position[d]) == (b.corner_position[c] == b.corner_position[d]);
+  }
+  CHECK(same);
+  ch_mesh_report r;
+  REQUIRE(validate(&b, &r, NULL) == CH_OK);
+  CHECK(r.num_boundary_edges == 0 && r.num_nonmanifold_edges == 0 && r.num_components == 1 && r.num_charts == 3);
+  ch_mesh_free(&a);
+  ch_mesh_free(&b);
+
+  /* -0 and 0 are one coordinate; a face whose corners weld into one
+   * position twice is left out, with a warning */
+  static const char two[] =
+      "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+      "property float z\nproperty float s\nproperty float t\nelement face 2\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0 0 0\n1 0 0 1 0\n1 1 0 1 1\n-0 0 0 0.5 0\n1 0 -0 0.5 1\n3 4 2 3\n3 0 3 2\n";
+  ch_error err = new_error(&w);
+  REQUIRE(ch_mesh_read_memory(two, sizeof two - 1, "ply", "two", &b, &err) == CH_OK);
+  CHECK_MSG(b.num_positions == 3 && b.num_faces == 1 && b.num_corners == 3, "%d positions, %d faces", b.num_positions,
+            b.num_faces);
+  CHECK_MSG(w.count == 1 && strstr(w.text, "two: 1 face with two corners at one position") != NULL, "%s", w.text);
+  ch_mesh_free(&b);
+}
+
 static void test_off(void) {
   ch_mesh m;
   ch_mesh_report r;
@@ -1437,6 +1480,7 @@ int main(void) {
   RUN(test_plane_obj);
   RUN(test_cube_obj);
   RUN(test_ply);
+  RUN(test_ply_welded);
   RUN(test_off);
   RUN(test_stl);
   RUN(test_float_precision);
