@@ -167,7 +167,26 @@ ch_status ch_count_search(const ch_count_desc *desc, ch_count_fn fn, void *ctx, 
     } else {
       double dx = xs[pass] - xs[pass - 1], dy = ys[pass] - ys[pass - 1];
       next = dy * dx > 0.0 ? xs[pass] + (aim - ys[pass]) * dx / dy : ch_count_level_base(aim, &measured);
-      if (!(next > 0.0)) next = xs[pass] * 0.5;
+      int fell = !(next > 0.0);
+      if (fell) next = xs[pass] * 0.5;
+      /* Where full runs bracket the aim (one under it, one over) and the
+       * secant through the last two leaves that bracket or falls below 0:
+       * false position between the bracket's ends in log(base), kept to
+       * its middle 80%. Features whose refinement grows fast at small bases
+       * (8000 filled stars: 825k triangles at the fewest 512 base
+       * triangles, 3.2M at 7.6k, 7.8M at 560k) bend the count so much
+       * that the search halved its way down from above and ran out of
+       * runs first (8 runs, 40 s, 3.2M triangles for a target of 2.1M). */
+      int under = -1, over = -1;
+      for (int i = pilots; i <= pass; i++) {
+        if (ys[i] < aim && (under < 0 || xs[i] > xs[under])) under = i;
+        if (ys[i] > aim && (over < 0 || xs[i] < xs[over])) over = i;
+      }
+      if (under >= 0 && over >= 0 && xs[under] < xs[over] && (fell || !(next > xs[under] && next < xs[over]))) {
+        double f = (aim - ys[under]) / (ys[over] - ys[under]);
+        f = f < 0.1 ? 0.1 : f > 0.9 ? 0.9 : f;
+        next = xs[under] * pow(xs[over] / xs[under], f);
+      }
     }
     long nl = (long)llround(fmin(next, 4.0 * (double)target));
     if (ceiling > 0 && nl >= ceiling) nl = (base + ceiling) / 2; /* (below a run over the cap) */

@@ -11,6 +11,9 @@
  *   run aims that share of what the features add above the target.
  * - a bumpy, non-monotonic count (features growing like b^0.8 with a
  *   ripple, as the thinning gives): within 5% in at most 8 runs.
+ * - a count steep at small bases and flat at large ones (out = b + c
+ *   log(b / 100), all of it refinement below the base's edges): full runs
+ *   bracket the target and the search lands between them in 8 runs.
  * - features alone over the target (out = b + 200000 for 60000): out of
  *   reach, the answer kept is the one at the fewest base triangles.
  * - u lines that would take more than 7/8 of the target at the default
@@ -28,7 +31,7 @@
 #include "ch_count.h"
 #include "ch_test.h"
 
-typedef enum { SQRT_MODEL, BUMPY, OVER, U_LINES, CAPS } count_kind;
+typedef enum { SQRT_MODEL, BUMPY, OVER, U_LINES, CAPS, STEEP } count_kind;
 
 typedef struct fake {
   count_kind kind;
@@ -63,6 +66,8 @@ static double fake_count(const fake *f, double b, int coarsenings) {
       return b + f->c1 / pow(1.5, coarsenings) * sqrt(b);
     case CAPS: /* the angle step shapes only the caps of open ends: a little */
       return b + f->c1 * (1.0 - 0.005 * coarsenings) * sqrt(b);
+    case STEEP: /* refinement at many small features, growing like log(b) */
+      return b + f->c1 * log(b / 100.0);
   }
   return 0.0;
 }
@@ -84,6 +89,10 @@ static ch_status fake_run(void *ctx, const ch_count_request *rq, ch_count_reply 
       rp->level_added[0] = fake_count(f, rp->base, rq->coarsenings) - rp->base - (f->kind == SQRT_MODEL ? f->c0 : 0.0);
       if (f->kind == OVER) rp->level_added[0] = 0.0;
       rp->level_added[5] = f->kind == SQRT_MODEL ? f->c0 : 0.0;
+      if (f->kind == STEEP) { /* all of it on edges four halvings below the base's */
+        rp->level_added[4] = rp->level_added[0];
+        rp->level_added[0] = 0.0;
+      }
       if (f->cap > 0.0 && rp->count > f->cap) { /* stopped: no mesh, nothing to keep */
         rp->count = 0.0;
         rp->over_cap = 1;
@@ -122,7 +131,7 @@ static ch_count_result search(fake *f, long target, int can_coarsen, int has_u) 
   CHECK(r.runs >= 1 && r.runs <= 41);
   CHECK(f->kept >= 0.0 && r.count == f->kept); /* the result is the run kept */
   CHECK(r.coarsenings == f->kept_coarsenings);
-  static const char *names[] = {"sqrt model", "bumpy", "over", "u lines", "caps"};
+  static const char *names[] = {"sqrt model", "bumpy", "over", "u lines", "caps", "steep"};
   fprintf(stderr, "  %-10s target %7ld: %2d runs, kept %9.0f (%+.2f%%), base %7ld, %d coarsenings\n", names[f->kind],
           target, r.runs, r.count, 100.0 * (r.count - (double)target) / (double)target, r.base, r.coarsenings);
   return r;
@@ -244,6 +253,19 @@ static void test_bumpy(void) {
     }
 }
 
+/* A count that grows steeply at small bases and slowly at large ones
+ * (8000 filled stars at 2.1M: 825k triangles at the fewest 512 base
+ * triangles, 3.2M at 7.6k, 7.8M at 560k), all of it below the base's
+ * edges, where the level model sees no growth: the search brackets the
+ * target between full runs and lands (it halved its way down from above
+ * before, out of runs at 3.2M). */
+static void test_steep(void) {
+  fake f = {.kind = STEEP, .c1 = 506000.0};
+  ch_count_result r = search(&f, 2100000, 0, 0);
+  CHECK_MSG(fabs(r.count - 2100000.0) <= 0.05 * 2100000.0, "%.0f triangles at base %ld", r.count, r.base);
+  CHECK_MSG(r.runs <= 8, "%d runs", r.runs);
+}
+
 static void test_out_of_reach(void) {
   for (int coarsen = 0; coarsen < 2; coarsen++) {
     fake f = {.kind = OVER};
@@ -336,6 +358,7 @@ int main(void) {
   RUN(test_estimated_pilot);
   RUN(test_finished_pilot_misses);
   RUN(test_bumpy);
+  RUN(test_steep);
   RUN(test_out_of_reach);
   RUN(test_u_lines);
   RUN(test_caps_only);
