@@ -1473,7 +1473,11 @@ ch_refine_cut ch_refine_classify(ch_refine_node *nodes, int m) {
 /* Whether a triangle of centre c and longest edge `longest` overlaps the
  * rounded cap of a groove's open end and is too coarse for it: there the
  * profile is swept around the end point, a cone (or dome) whose facets must
- * span at most cap_angle around it, so edges up to cap_angle * w / 2. */
+ * span at most cap_angle around it, so edges up to cap_angle * w / 2, but
+ * never below the junction size: the caps of grooves far narrower than the
+ * mesh's edges (484 strokes 0.0013 of the square wide at 130k triangles)
+ * were each refined down to their own width, a fixed cost per cap that
+ * no base count could bring down to the target (188k triangles). */
 static int coarse_at_cap(const ch_label_ctx *lb, const double c[2], double longest) {
   /* The open ends near c (bucketed once: 2000 lines through a point put
    * all of theirs in every cell there), counted only if the grooves' grid
@@ -1491,7 +1495,7 @@ static int coarse_at_cap(const ch_label_ctx *lb, const double c[2], double longe
         const ch_segment *sg = &lb->set->segments[s];
         double half = 0.5 * lb->set->curves[sg->curve].width;
         const double *q = sg->p[end == 0 ? 0 : 2];
-        if (longest > lb->cap_angle * ch_label_local_factor(lb, q) * half &&
+        if (longest > fmax(lb->cap_angle * half, lb->junction_size) * ch_label_local_factor(lb, q) &&
             ch_dist2d(c[0] - q[0], c[1] - q[1]) <= half + longest &&
             ch_grid_cell_holds(&lb->groove_grid, ch_groove_field_boxes(&lb->height->grooves) + 4 * (size_t)s, c[0],
                                c[1]))

@@ -218,6 +218,17 @@ tris=$(sed -n 's/^ *faces *\([0-9]*\) (\([0-9]*\) triangles.*/\2/p' "$tmp/stdout
 expect 0 "$chisel" displace "$models/torus.obj" "$svg" -o "$tmp/st.obj" --target-tris 30000 --scheme catmark || true
 expect 0 "$chisel" info "$tmp/st.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" "$tmp/stdout" \
   || fail "snapped torus not closed"
+# 484 short strokes 0.0013 of the square wide, far narrower than the edges of 130k triangles: their rounded caps
+# are refined down to the junction size, not to their own width, and the count lands (188140 triangles before).
+awk 'BEGIN { s = 22; step = 1000 / s; print "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 1000 1000\">"
+  for (i = 0; i < s; i++) for (j = 0; j < s; j++) { cx = (i + 0.5) * step; cy = (j + 0.5) * step; r = step * 0.3
+    printf "<path fill=\"none\" stroke=\"#000\" stroke-width=\"%.3f\" d=\"M %.3f %.3f Q %.3f %.3f %.3f %.3f T %.3f %.3f\"/>\n",
+      step * 0.06, cx - r, cy, cx, cy - 2 * r, cx + r, cy, cx + 2.5 * r, cy }
+  print "</svg>" }' > "$tmp/hatch.svg"
+expect 0 "$chisel" displace "$models/plane.obj" "$tmp/hatch.svg" -o "$tmp/hatch.obj" --target-tris 130000 || true
+checks=$((checks + 1))
+tris=$(sed -n 's/.*wrote [^:]*: \([0-9]*\) triangles.*/\1/p' "$tmp/stderr")
+[ -n "$tris" ] && [ "$tris" -ge 123500 ] && [ "$tris" -le 136500 ] || fail "484 thin strokes: $tris triangles for a target of 130000"
 # A cube written as exporters write PLY (its vertices split at every UV seam): displaced closed, as its OBJ.
 expect 0 "$chisel" displace "$tests/data/mesh/cube_split.ply" "$svg" -o "$tmp/cube.obj" --target-tris 20000 || true
 expect 0 "$chisel" info "$tmp/cube.obj" && grep -q "edges *0 boundary, 0 non-manifold; 0 non-manifold vertices" \
