@@ -1424,9 +1424,21 @@ ch_status ch_featmap_build(const ch_curve_set *set, const ch_featmap_desc *desc,
     st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature maps", R, R);
     goto fail;
   }
-  for (int c = 0; c < set->num_curves; c++) {
-    const ch_curve *cv = &set->curves[c];
-    m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth, ch_stepsing_flat_side(set, c)};
+  {
+    int *flat = malloc((size_t)(set->num_curves > 0 ? set->num_curves : 1) * sizeof *flat);
+    if (!flat) {
+      st = ch_error_set(err, CH_ERR_NOMEM, "out of memory for %dx%d feature maps", R, R);
+      goto fail;
+    }
+    if ((st = ch_stepsing_flat_sides(set, flat, err))) {
+      free(flat);
+      goto fail;
+    }
+    for (int c = 0; c < set->num_curves; c++) {
+      const ch_curve *cv = &set->curves[c];
+      m->curves[c] = (ch_featmap_curve){cv->kind, cv->profile, cv->width, cv->depth, flat[c]};
+    }
+    free(flat);
   }
 #pragma omp parallel for schedule(static)
   for (size_t k = 0; k < n; k++) {

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "ch_bezier.h"
+#include "ch_grid.h"
 #include "ch_math.h"
 
 #define TWO_PI (2.0 * CH_PI)
@@ -417,7 +418,9 @@ static double subpath_area(const ch_curve_set *set, const ch_subpath *sb) {
   return area;
 }
 
-int ch_stepsing_flat_side(const ch_curve_set *set, int c) {
+/* ch_stepsing_flat_side, the other step segments near c's box listed by
+ * grid (over boxes, box_of's; NULL: every segment is tested). */
+static int flat_side_near(const ch_curve_set *set, int c, const ch_grid *grid, const double (*boxes)[4]) {
   const ch_curve *cv = &set->curves[c];
   enum { MAX_SUBPATHS = 64 };
   int n = cv->num_subpaths;
@@ -437,11 +440,26 @@ int ch_stepsing_flat_side(const ch_curve_set *set, int c) {
     }
   /* nothing else of h_step's within the curve's box (a segment lies
    * within its control points' box) */
-  for (int i = 0; i < set->num_segments; i++) {
-    if (set->segments[i].curve == c || set->curves[set->segments[i].curve].kind != CH_CURVE_STEP) continue;
-    double b[4];
-    box_of(set->segments[i].p, b);
-    if (!(b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1])) return 0;
+  if (grid) {
+    int r[4];
+    ch_grid_cell_range(grid, box, r);
+    for (int y = r[1]; y <= r[3]; y++)
+      for (int x = r[0]; x <= r[2]; x++) {
+        int cell = y * grid->nx + x;
+        for (int k = grid->cell_start[cell]; k < grid->cell_start[cell + 1]; k++) {
+          int i = grid->items[k];
+          const double *b = boxes[i];
+          if (set->segments[i].curve != c && !(b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1]))
+            return 0;
+        }
+      }
+  } else {
+    for (int i = 0; i < set->num_segments; i++) {
+      if (set->segments[i].curve == c || set->curves[set->segments[i].curve].kind != CH_CURVE_STEP) continue;
+      double b[4];
+      box_of(set->segments[i].p, b);
+      if (!(b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1])) return 0;
+    }
   }
   /* Each subpath's parent: the smallest other one around it. A region
    * inside a subpath and outside its children is bounded by this curve
@@ -471,4 +489,29 @@ int ch_stepsing_flat_side(const ch_curve_set *set, int c) {
     }
   }
   return left_flat ? 1 : right_flat ? -1 : 0;
+}
+
+int ch_stepsing_flat_side(const ch_curve_set *set, int c) { return flat_side_near(set, c, NULL, NULL); }
+
+ch_status ch_stepsing_flat_sides(const ch_curve_set *set, int *side, ch_error *err) {
+  int n = set->num_segments;
+  double(*boxes)[4] = malloc((size_t)(n > 0 ? n : 1) * sizeof *boxes);
+  if (!boxes) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step curves' boxes");
+  for (int i = 0; i < n; i++) {
+    if (set->curves[set->segments[i].curve].kind == CH_CURVE_STEP) {
+      box_of(set->segments[i].p, boxes[i]);
+    } else {
+      boxes[i][0] = 1.0;
+      boxes[i][2] = 0.0; /* empty: not in the grid */
+    }
+  }
+  ch_grid grid = {0};
+  ch_status st = ch_grid_build(&grid, n, (const double(*)[4])boxes, err);
+  if (st == CH_OK) {
+#pragma omp parallel for schedule(dynamic, 64)
+    for (int c = 0; c < set->num_curves; c++) side[c] = flat_side_near(set, c, &grid, (const double(*)[4])boxes);
+  }
+  ch_grid_free(&grid);
+  free(boxes);
+  return st;
 }

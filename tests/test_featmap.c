@@ -472,7 +472,26 @@ static void test_flat_regions(void) {
   CHECK(ch_stepsing_flat_side(&set, 0) == -1);
   CHECK(ch_stepsing_flat_side(&set, 1) == -1); /* the band between the circles: 0 on both */
   CHECK(ch_stepsing_flat_side(&set, 2) == 0);
+  int sides[3] = {9, 9, 9};
   ch_error err = {0};
+  REQUIRE(ch_stepsing_flat_sides(&set, sides, &err) == CH_OK); /* (every curve at once, by grid) */
+  CHECK(sides[0] == -1 && sides[1] == -1 && sides[2] == 0);
+  {
+    /* a circle whose box meets the slab's: neither is known flat, by
+     * the grid as by the scan */
+    const char *two =
+        "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>"
+        "<rect x='20.3' y='40.2' width='40' height='1.04' data-kind='step' data-left='0' data-right='0.01'/>"
+        "<circle cx='70' cy='40.5' r='12' data-kind='step' data-left='0.02' data-right='0'/></svg>";
+    ch_curve_set t;
+    REQUIRE(parse(two, &t) == 0);
+    int got[2] = {9, 9};
+    REQUIRE(ch_stepsing_flat_sides(&t, got, &err) == CH_OK);
+    CHECK_MSG(
+        got[0] == ch_stepsing_flat_side(&t, 0) && got[1] == ch_stepsing_flat_side(&t, 1) && got[0] == 0 && got[1] == 0,
+        "sides %d %d", got[0], got[1]);
+    ch_curves_free(&t);
+  }
   ch_height h;
   ch_height_desc hd = {.dci_resolution = 512, .step_method = CH_RECON_EXACT};
   REQUIRE(ch_height_init(&h, &set, &hd, &err) == CH_OK);
