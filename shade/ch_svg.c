@@ -23,7 +23,9 @@
 #include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_file.h"
+#include "ch_grid.h"
 #include "ch_math.h"
+#include "ch_stepsing.h"
 
 /* Inherited state: the data- attributes as strings (pointers into the
  * document, resolved on each curve), the paint given explicitly (attribute
@@ -824,6 +826,113 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   return CH_OK;
 }
 
+/* ---- fills that overlap ---- */
+
+/* Whether q is inside fill curve c: after orient_fill every subpath has
+ * its filled side on its left, so a nonzero winding number, whatever the
+ * fill rule. */
+static int inside_fill(const ch_curve_set *set, int c, const double q[2]) {
+  const ch_curve *cv = &set->curves[c];
+  return ch_segments_winding(set, cv->first_segment, cv->num_segments, q) != 0;
+}
+
+static int is_fill(const ch_curve *c) { return c->kind == CH_CURVE_STEP && strcmp(c->decided_by, "fill") == 0; }
+
+/* Painted fills become step curves with the fill height inside and 0
+ * outside (docs/svg.md). Where two fills overlap, touch along an edge, one
+ * lies inside another, or one crosses itself, some edge's 0 side lies
+ * inside a fill: h_step there interpolates between the edges' values
+ * instead of filling the union (two overlapping circles: 0.007-0.009
+ * inside for 0.01; two tiles side by side: 0 in a third of one). One
+ * warning names the first such place. */
+static void warn_overlapping_fills(svg_parser *ps) {
+  const ch_curve_set *set = ps->set;
+  int nfill = 0, places = 0, first_a = -1, first_b = -1;
+  double at[2] = {0.0, 0.0};
+  for (int c = 0; c < set->num_curves; c++) nfill += is_fill(&set->curves[c]);
+  if (nfill == 0) return;
+  /* crossings: where a fill crosses itself, or a sector between the arms
+   * two fills leave a point by lies inside both */
+  static const double everywhere[4] = {-1e300, -1e300, 1e300, 1e300};
+  ch_stepsing sg;
+  ch_error quiet = {0};
+  if (ch_stepsing_find(set, everywhere, &sg, &quiet) != CH_OK) return;
+  for (int i = 0; i < sg.num_points; i++) {
+    const ch_stepsing_point *pt = &sg.points[i];
+    int a = -1, b = -1, arms_a = 0;
+    for (int k = 0; k < pt->num_arms; k++) {
+      int c = pt->arm_curve[k];
+      if (c < 0 || !is_fill(&set->curves[c])) continue;
+      if (a < 0 || c == a) {
+        a = c;
+        arms_a++;
+      } else if (b < 0) {
+        b = c;
+      }
+    }
+    int overlap = a >= 0 && b < 0 && arms_a >= 4; /* itself */
+    for (int k = 0; !overlap && b >= 0 && k < pt->num_arms; k++) {
+      double a0 = pt->angle[k], a1 = k + 1 < pt->num_arms ? pt->angle[k + 1] : pt->angle[0] + 2.0 * CH_PI;
+      double mid = 0.5 * (a0 + a1), r = 1e-7;
+      double q[2] = {pt->p[0] + r * cos(mid), pt->p[1] + r * sin(mid)};
+      overlap = inside_fill(set, a, q) && inside_fill(set, b, q);
+    }
+    if (!overlap) continue;
+    if (places++ == 0) first_a = a, first_b = b, at[0] = pt->p[0], at[1] = pt->p[1];
+  }
+  ch_stepsing_free(&sg);
+  /* an edge whose outside lies inside a fill: a fill in another or beside
+   * it along a shared edge (two tiles), or a subpath within its own curve
+   * on the filled side; from each segment's middle, just outside it,
+   * against the fills whose boxes hold that point (from a grid) */
+  double(*box)[4] = malloc((size_t)set->num_curves * sizeof *box);
+  ch_grid grid = {0};
+  if (box) {
+    for (int c = 0; c < set->num_curves; c++) {
+      memcpy(box[c], set->curves[c].bbox, sizeof box[c]);
+      if (!is_fill(&set->curves[c])) box[c][0] = 1.0, box[c][2] = 0.0; /* empty: not in the grid */
+    }
+    if (ch_grid_build(&grid, set->num_curves, (const double(*)[4])box, &quiet) == CH_OK) {
+      for (int c = 0; c < set->num_curves; c++) {
+        const ch_curve *cv = &set->curves[c];
+        if (!is_fill(cv)) continue;
+        double eps = 1e-7 * fmax(fmax(cv->bbox[2] - cv->bbox[0], cv->bbox[3] - cv->bbox[1]), 1e-3);
+        for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++) {
+          const ch_segment *sgm = &set->segments[i];
+          double m[2], d[2] = {sgm->p[2][0] - sgm->p[0][0], sgm->p[2][1] - sgm->p[0][1]};
+          double len = sqrt(d[0] * d[0] + d[1] * d[1]);
+          if (!(len > 0.0)) continue;
+          ch_segment_point(sgm, 0.5, m);
+          double q[2] = {m[0] + d[1] / len * eps, m[1] - d[0] / len * eps}; /* (right: the outside) */
+          const int *items;
+          int n = ch_grid_query(&grid, q[0], q[1], &items), hit = -1;
+          for (int j = 0; j < n && hit < 0; j++) {
+            const double *b = box[items[j]];
+            if (q[0] >= b[0] && q[0] <= b[2] && q[1] >= b[1] && q[1] <= b[3] && inside_fill(set, items[j], q))
+              hit = items[j];
+          }
+          if (hit < 0) continue;
+          if (places++ == 0) first_a = c, first_b = hit == c ? -1 : hit, at[0] = m[0], at[1] = m[1];
+          break;
+        }
+      }
+    }
+    ch_grid_free(&grid);
+    free(box);
+  }
+  if (places == 0) return;
+  char wa[160], wb[160] = "";
+  ch_curve_describe(&set->curves[first_a], wa, sizeof wa);
+  if (first_b >= 0) ch_curve_describe(&set->curves[first_b], wb, sizeof wb);
+  ch_warn(ps->err,
+          "%s: %s%s%s %s near UV (%.4g, %.4g)%s: a fill's inside is raised against 0 all round its edges, so where "
+          "fills overlap h_step blends between their edges rather than filling their union; unite them in the editor "
+          "(Inkscape: Path > Union) or give data-left and data-right",
+          ps->name, wa, first_b >= 0 ? " and " : "", wb,
+          first_b >= 0 ? "overlap or share an edge" : "crosses or overlaps itself", at[0], at[1],
+          places > 1 ? " (and elsewhere)" : "");
+}
+
 /* Reverses a subpath in place (segments and their links). */
 static void reverse_subpath(ch_curve_set *set, const ch_subpath *sp) {
   ch_segment *s = &set->segments[sp->first_segment];
@@ -1236,6 +1345,7 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
   if (!st && out->num_curves == 0)
     st = ch_error_set(ps.err, CH_ERR_INPUT, "%s: no curves (no <path> or basic shape elements)", name);
   if (!st) {
+    warn_overlapping_fills(&ps);
     for (int i = 0; i < ps.num_ignored_kinds; i++)
       ch_warn(ps.err, "%s: ignored %d <%s> element%s (first on line %d): not a feature curve", name,
               ps.ignored_count[i], ps.ignored_name[i], ps.ignored_count[i] > 1 ? "s" : "",

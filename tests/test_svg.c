@@ -314,6 +314,54 @@ static void test_large_and_deep(void) {
   ch_curves_free(&s);
 }
 
+/* Painted fills are raised against 0 all round their edges: where two
+ * overlap, share an edge, nest, or one crosses itself, h_step blends
+ * instead of filling their union, and one warning says where (two tiles
+ * side by side: 0 in a third of one). Fills apart, touching at a corner,
+ * and a ring drawn as one evenodd path do not warn. */
+static void last_warning(void *user, const char *msg) { snprintf(user, 600, "%s", msg); }
+
+static void test_overlapping_fills(void) {
+  static const struct {
+    const char *body, *expect; /* NULL: no warning */
+  } cases[] = {
+      {"<circle fill='#888' cx='40' cy='50' r='15'/><circle fill='#888' cx='60' cy='50' r='15'/>",
+       "<circle> #0 (line 1) and <circle> #1 (line 1) overlap or share an edge"},
+      {"<rect fill='#888' x='20' y='20' width='30' height='30'/><rect fill='#888' x='50' y='20' width='30' "
+       "height='30'/>",
+       "<rect> #0 (line 1) and <rect> #1 (line 1) overlap or share an edge"},
+      {"<rect fill='#888' x='20' y='20' width='60' height='60'/><circle fill='#fff' cx='50' cy='50' r='10'/>",
+       "<circle> #1 (line 1) and <rect> #0 (line 1) overlap or share an edge"},
+      {"<path fill='#888' d='M 50 10 L 73.5 82.4 L 12 37.6 L 88 37.6 L 26.5 82.4 Z'/>",
+       "<path> #0 (line 1) crosses or overlaps itself"},
+      {"<rect fill='#888' x='20' y='20' width='30' height='30'/><rect fill='#888' x='50' y='50' width='30' "
+       "height='30'/>",
+       NULL},
+      {"<rect fill='#888' x='10' y='10' width='20' height='20'/><circle fill='#888' cx='70' cy='70' r='10'/>", NULL},
+      {"<path fill='#888' fill-rule='evenodd' d='M 50 20 A 30 30 0 1 0 50 80 A 30 30 0 1 0 50 20 Z "
+       "M 50 35 A 15 15 0 1 0 50 65 A 15 15 0 1 0 50 35 Z'/>",
+       NULL},
+      /* explicit sides are the drawing's own: no warning */
+      {"<circle data-kind='step' data-left='0.01' cx='40' cy='50' r='15'/><circle data-kind='step' data-left='0.01' "
+       "cx='60' cy='50' r='15'/>",
+       NULL},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    char buf[8192], msg[600] = "";
+    snprintf(buf, sizeof buf, "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>%s</svg>", cases[i].body);
+    ch_error err = {.warn = last_warning, .warn_user = msg};
+    ch_curve_set s;
+    REQUIRE(ch_curves_parse_svg(buf, strlen(buf), "f.svg", &s, &err) == CH_OK);
+    if (cases[i].expect)
+      CHECK_MSG(err.num_warnings == 1 && strncmp(msg, "f.svg: ", 7) == 0 && strstr(msg, cases[i].expect) &&
+                    strstr(msg, "Path > Union") && !strchr(msg, '\n'),
+                "case %zu: %d warnings, '%s'", i, err.num_warnings, msg);
+    else
+      CHECK_MSG(err.num_warnings == 0, "case %zu: '%s'", i, msg);
+    ch_curves_free(&s);
+  }
+}
+
 /* Every bundled curve set parses without warnings. */
 static void test_bundled_curves(void) {
   static const char *files[] = {"glyphs", "ornament", "frame", "relief", "star", "spiral", "bricks", "panels"};
@@ -336,5 +384,6 @@ int main(void) {
   RUN(test_malformed_files);
   RUN(test_large_and_deep);
   RUN(test_bundled_curves);
+  RUN(test_overlapping_fills);
   TEST_MAIN_END();
 }
