@@ -32,17 +32,9 @@
 #include "ch_file.h"
 #include "ch_mesh.h"
 #include "ch_mesh_gltf_internal.h"
+#include "ch_mesh_values_internal.h"
 
 enum { MAX_DEPTH = 256, MAX_ZEROS = 1 << 20, CHUNK_JSON = 0x4E4F534A, CHUNK_BIN = 0x004E4942, GLB_MAGIC = 0x46546C67 };
-
-/* A growing array of values of `width` doubles with one index per distinct
- * value (an open-addressing table on the values' bits; -0 as +0). */
-typedef struct value_set {
-  int width, count, cap;
-  double *values;
-  int *table; /* table_size slots: -1 or an index */
-  size_t table_size;
-} value_set;
 
 typedef struct gltf_reader {
   const char *name, *path; /* path NULL: no files beside it (from memory) */
@@ -63,7 +55,7 @@ typedef struct gltf_reader {
   int has_bin;
   unsigned char *visited; /* per node: placed once (nodes form trees, §3.5.1) */
   /* the mesh being built */
-  value_set positions, uvs, normals;
+  ch_value_set positions, uvs, normals;
   int *corners; /* 3 per triangle: position, uv, normal indices */
   size_t num_triangles, cap_triangles;
   int want_uvs, want_normals; /* -1 until the first primitive decides */
@@ -149,63 +141,6 @@ static int items(gltf_reader *r, const cJSON *array, const cJSON ***out, int *co
   int i = 0;
   for (const cJSON *e = array->child; e; e = e->next) (*out)[i++] = e;
   return 0;
-}
-
-/* ---- distinct values ----------------------------------------------------- */
-
-static uint64_t value_hash(const double *v, int width) {
-  uint64_t h = 0x9E3779B97F4A7C15u;
-  for (int k = 0; k < width; k++) {
-    double x = v[k] == 0.0 ? 0.0 : v[k]; /* -0 as +0 */
-    uint64_t bits;
-    memcpy(&bits, &x, sizeof bits);
-    h = (h ^ bits) * 0xff51afd7ed558ccdu;
-    h ^= h >> 32;
-  }
-  return h;
-}
-
-/* The index of value v (width doubles), added if new; -1 without memory
- * or past CH_MESH_MAX_ELEMENTS. */
-static int value_index(value_set *s, const double *v) {
-  if ((size_t)s->count * 2 >= s->table_size) {
-    size_t size = s->table_size ? 2 * s->table_size : 1024;
-    int *table = malloc(size * sizeof *table);
-    if (!table) return -1;
-    memset(table, 0xff, size * sizeof *table);
-    for (int i = 0; i < s->count; i++) {
-      size_t slot = value_hash(&s->values[(size_t)i * s->width], s->width) & (size - 1);
-      while (table[slot] >= 0) slot = (slot + 1) & (size - 1);
-      table[slot] = i;
-    }
-    free(s->table);
-    s->table = table;
-    s->table_size = size;
-  }
-  size_t slot = value_hash(v, s->width) & (s->table_size - 1);
-  for (; s->table[slot] >= 0; slot = (slot + 1) & (s->table_size - 1)) {
-    const double *w = &s->values[(size_t)s->table[slot] * s->width];
-    int same = 1;
-    for (int k = 0; k < s->width; k++) same &= w[k] == v[k];
-    if (same) return s->table[slot];
-  }
-  if (s->count >= CH_MESH_MAX_ELEMENTS) return -1;
-  if (s->count == s->cap) {
-    int cap = s->cap ? 2 * s->cap : 1024;
-    double *values = realloc(s->values, (size_t)cap * s->width * sizeof *values);
-    if (!values) return -1;
-    s->values = values;
-    s->cap = cap;
-  }
-  memcpy(&s->values[(size_t)s->count * s->width], v, (size_t)s->width * sizeof *v);
-  s->table[slot] = s->count;
-  return s->count++;
-}
-
-static void value_set_free(value_set *s) {
-  free(s->values);
-  free(s->table);
-  memset(s, 0, sizeof *s);
 }
 
 /* ---- buffers ------------------------------------------------------------- */
@@ -642,10 +577,10 @@ static int add_primitive(gltf_reader *r, const cJSON *prim, const double m[16], 
     const double *q = &p[3 * i];
     double w[3];
     for (int row = 0; row < 3; row++) w[row] = m[row] * q[0] + m[4 + row] * q[1] + m[8 + row] * q[2] + m[12 + row];
-    if ((pos[i] = value_index(&r->positions, w)) < 0) goto full;
+    if ((pos[i] = ch_value_set_index(&r->positions, w)) < 0) goto full;
     if (has_uv) {
       double tv[2] = {t[2 * i], 1.0 - t[2 * i + 1]};
-      if ((uv[i] = value_index(&r->uvs, tv)) < 0) goto full;
+      if ((uv[i] = ch_value_set_index(&r->uvs, tv)) < 0) goto full;
     }
     if (has_n) {
       const double *q2 = &n[3 * i];
@@ -654,7 +589,7 @@ static int add_primitive(gltf_reader *r, const cJSON *prim, const double m[16], 
         v[row] = s * (C[row][0] * q2[0] + C[row][1] * q2[1] + C[row][2] * q2[2]);
       double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
       if (len > 0.0) v[0] /= len, v[1] /= len, v[2] /= len;
-      if ((nrm[i] = value_index(&r->normals, v)) < 0) goto full;
+      if ((nrm[i] = ch_value_set_index(&r->normals, v)) < 0) goto full;
     }
   }
 #define VERTEX(i) (has_i ? (int)idx[i] : (int)(i))
@@ -914,9 +849,9 @@ ch_status ch_mesh_read_gltf(const void *data, size_t size, int binary, const cha
   free(r.mesh);
   free(r.node);
   free(r.corners);
-  value_set_free(&r.positions);
-  value_set_free(&r.uvs);
-  value_set_free(&r.normals);
+  ch_value_set_free(&r.positions);
+  ch_value_set_free(&r.uvs);
+  ch_value_set_free(&r.normals);
   if (bad) {
     ch_mesh_free(out);
     return r.status ? r.status : CH_ERR_INTERNAL;

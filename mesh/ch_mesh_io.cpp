@@ -24,6 +24,7 @@
 #include "ch_mesh_gltf_internal.h"
 #include "ch_mesh_obj_internal.h"
 #include "ch_mesh_scan.h"
+#include "ch_mesh_values_internal.h"
 
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/Options.hh>
@@ -522,38 +523,21 @@ void build_normals(const Importer &imp, Built &b, const char *name, ch_error *er
 // UV seam): one point appears as several vertices at the same coordinates,
 // and the base surface falls apart there, each side tessellated and cut on
 // its own (the displaced mesh open along every seam). They are welded back
-// into one position, the first copy's, as glTF's are (docs/spec.md §1); the
-// positions keep their order. Returns each vertex's position and fills
-// kept with the positions' coordinates.
+// into one position, the first copy's, as glTF's are (docs/spec.md §1), by
+// the same value set; the positions keep their order. Returns each vertex's
+// position and fills kept with the positions' coordinates.
 std::vector<int> weld_positions(const std::vector<double> &pos, std::vector<double> &kept) {
-  size_t n = pos.size() / 3, size = 16;
-  while (size < 2 * n) size *= 2;
-  std::vector<int> slot(size, -1), at(n);
-  auto key = [&](size_t i, int k) { return pos[3 * i + k] == 0.0 ? 0.0 : pos[3 * i + k]; }; /* -0 is 0 */
-  kept.clear();
-  kept.reserve(pos.size());
-  int count = 0;
-  for (size_t i = 0; i < n; i++) {
-    uint64_t h = 0x9e3779b97f4a7c15u;
-    for (int k = 0; k < 3; k++) {
-      double v = key(i, k);
-      uint64_t bits;
-      memcpy(&bits, &v, sizeof bits);
-      h = (h ^ bits) * 0xff51afd7ed558ccdu;
+  size_t n = pos.size() / 3;
+  std::vector<int> at(n);
+  ch_value_set set = {};
+  set.width = 3;
+  for (size_t i = 0; i < n; i++)
+    if ((at[i] = ch_value_set_index(&set, &pos[3 * i])) < 0) {
+      ch_value_set_free(&set);
+      throw std::bad_alloc();
     }
-    size_t s = (size_t)(h ^ (h >> 29)) & (size - 1);
-    for (; slot[s] >= 0; s = (s + 1) & (size - 1)) {
-      size_t j = (size_t)slot[s];
-      if (key(i, 0) == key(j, 0) && key(i, 1) == key(j, 1) && key(i, 2) == key(j, 2)) break;
-    }
-    if (slot[s] < 0) {
-      slot[s] = (int)i;
-      at[i] = count++;
-      kept.insert(kept.end(), {pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]});
-    } else {
-      at[i] = at[(size_t)slot[s]];
-    }
-  }
+  kept.assign(set.values, set.values + 3 * (size_t)set.count);
+  ch_value_set_free(&set);
   return at;
 }
 
