@@ -409,3 +409,104 @@ double ch_bezier_length(const double p[3][2]) {
     }
   return 0.5 * sum;
 }
+
+/* ---- crossings of two quadratics ---- */
+
+/* Parameters this close to a segment's end are its end; hits closer than
+ * this (UV) are not a crossing. */
+#define CROSS_AT_END 1e-9
+#define CROSS_SAME_POINT 1e-9
+
+static double box_min3(double a, double b, double c) {
+  double m = a < b ? a : b;
+  return m < c ? m : c;
+}
+
+static double box_max3(double a, double b, double c) {
+  double m = a > b ? a : b;
+  return m > c ? m : c;
+}
+
+static void box_of(const double p[3][2], double b[4]) {
+  b[0] = box_min3(p[0][0], p[1][0], p[2][0]);
+  b[1] = box_min3(p[0][1], p[1][1], p[2][1]);
+  b[2] = box_max3(p[0][0], p[1][0], p[2][0]);
+  b[3] = box_max3(p[0][1], p[1][1], p[2][1]);
+}
+
+static void split_half(const double p[3][2], double a[3][2], double b[3][2]) {
+  for (int k = 0; k < 2; k++) {
+    double m01 = 0.5 * (p[0][k] + p[1][k]), m12 = 0.5 * (p[1][k] + p[2][k]), m = 0.5 * (m01 + m12);
+    a[0][k] = p[0][k], a[1][k] = m01, a[2][k] = m;
+    b[0][k] = m, b[1][k] = m12, b[2][k] = p[2][k];
+  }
+}
+
+static void derivative(const double p[3][2], double t, double d[2]) {
+  for (int k = 0; k < 2; k++) d[k] = 2.0 * ((1.0 - t) * (p[1][k] - p[0][k]) + t * (p[2][k] - p[1][k]));
+}
+
+typedef struct hits {
+  double s[CH_BEZIER_MAX_CROSSINGS], t[CH_BEZIER_MAX_CROSSINGS];
+  int n;
+} hits;
+
+/* Newton on A(s) = B(t) from (s, t); keeps converged roots inside both. */
+static void refine_hit(const double A[3][2], const double B[3][2], double s, double t, hits *h) {
+  for (int it = 0; it < 30; it++) {
+    double pa[2], pb[2], da[2], db[2];
+    ch_bezier_eval(A, s, pa);
+    ch_bezier_eval(B, t, pb);
+    derivative(A, s, da);
+    derivative(B, t, db);
+    double f[2] = {pa[0] - pb[0], pa[1] - pb[1]};
+    double det = -da[0] * db[1] + db[0] * da[1];
+    if (!(fabs(det) > 1e-300)) return; /* tangent or parallel: no transversal crossing */
+    double ds = (-f[0] * db[1] + db[0] * f[1]) / det, dt = (da[0] * f[1] - da[1] * f[0]) / det;
+    s -= ds, t -= dt;
+    if (fabs(ds) < 1e-15 && fabs(dt) < 1e-15) break;
+  }
+  double pa[2], pb[2];
+  if (!(s >= -CROSS_AT_END && s <= 1.0 + CROSS_AT_END && t >= -CROSS_AT_END && t <= 1.0 + CROSS_AT_END)) return;
+  s = ch_clamp(s, 0.0, 1.0), t = ch_clamp(t, 0.0, 1.0);
+  ch_bezier_eval(A, s, pa);
+  ch_bezier_eval(B, t, pb);
+  if (hypot(pa[0] - pb[0], pa[1] - pb[1]) > CROSS_SAME_POINT) return;
+  for (int k = 0; k < h->n; k++)
+    if (fabs(h->s[k] - s) < 1e-7 && fabs(h->t[k] - t) < 1e-7) return;
+  if (h->n < CH_BEZIER_MAX_CROSSINGS) h->s[h->n] = s, h->t[h->n] = t, h->n++;
+}
+
+static void crossings_rec(const double A[3][2], const double B[3][2], const double a[3][2], double a0, double a1,
+                          const double b[3][2], double b0, double b1, int depth, hits *h) {
+  double ba[4], bb[4];
+  box_of(a, ba);
+  box_of(b, bb);
+  const double pad = 1e-12;
+  if (ba[0] > bb[2] + pad || bb[0] > ba[2] + pad || ba[1] > bb[3] + pad || bb[1] > ba[3] + pad) return;
+  double sa = ba[2] - ba[0] > ba[3] - ba[1] ? ba[2] - ba[0] : ba[3] - ba[1];
+  double sb = bb[2] - bb[0] > bb[3] - bb[1] ? bb[2] - bb[0] : bb[3] - bb[1];
+  if (depth >= 24 || (sa < 1e-4 && sb < 1e-4)) {
+    refine_hit(A, B, 0.5 * (a0 + a1), 0.5 * (b0 + b1), h);
+    return;
+  }
+  if (sa >= sb) {
+    double l[3][2], r[3][2], m = 0.5 * (a0 + a1);
+    split_half(a, l, r);
+    crossings_rec(A, B, l, a0, m, b, b0, b1, depth + 1, h);
+    crossings_rec(A, B, r, m, a1, b, b0, b1, depth + 1, h);
+  } else {
+    double l[3][2], r[3][2], m = 0.5 * (b0 + b1);
+    split_half(b, l, r);
+    crossings_rec(A, B, a, a0, a1, l, b0, m, depth + 1, h);
+    crossings_rec(A, B, a, a0, a1, r, m, b1, depth + 1, h);
+  }
+}
+
+int ch_bezier_crossings(const double a[3][2], const double b[3][2], double s[CH_BEZIER_MAX_CROSSINGS],
+                        double t[CH_BEZIER_MAX_CROSSINGS]) {
+  hits h = {.n = 0};
+  crossings_rec(a, b, a, 0.0, 1.0, b, 0.0, 1.0, 0, &h);
+  for (int k = 0; k < h.n; k++) s[k] = h.s[k], t[k] = h.t[k];
+  return h.n;
+}

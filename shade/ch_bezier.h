@@ -42,6 +42,15 @@ double ch_bezier_length(const double p[3][2]);
  * is_line selects the exact projection onto p[0]..p[2]. */
 double ch_bezier_closest(const double p[3][2], int is_line, const double q[2], double *t);
 
+/* The crossings of the quadratics a and b: parameters s on a and t on b
+ * where a(s) = b(t) with the two not tangent there (a tangency or an
+ * overlap gives none), ends included (within 1e-9), at most
+ * CH_BEZIER_MAX_CROSSINGS, found by halving both until their boxes are
+ * 1e-4 wide and then Newton's method. Returns the count. */
+enum { CH_BEZIER_MAX_CROSSINGS = 16 };
+int ch_bezier_crossings(const double a[3][2], const double b[3][2], double s[CH_BEZIER_MAX_CROSSINGS],
+                        double t[CH_BEZIER_MAX_CROSSINGS]);
+
 /* Callback receiving quadratic pieces (control points in output space). */
 typedef int (*ch_quad_sink)(void *user, const double q[3][2]);
 
