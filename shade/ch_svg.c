@@ -23,9 +23,8 @@
 #include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_file.h"
-#include "ch_grid.h"
+#include "ch_fillunion.h"
 #include "ch_math.h"
-#include "ch_stepsing.h"
 
 /* Inherited state: the data- attributes as strings (pointers into the
  * document, resolved on each curve), the paint given explicitly (attribute
@@ -52,6 +51,10 @@ typedef struct svg_parser {
   int num_elements;
   int fill_curve;       /* the curve is a fill: close open subpaths, inside left */
   int fill_evenodd;     /* its fill-rule */
+  /* For the union of fills: each curve's fill rule (CH_FILL_*), and the
+   * subpaths orient_fill reversed. */
+  unsigned char *fill_rule, *flipped;
+  int cap_fill_rule, cap_flipped;
   /* The curve under construction. */
   ch_curve *curve;
   int subpath_open;     /* a subpath record is open */
@@ -740,7 +743,9 @@ static ch_status attr_number(svg_parser *ps, const char *text, const char *what,
 static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_style *st) {
   ch_curve_set *set = ps->set;
   ch_status s = grow(ps, (void **)&set->curves, &ps->cap_curves, set->num_curves + 1, sizeof *set->curves);
+  if (!s) s = grow(ps, (void **)&ps->fill_rule, &ps->cap_fill_rule, set->num_curves + 1, 1);
   if (s) return s;
+  ps->fill_rule[set->num_curves] = CH_FILL_NONE;
   ch_curve *c = &set->curves[set->num_curves++];
   memset(c, 0, sizeof *c);
   ps->curve = c;
@@ -776,6 +781,7 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
     c->left = ps->fill_height;
     ps->fill_curve = 1;
     ps->fill_evenodd = keyword_is(st->fill_rule, "evenodd");
+    ps->fill_rule[set->num_curves - 1] = ps->fill_evenodd ? CH_FILL_EVENODD : CH_FILL_NONZERO;
   } else {
     snprintf(c->decided_by, sizeof c->decided_by, "default");
   }
@@ -826,119 +832,24 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
   return CH_OK;
 }
 
-/* ---- fills that overlap ---- */
+/* ---- fills ---- */
 
-/* The segments the check below reads for winding numbers, at most (about
- * 0.1 s). */
-#define FILL_CHECK_READS 40000000L
-
-/* Whether q is inside fill curve c: after orient_fill every subpath has
- * its filled side on its left, so a nonzero winding number, whatever the
- * fill rule. */
-static int inside_fill(const ch_curve_set *set, int c, const double q[2]) {
-  const ch_curve *cv = &set->curves[c];
-  return ch_segments_winding(set, cv->first_segment, cv->num_segments, q) != 0;
-}
-
-static int is_fill(const ch_curve *c) { return c->kind == CH_CURVE_STEP && strcmp(c->decided_by, "fill") == 0; }
-
-/* Painted fills become step curves with the fill height inside and 0
- * outside (docs/svg.md). Where two fills overlap, touch along an edge, one
- * lies inside another, or one crosses itself, some edge's 0 side lies
- * inside a fill: h_step there interpolates between the edges' values
- * instead of filling the union (two overlapping circles: 0.007-0.009
- * inside for 0.01; two tiles side by side: 0 in a third of one). One
- * warning names the first such place found. */
-static void warn_overlapping_fills(svg_parser *ps) {
-  const ch_curve_set *set = ps->set;
-  int nfill = 0, places = 0, first_a = -1, first_b = -1;
-  double at[2] = {0.0, 0.0};
-  for (int c = 0; c < set->num_curves; c++) nfill += is_fill(&set->curves[c]);
-  if (nfill == 0) return;
-  /* crossings: where a fill crosses itself, or a sector between the arms
-   * two fills leave a point by lies inside both */
-  static const double everywhere[4] = {-1e300, -1e300, 1e300, 1e300};
-  ch_stepsing sg;
-  ch_error quiet = {0};
-  if (ch_stepsing_find(set, everywhere, &sg, &quiet) != CH_OK) return;
-  for (int i = 0; i < sg.num_points; i++) {
-    const ch_stepsing_point *pt = &sg.points[i];
-    int a = -1, b = -1, arms_a = 0;
-    for (int k = 0; k < pt->num_arms; k++) {
-      int c = pt->arm_curve[k];
-      if (c < 0 || !is_fill(&set->curves[c])) continue;
-      if (a < 0 || c == a) {
-        a = c;
-        arms_a++;
-      } else if (b < 0) {
-        b = c;
-      }
-    }
-    int overlap = a >= 0 && b < 0 && arms_a >= 4; /* itself */
-    for (int k = 0; !overlap && b >= 0 && k < pt->num_arms; k++) {
-      double a0 = pt->angle[k], a1 = k + 1 < pt->num_arms ? pt->angle[k + 1] : pt->angle[0] + 2.0 * CH_PI;
-      double mid = 0.5 * (a0 + a1), r = 1e-7;
-      double q[2] = {pt->p[0] + r * cos(mid), pt->p[1] + r * sin(mid)};
-      overlap = inside_fill(set, a, q) && inside_fill(set, b, q);
-    }
-    if (!overlap) continue;
-    if (places++ == 0) first_a = a, first_b = b, at[0] = pt->p[0], at[1] = pt->p[1];
-  }
-  ch_stepsing_free(&sg);
-  /* an edge whose outside lies inside another fill: a fill in another or
-   * beside it along a shared edge (two tiles); from each segment's middle,
-   * just outside it, against the other fills whose boxes hold that point
-   * (from a grid), until the first. A winding number reads every segment
-   * of its curve: the segments read are capped (a traced drawing, one
-   * path of 36k segments, took 10 s against itself), as this only warns. */
-  long reads = 0;
-  double(*box)[4] = malloc((size_t)set->num_curves * sizeof *box);
-  ch_grid grid = {0};
-  if (box) {
-    for (int c = 0; c < set->num_curves; c++) {
-      memcpy(box[c], set->curves[c].bbox, sizeof box[c]);
-      if (!is_fill(&set->curves[c])) box[c][0] = 1.0, box[c][2] = 0.0; /* empty: not in the grid */
-    }
-    if (ch_grid_build(&grid, set->num_curves, (const double(*)[4])box, &quiet) == CH_OK) {
-      for (int c = 0; c < set->num_curves && places == 0 && reads < FILL_CHECK_READS; c++) {
-        const ch_curve *cv = &set->curves[c];
-        if (!is_fill(cv)) continue;
-        double eps = 1e-7 * fmax(fmax(cv->bbox[2] - cv->bbox[0], cv->bbox[3] - cv->bbox[1]), 1e-3);
-        for (int i = cv->first_segment; i < cv->first_segment + cv->num_segments; i++) {
-          const ch_segment *sgm = &set->segments[i];
-          double m[2], d[2] = {sgm->p[2][0] - sgm->p[0][0], sgm->p[2][1] - sgm->p[0][1]};
-          double len = sqrt(d[0] * d[0] + d[1] * d[1]);
-          if (!(len > 0.0)) continue;
-          ch_segment_point(sgm, 0.5, m);
-          double q[2] = {m[0] + d[1] / len * eps, m[1] - d[0] / len * eps}; /* (right: the outside) */
-          const int *items;
-          int n = ch_grid_query(&grid, q[0], q[1], &items), hit = -1;
-          for (int j = 0; j < n && hit < 0; j++) {
-            const double *b = box[items[j]];
-            if (items[j] == c || q[0] < b[0] || q[0] > b[2] || q[1] < b[1] || q[1] > b[3]) continue;
-            reads += set->curves[items[j]].num_segments;
-            if (inside_fill(set, items[j], q)) hit = items[j];
-          }
-          if (hit < 0) continue;
-          places++, first_a = c, first_b = hit, at[0] = m[0], at[1] = m[1];
-          break;
-        }
-      }
-    }
-    ch_grid_free(&grid);
-    free(box);
-  }
-  if (places == 0) return;
-  char wa[160], wb[160] = "";
-  ch_curve_describe(&set->curves[first_a], wa, sizeof wa);
-  if (first_b >= 0) ch_curve_describe(&set->curves[first_b], wb, sizeof wb);
+/* Painted fills are united as the drawing shows them (ch_fillunion.h);
+ * where that fails, one warning says where h_step blends instead. */
+static ch_status unite_fills(svg_parser *ps) {
+  if (!ps->fill_rule) return CH_OK;
+  ch_fillunion_report r;
+  ch_status st = ch_fillunion_apply(ps->set, ps->fill_rule, ps->flipped, &r, ps->err);
+  if (st || !r.failed) return st;
+  char what[160] = "painted fills";
+  if (r.curve_a >= 0) ch_curve_describe(&ps->set->curves[r.curve_a], what, sizeof what);
   ch_warn(ps->err,
-          "%s: %s%s%s %s near UV (%.4g, %.4g)%s: a fill's inside is raised against 0 all round its edges, so where "
-          "fills overlap h_step blends between their edges rather than filling their union; unite them in the editor "
-          "(Inkscape: Path > Union) or give data-left and data-right",
-          ps->name, wa, first_b >= 0 ? " and " : "", wb,
-          first_b >= 0 ? "overlap or share an edge" : "crosses or overlaps itself", at[0], at[1],
-          places > 1 ? " (and elsewhere)" : "");
+          "%s: %s near UV (%.4g, %.4g): the painted fills that overlap there could not be united (%s), so h_step "
+          "blends between their outlines; unite them in the editor (Inkscape: Path > Union) or give data-left and "
+          "data-right",
+          ps->name, what, r.at[0], r.at[1],
+          r.failed == 2 ? "too many crossings to test" : "their outlines do not close into loops");
+  return CH_OK;
 }
 
 /* Reverses a subpath in place (segments and their links). */
@@ -964,9 +875,13 @@ static void reverse_subpath(ch_curve_set *set, const ch_subpath *sp) {
  * (by the fill rule, tested just beside its longest segment) is on its
  * left, which then holds the fill height (docs/spec.md §2: a filled shape's inside
  * is raised). */
-static void orient_fill(svg_parser *ps) {
+static ch_status orient_fill(svg_parser *ps) {
   ch_curve_set *set = ps->set;
   ch_curve *c = ps->curve;
+  int had = ps->cap_flipped;
+  ch_status st = grow(ps, (void **)&ps->flipped, &ps->cap_flipped, set->num_subpaths, 1);
+  if (st) return st;
+  memset(ps->flipped + had, 0, (size_t)(ps->cap_flipped - had));
   double size = fmax(c->bbox[2] - c->bbox[0], c->bbox[3] - c->bbox[1]);
   for (int k = 0; k < c->num_subpaths; k++) {
     const ch_subpath *sp = &set->subpaths[c->first_subpath + k];
@@ -989,8 +904,12 @@ static void orient_fill(svg_parser *ps) {
     double q[2] = {m[0] - d[1] / len * eps, m[1] + d[0] / len * eps};
     int w = ch_segments_winding(set, c->first_segment, c->num_segments, q);
     int left_filled = ps->fill_evenodd ? (w & 1) != 0 : w != 0;
-    if (!left_filled) reverse_subpath(set, sp);
+    if (!left_filled) {
+      reverse_subpath(set, sp);
+      ps->flipped[c->first_subpath + k] = 1;
+    }
   }
+  return CH_OK;
 }
 
 static ch_status end_curve(svg_parser *ps) {
@@ -1001,7 +920,7 @@ static ch_status end_curve(svg_parser *ps) {
   if (c->num_segments == 0) return fail_curve(ps, "curve has zero length%s", "");
   if (ps->fill_curve) {
     ch_curve_update_box(set, (int)(c - set->curves));
-    orient_fill(ps);
+    if ((st = orient_fill(ps))) return st;
   }
   ch_curve_update_box(set, (int)(c - set->curves));
   const double *b = c->bbox;
@@ -1352,8 +1271,10 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
   }
   if (!st && out->num_curves == 0)
     st = ch_error_set(ps.err, CH_ERR_INPUT, "%s: no curves (no <path> or basic shape elements)", name);
+  if (!st) st = unite_fills(&ps);
+  free(ps.fill_rule);
+  free(ps.flipped);
   if (!st) {
-    warn_overlapping_fills(&ps);
     for (int i = 0; i < ps.num_ignored_kinds; i++)
       ch_warn(ps.err, "%s: ignored %d <%s> element%s (first on line %d): not a feature curve", name,
               ps.ignored_count[i], ps.ignored_name[i], ps.ignored_count[i] > 1 ? "s" : "",
