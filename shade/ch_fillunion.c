@@ -274,7 +274,7 @@ static int add_piece(work *w, int slot, double t0, double t1, int from, int to, 
 /* Each fill segment cut at its crossings inside it; slot i's start is
  * point i, its end the start of the next segment (fills are closed). */
 static int make_pieces(work *w, const int *slot_of) {
-  qsort(w->hits, (size_t)w->nhit, sizeof *w->hits, cmp_hit);
+  if (w->nhit > 1) qsort(w->hits, (size_t)w->nhit, sizeof *w->hits, cmp_hit);
   int h = 0;
   for (int i = 0; i < w->nseg; i++) {
     const ch_segment *s = &w->set->segments[w->fseg[i]];

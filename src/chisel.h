@@ -27,6 +27,7 @@
 /* shade/: curves and their exact geometry, the DCI, h, the warp */
 #include "ch_curves.h"
 #include "ch_bezier.h"
+#include "ch_fillunion.h"
 #include "ch_grid.h"
 #include "ch_segtree.h"
 #include "ch_groove.h"
