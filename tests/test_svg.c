@@ -9,6 +9,7 @@
 #include "ch_bezier.h"
 #include "ch_curves.h"
 #include "ch_groove.h"
+#include "ch_height.h"
 #include "ch_test.h"
 
 static int parse(const char *body, ch_curve_set *set, ch_error *err) {
@@ -440,6 +441,25 @@ static void test_fill_union(void) {
         wrong += w != want;
       }
     CHECK_MSG(wrong == 0 && judged > 30000, "case %d: %d of %d points wrong", k, wrong, judged);
+    /* h itself, as displace and sample read it (the DCI at 256^2 through
+     * exact reconstruction): the fill height or 0, nothing between, away
+     * from the edges by more than a texel */
+    ch_height h;
+    ch_height_desc hd = {.dci_resolution = 256, .step_method = CH_RECON_EXACT};
+    REQUIRE(ch_height_init(&h, &s, &hd, &err) == CH_OK);
+    int off = 0;
+    double worst = 0.0;
+    for (int j = 0; j < 64; j++)
+      for (int i = 0; i < 64; i++) {
+        double x = (i + 0.5) * 100.0 / 64, y = (j + 0.5) * 100.0 / 64, d = 1e300;
+        int want = fill_case_painted(k, x, y, &d);
+        if (d < 0.5) continue;
+        double e = fabs(ch_height_eval(&h, x / 100.0, 1.0 - y / 100.0) - 0.01 * want);
+        off += e > 1e-9;
+        if (e > worst) worst = e;
+      }
+    CHECK_MSG(off == 0, "case %d: h off at %d points (by up to %g)", k, off, worst);
+    ch_height_free(&h);
     for (int c = 0; c < s.num_curves; c++) CHECK(s.curves[c].left == 0.01 && s.curves[c].right == 0.0);
     ch_curves_free(&s);
   }
