@@ -21,6 +21,7 @@
 #include <string.h>
 
 #include "ch_bezier.h"
+#include "ch_css.h"
 #include "ch_curves.h"
 #include "ch_file.h"
 #include "ch_fillunion.h"
@@ -55,6 +56,7 @@ typedef struct svg_parser {
    * subpaths orient_fill reversed. */
   unsigned char *fill_rule, *flipped;
   int cap_fill_rule, cap_flipped;
+  ch_css css; /* the rules of every <style> */
   /* The curve under construction. */
   ch_curve *curve;
   int subpath_open;     /* a subpath record is open */
@@ -636,25 +638,6 @@ static int parse_color(const char *s, double rgb[3]) {
   return 0;
 }
 
-static int is_hidden(const xmlNode *node) {
-  const char *d = attr(node, "display");
-  if (d && strstr(d, "none")) return 1;
-  const char *style = attr(node, "style");
-  if (style) {
-    const char *p = strstr(style, "display");
-    if (p) {
-      p += 7;
-      skip_wsp(&p);
-      if (*p == ':') {
-        p++;
-        skip_wsp(&p);
-        if (strncmp(p, "none", 4) == 0) return 1;
-      }
-    }
-  }
-  return 0;
-}
-
 /* Copies a paint value (trimmed) into a style slot. */
 static void set_paint(char dst[PAINT_MAX], const char *value, size_t len) {
   while (len && is_wsp(*value)) value++, len--;
@@ -664,16 +647,31 @@ static void set_paint(char dst[PAINT_MAX], const char *value, size_t len) {
   dst[len] = '\0';
 }
 
-/* The paint properties chisel reads from an element: presentation
- * attributes first, then the style attribute's declarations, which
- * override them (CSS cascade; stylesheets in <style> are not read). */
-static void inherit_paint(const xmlNode *node, svg_style *st) {
-  static const char *props[] = {"fill", "stroke", "stroke-width", "fill-rule"};
-  char *slots[] = {st->fill, st->stroke, st->stroke_width, st->fill_rule};
-  for (int i = 0; i < 4; i++) {
-    const char *v = attr(node, props[i]);
-    if (v) set_paint(slots[i], v, strlen(v));
+/* The properties chisel reads from an element's own styling. */
+enum { PROP_FILL, PROP_STROKE, PROP_STROKE_WIDTH, PROP_FILL_RULE, PROP_DISPLAY, NUM_PROPS };
+static const char *const prop_names[NUM_PROPS] = {"fill", "stroke", "stroke-width", "fill-rule", "display"};
+
+typedef struct own_props {
+  char value[NUM_PROPS][PAINT_MAX]; /* "" where the element sets none */
+} own_props;
+
+static void set_prop(void *user, const char *name, const char *value) {
+  own_props *o = user;
+  for (int i = 0; i < NUM_PROPS; i++)
+    if (strcmp(name, prop_names[i]) == 0) set_paint(o->value[i], value, strlen(value));
+}
+
+/* What the element itself sets, by the cascade (ch_css.h): presentation
+ * attributes, then the stylesheets' rules, then the style attribute's
+ * declarations, then the rules' !important ones. */
+static void own_styling(const svg_parser *ps, const xmlNode *node, own_props *o) {
+  memset(o, 0, sizeof *o);
+  for (int i = 0; i < NUM_PROPS; i++) {
+    const char *v = attr(node, prop_names[i]);
+    if (v) set_paint(o->value[i], v, strlen(v));
   }
+  const char *element = (const char *)node->name, *id = attr(node, "id"), *classes = attr(node, "class");
+  ch_css_cascade(&ps->css, element, id, classes, 0, set_prop, o);
   const char *style = attr(node, "style");
   for (const char *p = style; p && *p;) {
     size_t decl = strcspn(p, ";");
@@ -683,13 +681,29 @@ static void inherit_paint(const xmlNode *node, svg_style *st) {
       size_t nlen = (size_t)(colon - p);
       while (nlen && is_wsp(*name)) name++, nlen--;
       while (nlen && is_wsp(name[nlen - 1])) nlen--;
-      for (int i = 0; i < 4; i++)
-        if (strlen(props[i]) == nlen && !strncmp(name, props[i], nlen))
-          set_paint(slots[i], colon + 1, decl - (size_t)(colon + 1 - p));
+      for (int i = 0; i < NUM_PROPS; i++)
+        if (strlen(prop_names[i]) == nlen && !strncmp(name, prop_names[i], nlen))
+          set_paint(o->value[i], colon + 1, decl - (size_t)(colon + 1 - p));
     }
     p += decl;
     if (*p == ';') p++;
   }
+  ch_css_cascade(&ps->css, element, id, classes, 1, set_prop, o);
+}
+
+static int is_hidden(const svg_parser *ps, const xmlNode *node) {
+  own_props o;
+  own_styling(ps, node, &o);
+  return keyword_is(o.value[PROP_DISPLAY], "none");
+}
+
+/* The paint properties an element sets override what it inherits. */
+static void inherit_paint(const svg_parser *ps, const xmlNode *node, svg_style *st) {
+  char *slots[] = {st->fill, st->stroke, st->stroke_width, st->fill_rule};
+  own_props o;
+  own_styling(ps, node, &o);
+  for (int i = 0; i < 4; i++)
+    if (o.value[i][0]) memcpy(slots[i], o.value[i], PAINT_MAX);
 }
 
 /* Whether a paint value paints: given, and not "none". */
@@ -697,7 +711,7 @@ static int paints(const char *paint) { return paint[0] && !keyword_is(paint, "no
 
 /* Updates style with the node's own data- attributes, paint and transform. */
 static ch_status inherit(svg_parser *ps, const xmlNode *node, svg_style *st) {
-  inherit_paint(node, st);
+  inherit_paint(ps, node, st);
   static const char *known[] = {"data-kind", "data-profile", "data-width", "data-depth",
                                 "data-left", "data-right", "data-left-color", "data-right-color",
                                 "data-blur", "data-priority"};
@@ -1051,6 +1065,27 @@ static int is_svg_element(const xmlNode *node) {
           strcmp((const char *)node->ns->href, "http://www.w3.org/2000/svg") == 0);
 }
 
+/* Reads the rules of every <style> in the document (CSS applies wherever
+ * the element stands, in <defs> or not). */
+static ch_status collect_styles(svg_parser *ps, const xmlNode *node, int depth) {
+  for (const xmlNode *n = node; n; n = n->next) {
+    if (!is_svg_element(n) || depth > CH_SVG_MAX_DEPTH) continue; /* too deep: walk says so */
+    if (strcmp((const char *)n->name, "style") == 0) {
+      const char *type = attr(n, "type");
+      if (type && type[0] && !keyword_is(type, "text/css")) continue;
+      xmlChar *text = xmlNodeGetContent(n);
+      if (!text) continue;
+      ch_status st = ch_css_parse(&ps->css, (const char *)text, ps->name, ps->err);
+      xmlFree(text);
+      if (st) return st;
+      continue;
+    }
+    ch_status st = collect_styles(ps, n->children, depth + 1);
+    if (st) return st;
+  }
+  return CH_OK;
+}
+
 static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent, int depth) {
   for (const xmlNode *n = node; n; n = n->next) {
     if (!is_svg_element(n)) continue; /* text, comments, foreign namespaces */
@@ -1066,7 +1101,7 @@ static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *pare
         !strcmp(name, "clipPath") || !strcmp(name, "mask") || !strcmp(name, "linearGradient") ||
         !strcmp(name, "radialGradient") || !strcmp(name, "pattern") || !strcmp(name, "marker"))
       continue;
-    if (is_hidden(n)) continue;
+    if (is_hidden(ps, n)) continue;
     svg_style st = *parent;
     ch_status s;
     int is_shape = !strcmp(name, "path") || !strcmp(name, "rect") || !strcmp(name, "circle") ||
@@ -1265,7 +1300,13 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
                       root ? (const char *)root->name : "none");
   } else {
     svg_style style = {0};
-    st = root_mapping(&ps, root, &style);
+    st = collect_styles(&ps, root, 0);
+    if (!st && ps.css.unsupported)
+      ch_warn(ps.err,
+              "%s: <style>: %d selector%s ignored (first '%s'): chisel reads type, .class and #id selectors and "
+              "lists of them",
+              name, ps.css.unsupported, ps.css.unsupported > 1 ? "s" : "", ps.css.first_unsupported);
+    if (!st) st = root_mapping(&ps, root, &style);
     if (!st) st = inherit(&ps, root, &style);
     if (!st) st = walk(&ps, root->children, &style, 1);
   }
@@ -1274,6 +1315,7 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
   if (!st) st = unite_fills(&ps);
   free(ps.fill_rule);
   free(ps.flipped);
+  ch_css_free(&ps.css);
   if (!st) {
     for (int i = 0; i < ps.num_ignored_kinds; i++)
       ch_warn(ps.err, "%s: ignored %d <%s> element%s (first on line %d): not a feature curve", name,

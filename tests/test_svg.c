@@ -320,6 +320,82 @@ static void test_large_and_deep(void) {
  * instead of filling their union, and one warning says where (two tiles
  * side by side: 0 in a third of one). Fills apart, touching at a corner,
  * and a ring drawn as one evenodd path do not warn. */
+static void keep_warning(void *user, const char *msg) { snprintf(user, 600, "%s", msg); }
+
+/* <style> rules as Illustrator writes them, and the cascade (ch_css.h):
+ * presentation attribute < rules by specificity, then order < style
+ * attribute < !important rules. */
+static void test_stylesheets(void) {
+  ch_curve_set s;
+  ch_error err;
+  /* Illustrator's default export: every paint from a class */
+  REQUIRE(parse("<style type='text/css'>\n\t.st0{fill:#231F20;}\n\t.st1{fill:none;stroke:#231F20;stroke-width:2;"
+                "stroke-miterlimit:10;}\n</style>"
+                "<circle class='st0' cx='30' cy='30' r='12'/><path class='st1' d='M10,80 C30,60 60,90 90,70'/>",
+                &s, &err) == CH_OK);
+  REQUIRE(s.num_curves == 2);
+  CHECK(s.curves[0].kind == CH_CURVE_STEP && strcmp(s.curves[0].decided_by, "fill") == 0);
+  CHECK(s.curves[1].kind == CH_CURVE_GROOVE && strcmp(s.curves[1].decided_by, "stroke") == 0);
+  CHECK_NEAR(s.curves[1].width, 0.02, 1e-15);
+  CHECK(err.num_warnings == 0);
+  ch_curves_free(&s);
+  /* the cascade: each path says in its id what it should come out as */
+  REQUIRE(parse("<defs><style><![CDATA[ /* a comment { } */\n"
+                "@media print { .a { stroke: red } }\n"
+                "@import url('x.css');\n"
+                "path { fill: #000 }\n"
+                ".a, .b { stroke: #000; stroke-width: 3 }\n"
+                ".c { fill: none }\n"
+                "#g1 { fill: none }\n"
+                ".c.d { stroke: none; fill: #111 }\n"
+                ".e { stroke: #000 !important }\n"
+                ".hide { display: none }\n"
+                "g > path, path:hover, [fill] { fill: none }\n"
+                ".url { fill: url(#grad); }\n"
+                "]]></style></defs>"
+                "<path id='fill-by-type' d='M 0 0 L 10 0 L 10 10 Z'/>"
+                "<path id='groove-class-over-type' class='a' d='M 0 20 L 10 20 L 10 30 Z'/>"
+                "<path id='groove-second-of-list' class=' x b ' d='M 0 40 L 10 40 L 10 50 Z'/>"
+                "<path id='g1' class='b' d='M 0 60 L 10 60 L 10 70 Z'/>"
+                "<path id='fill-two-classes' class='a c d' d='M 20 0 L 30 0 L 30 10 Z'/>"
+                "<path id='default-class-over-attribute' class='c' fill='#000' d='M 20 20 L 30 20 L 30 30 Z'/>"
+                "<path id='fill-style-over-class' class='c' style='fill:#000' d='M 20 40 L 30 40 L 30 50 Z'/>"
+                "<path id='groove-important-over-style' class='e' style='stroke:none' d='M 20 60 L 30 60 L 30 70 Z'/>"
+                "<path id='hidden' class='hide' d='M 40 0 L 50 0 L 50 10 Z'/>"
+                "<g class='c'><path id='fill-own-type-rule' d='M 40 20 L 50 20 L 50 30 Z'/></g>"
+                "<g class='a'><rect id='groove-inherited' x='40' y='40' width='5' height='5'/></g>"
+                "<path id='fill-url-paint' class='c url' d='M 40 60 L 50 60 L 50 70 Z'/>",
+                &s, &err) == CH_OK);
+  static const char *want[][2] = {{"fill-by-type", "fill"},
+                                  {"groove-class-over-type", "stroke"},
+                                  {"groove-second-of-list", "stroke"},
+                                  {"g1", "stroke"},
+                                  {"fill-two-classes", "fill"},
+                                  {"default-class-over-attribute", "default"},
+                                  {"fill-style-over-class", "fill"},
+                                  {"groove-important-over-style", "stroke"},
+                                  {"fill-own-type-rule", "fill"},
+                                  {"groove-inherited", "stroke"},
+                                  {"fill-url-paint", "fill"}};
+  int n = (int)(sizeof want / sizeof want[0]);
+  CHECK_MSG(s.num_curves == n, "%d curves", s.num_curves);
+  for (int i = 0; i < n && i < s.num_curves; i++)
+    CHECK_MSG(strcmp(s.curves[i].id, want[i][0]) == 0 && strcmp(s.curves[i].decided_by, want[i][1]) == 0,
+              "curve %d '%s': decided by %s, want %s", i, s.curves[i].id, s.curves[i].decided_by, want[i][1]);
+  if (s.num_curves > 1) CHECK_NEAR(s.curves[1].width, 0.03, 1e-15);
+  ch_curves_free(&s);
+  /* selectors it does not read: one warning names the first */
+  char msg[600] = "";
+  ch_error werr = {.warn = keep_warning, .warn_user = msg};
+  const char *svg =
+      "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'><style>g > path, path:hover, "
+      ".ok { fill: #000 }</style><path class='ok' d='M 0 0 L 10 0 L 10 10 Z'/></svg>";
+  REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "w.svg", &s, &werr) == CH_OK);
+  CHECK(s.num_curves == 1 && s.curves[0].kind == CH_CURVE_STEP);
+  CHECK_MSG(werr.num_warnings == 1 && strstr(msg, "w.svg: <style>: 2 selectors ignored (first 'g > path')"), "%s", msg);
+  ch_curves_free(&s);
+}
+
 /* The painted regions of the fill cases below, in SVG units (y down): 1
  * painted, 0 not; d gets the distance to the nearest edge (points closer
  * than the quadratics' 1e-6 approximation of arcs are not judged). */
@@ -495,6 +571,7 @@ int main(void) {
   RUN(test_malformed_files);
   RUN(test_large_and_deep);
   RUN(test_bundled_curves);
+  RUN(test_stylesheets);
   RUN(test_fill_union);
   TEST_MAIN_END();
 }
