@@ -42,6 +42,16 @@ typedef struct svg_style {
 
 enum { IGNORED_KINDS = 16 };
 
+typedef struct id_entry {
+  const char *id;
+  const xmlNode *node;
+  int order;
+} id_entry;
+
+/* <use> nesting and instances, at most (an expansion attack of nested uses
+ * would otherwise walk 10^k copies). */
+enum { CH_SVG_MAX_USE_DEPTH = 32, CH_SVG_MAX_USES = 100000 };
+
 typedef struct svg_parser {
   const char *name; /* file name for messages */
   ch_error *err;
@@ -57,6 +67,13 @@ typedef struct svg_parser {
   unsigned char *fill_rule, *flipped;
   int cap_fill_rule, cap_flipped;
   ch_css css; /* the rules of every <style> */
+  /* Elements by id for <use>, sorted by id and then document order; the
+   * <use> targets being drawn (to refuse cycles), and how many in all. */
+  struct id_entry *ids;
+  int num_ids, cap_ids;
+  const xmlNode *use_stack[CH_SVG_MAX_USE_DEPTH];
+  int use_depth;
+  long use_count;
   /* The curve under construction. */
   ch_curve *curve;
   int subpath_open;     /* a subpath record is open */
@@ -1066,10 +1083,17 @@ static int is_svg_element(const xmlNode *node) {
 }
 
 /* Reads the rules of every <style> in the document (CSS applies wherever
- * the element stands, in <defs> or not). */
-static ch_status collect_styles(svg_parser *ps, const xmlNode *node, int depth) {
+ * the element stands, in <defs> or not) and lists the elements' ids. */
+static ch_status index_document(svg_parser *ps, const xmlNode *node, int depth) {
   for (const xmlNode *n = node; n; n = n->next) {
     if (!is_svg_element(n) || depth > CH_SVG_MAX_DEPTH) continue; /* too deep: walk says so */
+    const char *id = attr(n, "id");
+    if (id && id[0]) {
+      ch_status st = grow(ps, (void **)&ps->ids, &ps->cap_ids, ps->num_ids + 1, sizeof *ps->ids);
+      if (st) return st;
+      ps->ids[ps->num_ids] = (id_entry){id, n, ps->num_ids};
+      ps->num_ids++;
+    }
     if (strcmp((const char *)n->name, "style") == 0) {
       const char *type = attr(n, "type");
       if (type && type[0] && !keyword_is(type, "text/css")) continue;
@@ -1080,44 +1104,162 @@ static ch_status collect_styles(svg_parser *ps, const xmlNode *node, int depth) 
       if (st) return st;
       continue;
     }
-    ch_status st = collect_styles(ps, n->children, depth + 1);
+    ch_status st = index_document(ps, n->children, depth + 1);
     if (st) return st;
+  }
+  return CH_OK;
+}
+
+static int cmp_id(const void *x, const void *y) {
+  const id_entry *a = x, *b = y;
+  int c = strcmp(a->id, b->id);
+  return c ? c : (a->order > b->order) - (a->order < b->order);
+}
+
+/* The first element in document order with that id, or NULL. */
+static const xmlNode *find_id(const svg_parser *ps, const char *id) {
+  int lo = 0, hi = ps->num_ids;
+  while (lo < hi) {
+    int mid = lo + (hi - lo) / 2;
+    if (strcmp(ps->ids[mid].id, id) < 0)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo < ps->num_ids && strcmp(ps->ids[lo].id, id) == 0 ? ps->ids[lo].node : NULL;
+}
+
+/* A <use>'s reference: href (SVG 2) or xlink:href (SVG 1.1). */
+static const char *use_href(const xmlNode *node) {
+  const char *h = attr(node, "href");
+  if (h) return h;
+  for (const xmlAttr *a = node->properties; a; a = a->next)
+    if (a->ns && a->ns->href && strcmp((const char *)a->ns->href, "http://www.w3.org/1999/xlink") == 0 &&
+        strcmp((const char *)a->name, "href") == 0)
+      return a->children && a->children->content ? (const char *)a->children->content : "";
+  return NULL;
+}
+
+static ch_status walk_node(svg_parser *ps, const xmlNode *n, const svg_style *parent, int depth);
+static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent, int depth);
+
+/* A length attribute of a <use> (x, y, width, height), or def where there
+ * is none; percentages are refused. */
+static ch_status use_length(svg_parser *ps, const xmlNode *node, const char *name, double def, double *out) {
+  const char *v = attr(node, name);
+  *out = def;
+  if (!v) return CH_OK;
+  if (parse_length(v, out)) {
+    char why[96];
+    snprintf(why, sizeof why, "<use> %s '%.30s' is not a length", name, v);
+    return fail_node(ps, node, why);
+  }
+  return CH_OK;
+}
+
+/* <use>: the referenced element drawn as a child of a group at the use,
+ * moved by (x, y) (SVG 1.1 §5.6); a <symbol> with a viewBox is fitted
+ * into the use's width and height (xMidYMid meet), one without is a
+ * group. A reference to nothing is skipped with a warning. */
+static ch_status walk_use(svg_parser *ps, const xmlNode *n, const svg_style *parent, int depth) {
+  const char *href = use_href(n);
+  const xmlNode *target = href && href[0] == '#' ? find_id(ps, href + 1) : NULL;
+  if (!target) {
+    note_ignored(ps, n);
+    return CH_OK;
+  }
+  if (ps->use_depth >= CH_SVG_MAX_USE_DEPTH) {
+    char msg[96];
+    snprintf(msg, sizeof msg, "<use> elements nested deeper than %d levels", CH_SVG_MAX_USE_DEPTH);
+    return fail_node(ps, n, msg);
+  }
+  for (int i = 0; i < ps->use_depth; i++) /* a cycle comes back to a use being drawn */
+    if (ps->use_stack[i] == n) return fail_node(ps, n, "<use> refers to itself (a cycle of references)");
+  for (const xmlNode *a = n; a; a = a->parent)
+    if (a == target) return fail_node(ps, n, "<use> refers to an element that holds it");
+  if (++ps->use_count > CH_SVG_MAX_USES) {
+    char msg[96];
+    snprintf(msg, sizeof msg, "more than %d <use> copies (a reference expansion attack?)", CH_SVG_MAX_USES);
+    return fail_node(ps, n, msg);
+  }
+  svg_style st = *parent;
+  ch_status s = inherit(ps, n, &st);
+  double x, y;
+  if (!s) s = use_length(ps, n, "x", 0.0, &x);
+  if (!s) s = use_length(ps, n, "y", 0.0, &y);
+  if (s) return s;
+  double move[6] = {1, 0, 0, 1, x, y};
+  mat_mul(st.ctm, move, st.ctm);
+  const char *vbs = strcmp((const char *)target->name, "symbol") == 0 ? attr(target, "viewBox") : NULL;
+  if (vbs) {
+    double vb[4], w, h;
+    const char *p = vbs;
+    skip_wsp(&p);
+    for (int i = 0; i < 4; i++) {
+      if (i) skip_sep(&p);
+      if (scan_number(&p, &vb[i])) return fail_node(ps, target, "bad viewBox (expected four numbers)");
+    }
+    if ((s = use_length(ps, n, "width", vb[2], &w)) || (s = use_length(ps, n, "height", vb[3], &h))) return s;
+    if (!(vb[2] > 0.0 && vb[3] > 0.0)) return fail_node(ps, target, "viewBox with a zero or negative size");
+    double k = fmin(w / vb[2], h / vb[3]);
+    double fit[6] = {k, 0, 0, k, 0.5 * (w - k * vb[2]) - k * vb[0], 0.5 * (h - k * vb[3]) - k * vb[1]};
+    mat_mul(st.ctm, fit, st.ctm);
+  }
+  ps->use_stack[ps->use_depth++] = n;
+  if (strcmp((const char *)target->name, "symbol") == 0) {
+    if (is_hidden(ps, target)) {
+      ps->use_depth--;
+      return CH_OK;
+    }
+    s = inherit(ps, target, &st);
+    if (!s) s = walk(ps, target->children, &st, depth + 1);
+  } else {
+    s = walk_node(ps, target, &st, depth + 1);
+  }
+  ps->use_depth--;
+  return s;
+}
+
+static ch_status walk_node(svg_parser *ps, const xmlNode *n, const svg_style *parent, int depth) {
+  if (!is_svg_element(n)) return CH_OK; /* text, comments, foreign namespaces */
+  if (depth > CH_SVG_MAX_DEPTH) {
+    char msg[96];
+    snprintf(msg, sizeof msg, "elements nested deeper than %d levels", CH_SVG_MAX_DEPTH);
+    return fail_node(ps, n, msg);
+  }
+  const char *name = (const char *)n->name;
+  /* Non-rendering and descriptive elements: silently skipped. */
+  if (!strcmp(name, "title") || !strcmp(name, "desc") || !strcmp(name, "metadata") || !strcmp(name, "style") ||
+      !strcmp(name, "defs") || !strcmp(name, "symbol") || !strcmp(name, "clipPath") || !strcmp(name, "mask") ||
+      !strcmp(name, "linearGradient") || !strcmp(name, "radialGradient") || !strcmp(name, "pattern") ||
+      !strcmp(name, "marker"))
+    return CH_OK;
+  if (is_hidden(ps, n)) return CH_OK;
+  svg_style st = *parent;
+  ch_status s;
+  int is_shape = !strcmp(name, "path") || !strcmp(name, "rect") || !strcmp(name, "circle") ||
+                 !strcmp(name, "ellipse") || !strcmp(name, "line") || !strcmp(name, "polyline") ||
+                 !strcmp(name, "polygon");
+  if (!strcmp(name, "g") || !strcmp(name, "a")) {
+    if ((s = inherit(ps, n, &st))) return s;
+    if ((s = walk(ps, n->children, &st, depth + 1))) return s;
+  } else if (is_shape) {
+    if ((s = inherit(ps, n, &st))) return s;
+    if ((s = begin_curve(ps, n, &st))) return s;
+    if ((s = shape_geometry(ps, n, &st))) return s;
+    if ((s = end_curve(ps))) return s;
+  } else if (!strcmp(name, "use")) {
+    if ((s = walk_use(ps, n, parent, depth))) return s;
+  } else {
+    note_ignored(ps, n);
   }
   return CH_OK;
 }
 
 static ch_status walk(svg_parser *ps, const xmlNode *node, const svg_style *parent, int depth) {
   for (const xmlNode *n = node; n; n = n->next) {
-    if (!is_svg_element(n)) continue; /* text, comments, foreign namespaces */
-    if (depth > CH_SVG_MAX_DEPTH) {
-      char msg[96];
-      snprintf(msg, sizeof msg, "elements nested deeper than %d levels", CH_SVG_MAX_DEPTH);
-      return fail_node(ps, n, msg);
-    }
-    const char *name = (const char *)n->name;
-    /* Non-rendering and descriptive elements: silently skipped. */
-    if (!strcmp(name, "title") || !strcmp(name, "desc") || !strcmp(name, "metadata") ||
-        !strcmp(name, "style") || !strcmp(name, "defs") || !strcmp(name, "symbol") ||
-        !strcmp(name, "clipPath") || !strcmp(name, "mask") || !strcmp(name, "linearGradient") ||
-        !strcmp(name, "radialGradient") || !strcmp(name, "pattern") || !strcmp(name, "marker"))
-      continue;
-    if (is_hidden(ps, n)) continue;
-    svg_style st = *parent;
-    ch_status s;
-    int is_shape = !strcmp(name, "path") || !strcmp(name, "rect") || !strcmp(name, "circle") ||
-                   !strcmp(name, "ellipse") || !strcmp(name, "line") ||
-                   !strcmp(name, "polyline") || !strcmp(name, "polygon");
-    if (!strcmp(name, "g") || !strcmp(name, "a")) {
-      if ((s = inherit(ps, n, &st))) return s;
-      if ((s = walk(ps, n->children, &st, depth + 1))) return s;
-    } else if (is_shape) {
-      if ((s = inherit(ps, n, &st))) return s;
-      if ((s = begin_curve(ps, n, &st))) return s;
-      if ((s = shape_geometry(ps, n, &st))) return s;
-      if ((s = end_curve(ps))) return s;
-    } else {
-      note_ignored(ps, n);
-    }
+    ch_status s = walk_node(ps, n, parent, depth);
+    if (s) return s;
   }
   return CH_OK;
 }
@@ -1300,7 +1442,8 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
                       root ? (const char *)root->name : "none");
   } else {
     svg_style style = {0};
-    st = collect_styles(&ps, root, 0);
+    st = index_document(&ps, root, 0);
+    if (!st && ps.num_ids > 1) qsort(ps.ids, (size_t)ps.num_ids, sizeof *ps.ids, cmp_id);
     if (!st && ps.css.unsupported)
       ch_warn(ps.err,
               "%s: <style>: %d selector%s ignored (first '%s'): chisel reads type, .class and #id selectors and "
@@ -1316,6 +1459,7 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
   free(ps.fill_rule);
   free(ps.flipped);
   ch_css_free(&ps.css);
+  free(ps.ids);
   if (!st) {
     for (int i = 0; i < ps.num_ignored_kinds; i++)
       ch_warn(ps.err, "%s: ignored %d <%s> element%s (first on line %d): not a feature curve", name,

@@ -320,6 +320,72 @@ static void test_large_and_deep(void) {
  * instead of filling their union, and one warning says where (two tiles
  * side by side: 0 in a third of one). Fills apart, touching at a corner,
  * and a ring drawn as one evenodd path do not warn. */
+/* <use>: copies of shapes, groups and symbols where the use stands, moved
+ * by its x and y and styled from it; cycles and expansion attacks fail
+ * with one line; a reference to nothing is ignored with a warning. */
+static void test_use(void) {
+  ch_curve_set s;
+  ch_error err;
+  REQUIRE(parse("<rect id='r' fill='#888' x='10' y='10' width='10' height='10'/>"
+                "<use xlink:href='#r' x='50' transform='translate(0,5)' xmlns:xlink='http://www.w3.org/1999/xlink'/>"
+                "<defs><path id='p' d='M 0 0 L 10 0'/>"
+                "<symbol id='s' viewBox='0 0 10 10'><circle cx='5' cy='5' r='5' fill='#000'/></symbol></defs>"
+                "<use href='#p' stroke='#000' stroke-width='2' y='50'/>"
+                "<use href='#s' x='20' y='20' width='40' height='20'/>",
+                &s, &err) == CH_OK);
+  REQUIRE(s.num_curves == 4);
+  CHECK(err.num_warnings == 0);
+  CHECK(s.curves[0].kind == CH_CURVE_STEP && s.curves[1].kind == CH_CURVE_STEP);
+  /* the copy: 50 right, 5 down */
+  CHECK_NEAR(s.curves[1].bbox[0] - s.curves[0].bbox[0], 0.5, 1e-12);
+  CHECK_NEAR(s.curves[1].bbox[1] - s.curves[0].bbox[1], -0.05, 1e-12);
+  /* the path from <defs>, a groove by the use's stroke, at y = 50 */
+  CHECK(s.curves[2].kind == CH_CURVE_GROOVE && strcmp(s.curves[2].decided_by, "stroke") == 0);
+  CHECK_NEAR(s.curves[2].width, 0.02, 1e-15);
+  CHECK_NEAR(P(&s, s.curves[2].first_segment, 0, 1), 0.5, 1e-15);
+  /* the symbol's 10 x 10 fitted into 40 x 20 at (20, 20): scale 2, centred:
+   * the circle at (40, 30) with radius 10 */
+  CHECK(s.curves[3].kind == CH_CURVE_STEP);
+  CHECK_NEAR(s.curves[3].bbox[0], 0.30, 1e-6);
+  CHECK_NEAR(s.curves[3].bbox[2], 0.50, 1e-6);
+  CHECK_NEAR(s.curves[3].bbox[1], 1.0 - 0.40, 1e-6);
+  CHECK_NEAR(s.curves[3].bbox[3], 1.0 - 0.20, 1e-6);
+  ch_curves_free(&s);
+  /* a reference to nothing: ignored, said once */
+  REQUIRE(parse("<use href='#nope'/><path d='M 0 0 L 1 1'/>", &s, &err) == CH_OK);
+  CHECK(s.num_curves == 1 && err.num_warnings == 1);
+  ch_curves_free(&s);
+  /* cycles and expansion */
+  static const struct {
+    const char *body, *message;
+  } bad[] = {
+      {"<g id='a'><use href='#a'/></g>", "<use> refers to an element that holds it"},
+      {"<use id='u1' href='#u2'/><use id='u2' href='#u1'/>", "<use> refers to itself"},
+      {"<path id='l0' d='M 0 0 L 1 1'/>"
+       "<g id='l1'><use href='#l0'/><use href='#l0'/><use href='#l0'/><use href='#l0'/><use href='#l0'/>"
+       "<use href='#l0'/><use href='#l0'/><use href='#l0'/><use href='#l0'/><use href='#l0'/></g>"
+       "<g id='l2'><use href='#l1'/><use href='#l1'/><use href='#l1'/><use href='#l1'/><use href='#l1'/>"
+       "<use href='#l1'/><use href='#l1'/><use href='#l1'/><use href='#l1'/><use href='#l1'/></g>"
+       "<g id='l3'><use href='#l2'/><use href='#l2'/><use href='#l2'/><use href='#l2'/><use href='#l2'/>"
+       "<use href='#l2'/><use href='#l2'/><use href='#l2'/><use href='#l2'/><use href='#l2'/></g>"
+       "<g id='l4'><use href='#l3'/><use href='#l3'/><use href='#l3'/><use href='#l3'/><use href='#l3'/>"
+       "<use href='#l3'/><use href='#l3'/><use href='#l3'/><use href='#l3'/><use href='#l3'/></g>"
+       "<g id='l5'><use href='#l4'/><use href='#l4'/><use href='#l4'/><use href='#l4'/><use href='#l4'/>"
+       "<use href='#l4'/><use href='#l4'/><use href='#l4'/><use href='#l4'/><use href='#l4'/></g>"
+       "<g id='l6'><use href='#l5'/><use href='#l5'/><use href='#l5'/><use href='#l5'/><use href='#l5'/>"
+       "<use href='#l5'/><use href='#l5'/><use href='#l5'/><use href='#l5'/><use href='#l5'/></g>",
+       "more than 100000 <use> copies"},
+      {"<symbol id='s' viewBox='0 0 0 10'/><use href='#s'/>", "viewBox with a zero or negative size"},
+      {"<path id='p' d='M 0 0 L 1 1'/><use href='#p' x='5%'/>", "<use> x '5%' is not a length"},
+  };
+  for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+    ch_status st = parse(bad[i].body, &s, &err);
+    CHECK_MSG(st == CH_ERR_INPUT && strstr(err.message, bad[i].message) && strncmp(err.message, "t.svg: ", 7) == 0,
+              "case %zu: %d '%s'", i, (int)st, err.message);
+    if (st == CH_OK) ch_curves_free(&s);
+  }
+}
+
 static void keep_warning(void *user, const char *msg) { snprintf(user, 600, "%s", msg); }
 
 /* <style> rules as Illustrator writes them, and the cascade (ch_css.h):
@@ -572,6 +638,7 @@ int main(void) {
   RUN(test_large_and_deep);
   RUN(test_bundled_curves);
   RUN(test_stylesheets);
+  RUN(test_use);
   RUN(test_fill_union);
   TEST_MAIN_END();
 }
