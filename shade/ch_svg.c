@@ -1250,6 +1250,19 @@ static ch_status walk_node(svg_parser *ps, const xmlNode *n, const svg_style *pa
     if ((s = end_curve(ps))) return s;
   } else if (!strcmp(name, "use")) {
     if ((s = walk_use(ps, n, parent, depth))) return s;
+  } else if (!strcmp(name, "switch")) {
+    /* The first direct child whose conditions hold (SVG 1.1 §5.8.2):
+     * chisel supports no extension, so a child that requires one (as
+     * Illustrator's <foreignObject> of private data does) is passed over;
+     * languages and features are taken to hold. */
+    if ((s = inherit(ps, n, &st))) return s;
+    for (const xmlNode *c = n->children; c; c = c->next) {
+      if (!is_svg_element(c)) continue;
+      const char *ext = attr(c, "requiredExtensions");
+      if ((ext && ext[0]) || !strcmp((const char *)c->name, "foreignObject")) continue;
+      if ((s = walk_node(ps, c, &st, depth + 1))) return s;
+      break;
+    }
   } else {
     note_ignored(ps, n);
   }

@@ -321,7 +321,8 @@ static void test_large_and_deep(void) {
  * side by side: 0 in a third of one). Fills apart, touching at a corner,
  * and a ring drawn as one evenodd path do not warn. */
 /* <use>: copies of shapes, groups and symbols where the use stands, moved
- * by its x and y and styled from it; cycles and expansion attacks fail
+ * by its x and y and styled from it (and <switch>'s first child that needs
+ * no extension); cycles and expansion attacks fail
  * with one line; a reference to nothing is ignored with a warning. */
 static void test_use(void) {
   ch_curve_set s;
@@ -350,6 +351,13 @@ static void test_use(void) {
   CHECK_NEAR(s.curves[3].bbox[2], 0.50, 1e-6);
   CHECK_NEAR(s.curves[3].bbox[1], 1.0 - 0.40, 1e-6);
   CHECK_NEAR(s.curves[3].bbox[3], 1.0 - 0.20, 1e-6);
+  ch_curves_free(&s);
+  /* Illustrator's <switch>: its private data passed over, the drawing read */
+  REQUIRE(parse("<switch><foreignObject requiredExtensions='http://ns.adobe.com/AdobeIllustrator/10.0/' x='0' y='0' "
+                "width='1' height='1'/><g><path fill='#000' d='M 0 0 L 10 0 L 10 10 Z'/></g>"
+                "<path d='M 0 0 L 1 1'/></switch>",
+                &s, &err) == CH_OK);
+  CHECK(s.num_curves == 1 && s.curves[0].kind == CH_CURVE_STEP && err.num_warnings == 0);
   ch_curves_free(&s);
   /* a reference to nothing: ignored, said once */
   REQUIRE(parse("<use href='#nope'/><path d='M 0 0 L 1 1'/>", &s, &err) == CH_OK);
