@@ -869,6 +869,30 @@ static ch_status begin_curve(svg_parser *ps, const xmlNode *node, const svg_styl
  * where that fails, one warning says where h_step blends instead. */
 static ch_status unite_fills(svg_parser *ps) {
   if (!ps->fill_rule) return CH_OK;
+  /* A fill over the whole square (a design tool's frame background, as
+   * Figma exports it) raises everything, and the union with it leaves
+   * nothing else: say so. */
+  for (int c = 0; c < ps->set->num_curves; c++) {
+    const ch_curve *cv = &ps->set->curves[c];
+    if (ps->fill_rule[c] == CH_FILL_NONE || cv->bbox[0] > 1e-6 || cv->bbox[1] > 1e-6 || cv->bbox[2] < 1.0 - 1e-6 ||
+        cv->bbox[3] < 1.0 - 1e-6)
+      continue;
+    static const double probe[5][2] = {
+        {1e-4, 1e-4}, {1 - 1e-4, 1e-4}, {1e-4, 1 - 1e-4}, {1 - 1e-4, 1 - 1e-4}, {0.5, 0.5}};
+    int inside = 0;
+    for (int k = 0; k < 5; k++) {
+      int w = ch_segments_winding(ps->set, cv->first_segment, cv->num_segments, probe[k]);
+      inside += ps->fill_rule[c] == CH_FILL_EVENODD ? (w & 1) != 0 : w != 0;
+    }
+    if (inside < 5) continue;
+    char what[160];
+    ch_curve_describe(cv, what, sizeof what);
+    ch_warn(ps->err,
+            "%s: %s is filled over the whole UV square (a background?): every fill is raised, so it raises "
+            "everything and the fills on it vanish into it; delete it or set fill='none'",
+            ps->name, what);
+    break;
+  }
   ch_fillunion_report r;
   ch_status st = ch_fillunion_apply(ps->set, ps->fill_rule, ps->flipped, &r, ps->err);
   if (st || !r.failed) return st;

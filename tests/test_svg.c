@@ -613,6 +613,19 @@ static void test_fill_union(void) {
     for (int c = 0; c < s.num_curves; c++) CHECK(s.curves[c].left == 0.01 && s.curves[c].right == 0.0);
     ch_curves_free(&s);
   }
+  /* a background over the whole square: said */
+  {
+    ch_curve_set s;
+    char msg[600] = "";
+    ch_error werr = {.warn = keep_warning, .warn_user = msg};
+    const char *svg =
+        "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'><rect width='100' height='100' "
+        "fill='white'/><circle fill='#000' cx='50' cy='50' r='10'/></svg>";
+    REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "bg.svg", &s, &werr) == CH_OK);
+    CHECK_MSG(werr.num_warnings == 1 && strstr(msg, "bg.svg: <rect> #0 (line 1) is filled over the whole UV square"),
+              "%s", msg);
+    ch_curves_free(&s);
+  }
   /* explicit sides are the drawing's own: left as read */
   ch_curve_set s;
   ch_error err;
