@@ -214,17 +214,43 @@ int ch_profile_creases(const ch_profile *pr, double *t, int max) {
 
 int ch_segments_winding(const ch_curve_set *set, int first, int count, const double q[2]) {
   int w = 0;
+  const double qv = q[1];
   for (int i = 0; i < count; i++) {
     const ch_segment *s = &set->segments[first + i];
-    double a = s->p[0][1] - 2.0 * s->p[1][1] + s->p[2][1], b = 2.0 * (s->p[1][1] - s->p[0][1]), k = s->p[0][1] - q[1];
-    double roots[2];
-    int nr = ch_quadratic_roots(a, b, k, roots);
-    for (int j = 0; j < nr; j++) {
-      double t = roots[j], dv = 2.0 * a * t + b;
-      if (!(t >= 0.0 && t < 1.0) || dv == 0.0) continue;
+    double v0 = s->p[0][1], v1 = s->p[1][1], v2 = s->p[2][1];
+    if ((v0 <= qv) == (v2 <= qv) && (v1 <= qv) == (v0 <= qv)) continue; /* all on one side: no crossing */
+    double a = v0 - 2.0 * v1 + v2, b = 2.0 * (v1 - v0);
+    /* v(t) in monotone pieces, split at its turning point */
+    double ts[3] = {0.0, 1.0, 1.0}, vs[3] = {v0, v2, v2};
+    int pieces = 1;
+    if (!s->is_line && a != 0.0) {
+      double tm = -b / (2.0 * a);
+      if (tm > 0.0 && tm < 1.0) {
+        ts[1] = tm, vs[1] = (a * tm + b) * tm + v0;
+        ts[2] = 1.0, vs[2] = v2;
+        pieces = 2;
+      }
+    }
+    for (int k = 0; k < pieces; k++) {
+      double va = vs[k], vb = vs[k + 1], t0 = ts[k], t1 = ts[k + 1], t;
+      if ((va <= qv) == (vb <= qv)) continue;
+      if (s->is_line) {
+        t = (qv - v0) / (v2 - v0);
+      } else {
+        /* the root in [t0, t1] (the nearest, against rounding) */
+        double roots[2];
+        int nr = ch_quadratic_roots(a, b, v0 - qv, roots);
+        t = 0.5 * (t0 + t1);
+        double best = 1e300;
+        for (int j = 0; j < nr; j++) {
+          double d = roots[j] < t0 ? t0 - roots[j] : roots[j] > t1 ? roots[j] - t1 : 0.0;
+          if (d < best) best = d, t = roots[j];
+        }
+      }
+      t = t < t0 ? t0 : t > t1 ? t1 : t;
       double pt[2];
       ch_segment_point(s, t, pt);
-      if (pt[0] > q[0]) w += dv > 0.0 ? 1 : -1;
+      if (pt[0] > q[0]) w += vb > va ? 1 : -1;
     }
   }
   return w;

@@ -160,9 +160,11 @@ void ch_curve_update_box(ch_curve_set *set, int c);
 void ch_segment_point(const ch_segment *s, double t, double out[2]);
 
 /* Winding number around q of the closed loop(s) made by segments first ..
- * first + count - 1: their crossings of the ray from q towards +u, by the
- * roots of v(t) = q_v in [0, 1) (so a joint counts once), signed by the
- * direction of travel. */
+ * first + count - 1: their crossings of the ray from q towards +u, signed
+ * by the direction of travel. Each segment is read in pieces monotone in
+ * v; a point with v = q_v exactly counts as below the ray (simulation of
+ * simplicity), so a joint the path passes through counts once and a
+ * corner or a curve that only touches the ray's line counts not at all. */
 int ch_segments_winding(const ch_curve_set *set, int first, int count, const double q[2]);
 
 /* The box of s's control points (which holds the segment) grown by r on

@@ -689,8 +689,87 @@ static void test_groove_values(void) {
   ch_curves_free(&set);
 }
 
+/* A closed polygon as a curve set of straight segments. */
+static void polygon_set(ch_curve_set *set, ch_curve *curve, ch_segment *segs, const double (*p)[2], int n) {
+  memset(set, 0, sizeof *set);
+  memset(curve, 0, sizeof *curve);
+  for (int i = 0; i < n; i++) {
+    const double *a = p[i], *b = p[(i + 1) % n];
+    segs[i] = (ch_segment){
+        {{a[0], a[1]}, {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])}, {b[0], b[1]}}, 0, (i + n - 1) % n, (i + 1) % n, 1};
+  }
+  curve->num_segments = n;
+  set->num_curves = 1, set->curves = curve, set->num_segments = n, set->segments = segs;
+}
+
+/* The classic crossing test (Franklin's pnpoly, a vertex on the ray's line
+ * counting as below it), signed: the reference for polygons. */
+static int pnpoly_winding(const double (*p)[2], int n, const double q[2]) {
+  int w = 0;
+  for (int i = 0; i < n; i++) {
+    const double *a = p[i], *b = p[(i + 1) % n];
+    if ((a[1] <= q[1]) == (b[1] <= q[1])) continue;
+    double x = a[0] + (q[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+    if (x > q[0]) w += b[1] > a[1] ? 1 : -1;
+  }
+  return w;
+}
+
+/* Winding numbers where the ray from q runs through vertices, along edges
+ * or touches a curve: a diamond's corners, a square's edges, a lens's top;
+ * then random polygons on a coarse lattice, probed at lattice points,
+ * against pnpoly. */
+static void test_winding_degenerate(void) {
+  ch_curve_set set;
+  ch_curve curve;
+  ch_segment segs[64];
+  static const double diamond[4][2] = {{0.5, 0.1}, {0.9, 0.5}, {0.5, 0.9}, {0.1, 0.5}};
+  polygon_set(&set, &curve, segs, diamond, 4);
+  static const struct {
+    double q[2];
+    int w;
+  } dq[] = {{{0.2, 0.9}, 0}, {{0.3, 0.5}, 1}, {{0.05, 0.5}, 0}, {{0.95, 0.5}, 0}, {{0.2, 0.1}, 0}, {{0.5, 0.5}, 1}};
+  for (size_t i = 0; i < sizeof dq / sizeof dq[0]; i++)
+    CHECK_MSG(ch_segments_winding(&set, 0, 4, dq[i].q) == dq[i].w, "diamond at (%g, %g): %d, want %d", dq[i].q[0],
+              dq[i].q[1], ch_segments_winding(&set, 0, 4, dq[i].q), dq[i].w);
+  static const double square[4][2] = {{0.2, 0.2}, {0.8, 0.2}, {0.8, 0.8}, {0.2, 0.8}};
+  polygon_set(&set, &curve, segs, square, 4);
+  static const double sq[4][2] = {{0.0, 0.8}, {0.0, 0.2}, {0.5, 0.2}, {0.5, 0.8}};
+  static const int sw[4] = {0, 0, 1, 0};
+  for (int i = 0; i < 4; i++) CHECK(ch_segments_winding(&set, 0, 4, sq[i]) == sw[i]);
+  /* a lens of two quadratics, clockwise, its top at v = 0.7 */
+  ch_segment lens[2] = {{{{0.2, 0.5}, {0.5, 0.9}, {0.8, 0.5}}, 0, 1, 1, 0},
+                        {{{0.8, 0.5}, {0.5, 0.1}, {0.2, 0.5}}, 0, 0, 0, 0}};
+  set.segments = lens, set.num_segments = 2;
+  static const double lq[4][2] = {{0.0, 0.7}, {0.0, 0.6999}, {0.5, 0.6999}, {0.5, 0.7}};
+  static const int lw[4] = {0, 0, -1, 0};
+  for (int i = 0; i < 4; i++)
+    CHECK_MSG(ch_segments_winding(&set, 0, 2, lq[i]) == lw[i], "lens at (%g, %g): %d", lq[i][0], lq[i][1],
+              ch_segments_winding(&set, 0, 2, lq[i]));
+  /* random lattice polygons, probed at lattice points */
+  uint64_t rng = 12345;
+  int wrong = 0;
+  for (int trial = 0; trial < 200; trial++) {
+    double p[12][2];
+    int n = 3 + trial % 10;
+    for (int i = 0; i < n; i++)
+      for (int k = 0; k < 2; k++) {
+        rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+        p[i][k] = (double)((rng >> 33) % 9) / 8.0;
+      }
+    polygon_set(&set, &curve, segs, (const double(*)[2])p, n);
+    for (int y = 0; y <= 8; y++)
+      for (int x = 0; x <= 8; x++) {
+        double q[2] = {x / 8.0 + 1.0 / 64, y / 8.0};
+        wrong += ch_segments_winding(&set, 0, n, q) != pnpoly_winding((const double(*)[2])p, n, q);
+      }
+  }
+  CHECK_MSG(wrong == 0, "%d lattice probes differ from pnpoly", wrong);
+}
+
 int main(void) {
   RUN(test_closest_vs_brute_force);
+  RUN(test_winding_degenerate);
   RUN(test_closest_vs_long_double);
   RUN(test_line_closest);
   RUN(test_length);
