@@ -212,6 +212,22 @@ int ch_profile_creases(const ch_profile *pr, double *t, int max) {
   return k;
 }
 
+int ch_segments_at_joint(const ch_curve_set *set, int ia, int ib, double s, double t) {
+  const ch_segment *a = &set->segments[ia];
+  for (int end = 0; end < 2; end++) {
+    /* end 1: a's end is b's start; end 0: a's start is b's end */
+    if ((end ? a->next : a->prev) != ib) continue;
+    double sa = end ? 1.0 - s : s, tb = end ? t : 1.0 - t;
+    if (sa <= 1e-9 && tb <= 1e-9) return 1;
+    if (sa > 0.5 || tb > 0.5) continue;
+    double p[2];
+    ch_segment_point(a, s, p);
+    const double *j = a->p[end ? 2 : 0];
+    if (hypot(p[0] - j[0], p[1] - j[1]) <= 1e-7) return 1;
+  }
+  return 0;
+}
+
 int ch_segments_winding(const ch_curve_set *set, int first, int count, const double q[2]) {
   int w = 0;
   const double qv = q[1];

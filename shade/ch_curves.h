@@ -167,6 +167,15 @@ void ch_segment_point(const ch_segment *s, double t, double out[2]);
  * corner or a curve that only touches the ray's line counts not at all. */
 int ch_segments_winding(const ch_curve_set *set, int first, int count, const double q[2]);
 
+/* Whether a crossing of segments ia and ib at parameters s on ia and t on
+ * ib is only the joint of two neighbours: within 1e-9 of their ends in
+ * parameter, or within 1e-7 UV of the point they share. Where a line runs
+ * on into a curve along its tangent, Newton's steps for the crossing stop
+ * well inside a short segment in parameter (a line 2.4e-4 UV long before a
+ * rounded corner took a crossing 1e-8 in, and h_step a singular term of
+ * slope 27 per radian). */
+int ch_segments_at_joint(const ch_curve_set *set, int ia, int ib, double s, double t);
+
 /* The box of s's control points (which holds the segment) grown by r on
  * every side: umin vmin umax vmax. */
 void ch_segment_box(const ch_segment *s, double r, double box[4]);

@@ -142,8 +142,7 @@ static int cross_pair(work *w, int i, int j) {
   for (int k = 0; k < n; k++) {
     double s = hs[k], t = ht[k];
     /* neighbours meet at their joint: not a crossing */
-    if (sa->next == w->fseg[j] && s >= 1.0 - AT_END && t <= AT_END) continue;
-    if (sa->prev == w->fseg[j] && s <= AT_END && t >= 1.0 - AT_END) continue;
+    if (ch_segments_at_joint(w->set, w->fseg[i], w->fseg[j], s, t)) continue;
     /* an end on the other is that end exactly, so pieces meet there */
     double p[2];
     if (s <= AT_END || s >= 1.0 - AT_END)

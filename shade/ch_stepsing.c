@@ -224,9 +224,7 @@ ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_ste
       int nh = ch_bezier_crossings(sa->p, sb->p, hs, ht);
       for (int k = 0; k < nh; k++) {
         /* neighbours meet at their joint: not a crossing */
-        if (adjacent && ((sa->next == steps[b] && hs[k] >= 1.0 - AT_END && ht[k] <= AT_END) ||
-                         (sa->prev == steps[b] && hs[k] <= AT_END && ht[k] >= 1.0 - AT_END)))
-          continue;
+        if (adjacent && ch_segments_at_joint(set, steps[a], steps[b], hs[k], ht[k])) continue;
         double p[2];
         ch_bezier_eval(sa->p, hs[k], p);
         add_arms(set, steps[a], hs[k], p, &ev);
