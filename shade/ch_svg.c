@@ -364,6 +364,25 @@ static ch_status add_quad_uv(svg_parser *ps, const double q[3][2], int is_line) 
       return fail_curve(ps, "coordinates far outside the texture%s", what);
     }
   if (near_equal(q[0], q[2]) && (is_line || near_equal(q[0], q[1]))) return CH_OK;
+  if (!is_line) {
+    /* A quadratic whose control point lies on its chord (a straight cubic,
+     * as editors write straight edges, gives these) is a line, and one
+     * whose control point lies beyond an end runs out and back: two
+     * lines, split where it turns. Queries then take the exact straight
+     * branch, and the union of fills sees edges that lie on one another. */
+    double d[2] = {q[2][0] - q[0][0], q[2][1] - q[0][1]}, e[2] = {q[1][0] - q[0][0], q[1][1] - q[0][1]};
+    double len2 = d[0] * d[0] + d[1] * d[1];
+    if (len2 > 0.0 && fabs(d[0] * e[1] - d[1] * e[0]) <= 1e-12 * len2) {
+      double u = (e[0] * d[0] + e[1] * d[1]) / len2; /* the control point along the chord */
+      if (u >= 0.0 && u <= 1.0) return add_quad_uv(ps, q, 1);
+      double turn[2];
+      ch_bezier_eval(q, u / (2.0 * u - 1.0), turn); /* where d/dt of the chord coordinate is 0 */
+      double a[3][2] = {{q[0][0], q[0][1]}, {0, 0}, {turn[0], turn[1]}};
+      double b[3][2] = {{turn[0], turn[1]}, {0, 0}, {q[2][0], q[2][1]}};
+      ch_status st = add_quad_uv(ps, a, 1);
+      return st ? st : add_quad_uv(ps, b, 1);
+    }
+  }
   ch_curve_set *set = ps->set;
   if (set->num_segments >= CH_CURVES_MAX_SEGMENTS)
     return fail_curve(ps, "too many segments (a cubic or arc this large is not a feature curve)%s", "");

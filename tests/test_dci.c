@@ -273,6 +273,11 @@ static void test_degenerate_steps(void) {
     ch_curve_set set;
     ch_error err = {0};
     REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "degenerate.svg", &set, &err) == CH_OK);
+    if (k == 0) { /* the reader makes that quadratic a line: put its control point back on its start */
+      REQUIRE(set.num_segments == 1 && set.segments[0].is_line);
+      set.segments[0].is_line = 0;
+      memcpy(set.segments[0].p[1], set.segments[0].p[0], sizeof set.segments[0].p[1]);
+    }
     ch_dci dci;
     ch_dci_desc desc = {.resolution = 64};
     ch_status st = ch_dci_build(&set, &desc, &dci, &err);

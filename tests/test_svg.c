@@ -128,6 +128,14 @@ static void test_path_commands(void) {
   REQUIRE(parse("<path d='M 10 10 L 20 10 L 20 20 L 10 10'/>", &s, &err) == CH_OK);
   CHECK(s.subpaths[0].closed);
   ch_curves_free(&s);
+  /* a straight cubic is a line; a straight quadratic that runs out past
+   * its end and back is two lines, split where it turns */
+  REQUIRE(parse("<path d='M 10 10 C 20 10 30 10 40 10'/><path d='M 10 20 Q 50 20 30 20'/>", &s, &err) == CH_OK);
+  REQUIRE(s.num_segments == 3);
+  CHECK(s.segments[0].is_line && s.segments[1].is_line && s.segments[2].is_line);
+  CHECK_NEAR(P(&s, 1, 2, 0), (1.0 / 9 * 10 + 4.0 / 9 * 50 + 4.0 / 9 * 30) / 100, 1e-15); /* B(2/3) */
+  CHECK_NEAR(P(&s, 2, 2, 0), 0.30, 1e-15);
+  ch_curves_free(&s);
 }
 
 static void test_shapes_and_sides(void) {
@@ -411,8 +419,13 @@ static void test_fill_union_icons(void) {
       {"<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 16 16'><path fill='#000' "
        "d='M10.511 2.813a.697.697 0 110 1.398.697.697 0 01-.699-.7c0-.387.312-.698.7-.698z'/></svg>",
        1, 1},
+      /* a straight cubic that runs down an edge and back before the edge */
+      {"<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 16 16'><path fill='#000' d='M3.8 0C2.849 0 2 .793 2 "
+       "1.746v6.613c0 .953.849 1.746 1.868 1.746h5.264c1.02 0 1.868-.793 1.868-1.746V1.746C11 .793 10.151 0 9.132 "
+       "0zM4 2h5c0 .317 0-.316 0 0v6H4s0 .044 0 0V2c0-.044 0 0 0 0z'/></svg>",
+       1, 2},
   };
-  for (int k = 0; k < 2; k++) {
+  for (int k = 0; k < (int)(sizeof cases / sizeof cases[0]); k++) {
     ch_curve_set s;
     ch_error err = {0};
     REQUIRE(ch_curves_parse_svg(cases[k].svg, strlen(cases[k].svg), "icon.svg", &s, &err) == CH_OK);
