@@ -17,7 +17,8 @@
  * coordinates. Those are welded back into one position (equal values after
  * the node's transform), as chisel's base surface needs one normal per
  * position to displace without cracks (docs/spec.md §1); UVs and normals
- * are likewise kept once per distinct value.
+ * are likewise kept once per distinct value, and UVs a few float roundings
+ * apart at one position once (ch_mesh_merge_near_uvs).
  *
  * Every offset and count is checked against what it points into before
  * any byte is read; errors name the file and the element. */
@@ -831,7 +832,7 @@ ch_status ch_mesh_read_gltf(const void *data, size_t size, int binary, const cha
   r.positions.width = 3;
   r.uvs.width = 2;
   r.normals.width = 3;
-  int bad = read_all(&r, data, size, binary) || to_mesh(&r, out);
+  int bad = read_all(&r, data, size, binary) || to_mesh(&r, out) || ch_mesh_merge_near_uvs(out, err) != CH_OK;
   if (!bad && r.dropped)
     ch_warn(err, "%s: %ld triangle%s with two corners at one position left out", name, r.dropped,
             r.dropped == 1 ? "" : "s");

@@ -607,6 +607,11 @@ void to_mesh(const Importer &imp, const char *name, ch_mesh *out, ch_error *err)
     ch_mesh_free(&m);
     throw;
   }
+  // the split vertices' UVs may have been rounded apart by the exporter
+  if (weld && ch_mesh_merge_near_uvs(&m, err) != CH_OK) {
+    ch_mesh_free(&m);
+    throw std::bad_alloc();
+  }
   *out = m;
 }
 

@@ -8,6 +8,7 @@
 
 #include <stddef.h>
 
+#include "ch_error.h"
 #include "ch_mesh.h"
 
 #ifdef __cplusplus
@@ -26,6 +27,15 @@ typedef struct ch_value_set {
 int ch_value_set_index(ch_value_set *s, const double *v);
 
 void ch_value_set_free(ch_value_set *s);
+
+/* UVs a few float roundings apart at one position become one UV (the
+ * first), and UVs no corner uses any more are dropped, the rest keeping
+ * their order. Exporters that split a vertex for its normals round its
+ * copies' UVs apart: Blender 3.4's glTF writes v = 0.599999964 on one copy
+ * and 0.600000024 on the next, which chisel would take for a UV seam.
+ * Within 8 float epsilons of the larger coordinate (about 1e-6 in the unit
+ * square), far below any real seam's gap. CH_ERR_NOMEM only. */
+ch_status ch_mesh_merge_near_uvs(ch_mesh *m, ch_error *err);
 
 #ifdef __cplusplus
 }

@@ -224,6 +224,39 @@ static void test_welding(void) {
   ch_mesh_free(&m);
 }
 
+/* UVs a float rounding apart at one welded position are one UV: Blender's
+ * exporter splits a vertex for its normals and rounds the copies' UVs
+ * apart (0.599999964 and 0.600000024), which read as a UV seam. */
+static void test_near_uvs(void) {
+  bytes b = {.n = 0};
+  static const float p[6][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  float t[6][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 0}, {1, 1}, {0, 1}};
+  t[4][1] = nextafterf(1.0f, 0.0f); /* the copy of (1, 1) one rounding below */
+  t[3][0] = nextafterf(0.0f, 1.0f); /* and of (0, 0) one above */
+  for (int i = 0; i < 6; i++) put_f32(&b, p[i][0]), put_f32(&b, p[i][1]), put_f32(&b, p[i][2]);
+  for (int i = 0; i < 6; i++) put_f32(&b, t[i][0]), put_f32(&b, t[i][1]);
+  const char *json =
+      "{\"asset\":{\"version\":\"2.0\"},\"bufferViews\":[{\"buffer\":0,\"byteLength\":72},"
+      "{\"buffer\":0,\"byteOffset\":72,\"byteLength\":48}],"
+      "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+      "{\"bufferView\":0,\"byteOffset\":36,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+      "{\"bufferView\":1,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"},"
+      "{\"bufferView\":1,\"byteOffset\":24,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"}],"
+      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2}},"
+      "{\"attributes\":{\"POSITION\":1,\"TEXCOORD_0\":3}}]}],\"buffers\":[{\"byteLength\":120}]}";
+  ch_mesh m;
+  ch_error err = quiet();
+  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
+  CHECK_MSG(m.num_positions == 4 && m.num_uvs == 4, "%d positions, %d UVs", m.num_positions, m.num_uvs);
+  ch_mesh_report r;
+  CHECK(ch_mesh_validate(&m, "t.glb", &r, &err) == CH_OK);
+  CHECK(r.num_charts == 1 && r.num_boundary_edges == 4);
+  /* the first seen is kept: (x, y) exactly, v flipped to chisel's 1 - y */
+  for (int c = 0; c < m.num_corners; c++)
+    CHECK(cuv(&m, c)[0] == cpos(&m, c)[0] && cuv(&m, c)[1] == 1.0 - cpos(&m, c)[1]);
+  ch_mesh_free(&m);
+}
+
 /* The JSON form with its buffer in a data: URI, no indices, and a sparse
  * accessor (§3.6.2.3): zeros without a view, vertices 1 and 2 replaced. */
 static void test_data_uri_and_sparse(void) {
@@ -480,6 +513,7 @@ int main(void) {
   RUN(test_mirror);
   RUN(test_normals);
   RUN(test_welding);
+  RUN(test_near_uvs);
   RUN(test_data_uri_and_sparse);
   test_round_trip(dir);
   test_bin_file(dir);
