@@ -93,6 +93,9 @@ typedef struct ch_curve_set {
   int num_subpaths;
   ch_subpath *subpaths;
   double viewbox[4];  /* x0 y0 w h of the source SVG */
+  /* Painted fills whose outlines the reader replaced by their union
+   * (docs/svg.md), and of them those left with nothing (inside others). */
+  int fills_united, fills_dropped;
 } ch_curve_set;
 
 /* Upper limits that turn absurd files into a clear error: the file's size,

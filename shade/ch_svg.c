@@ -914,6 +914,7 @@ static ch_status unite_fills(svg_parser *ps) {
   }
   ch_fillunion_report r;
   ch_status st = ch_fillunion_apply(ps->set, ps->fill_rule, ps->flipped, &r, ps->err);
+  ps->set->fills_united = r.united, ps->set->fills_dropped = r.dropped;
   if (st || !r.failed) return st;
   char what[160] = "painted fills";
   if (r.curve_a >= 0) ch_curve_describe(&ps->set->curves[r.curve_a], what, sizeof what);

@@ -90,6 +90,8 @@ static int info_svg(const char *path, int json) {
     cJSON_AddNumberToObject(o, "segments", set.num_segments);
     cJSON_AddNumberToObject(o, "lines", lines);
     cJSON_AddItemToObject(o, "uv_bounds", json_array(b, 4));
+    cJSON_AddNumberToObject(o, "fills_united", set.fills_united);
+    cJSON_AddNumberToObject(o, "fills_dropped", set.fills_dropped);
     cJSON *list = cJSON_AddArrayToObject(o, "curve_list");
     for (int i = 0; i < set.num_curves; i++) {
       const ch_curve *c = &set.curves[i];
@@ -124,6 +126,11 @@ static int info_svg(const char *path, int json) {
   printf("  subpaths        %d (%d closed, %d open)\n", set.num_subpaths, closed, set.num_subpaths - closed);
   printf("  segments        %d (%d lines, %d quadratics)\n", set.num_segments, lines, set.num_segments - lines);
   printf("  UV bounds       [%.6g, %.6g] .. [%.6g, %.6g] (control polygons)\n", b[0], b[1], b[2], b[3]);
+  if (set.fills_united)
+    printf(
+        "  fills united    %d filled shape%s redrawn as the outline of the painted region (%d merged away; "
+        "docs/svg.md)\n",
+        set.fills_united, set.fills_united == 1 ? "" : "s", set.fills_dropped);
   if (grooves) {
     printf("  profiles       ");
     for (int k = 0; k < 6; k++)

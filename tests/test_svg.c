@@ -630,6 +630,10 @@ static void test_fill_union(void) {
     CHECK_MSG(s.num_curves == cases[k].curves && s.num_subpaths == cases[k].subpaths &&
                   (cases[k].segments < 0 || s.num_segments == cases[k].segments),
               "case %d: %d curves, %d subpaths, %d segments", k, s.num_curves, s.num_subpaths, s.num_segments);
+    /* how many fills were redrawn and merged away, for chisel info */
+    static const int united[10][2] = {{2, 1}, {2, 1}, {1, 1}, {1, 0}, {1, 0}, {0, 0}, {0, 0}, {4, 3}, {2, 1}, {2, 1}};
+    CHECK_MSG(s.fills_united == united[k][0] && s.fills_dropped == united[k][1], "case %d: %d united, %d dropped", k,
+              s.fills_united, s.fills_dropped);
     int wrong = 0, judged = 0;
     for (int j = 0; j < 200; j++)
       for (int i = 0; i < 200; i++) {
