@@ -417,23 +417,6 @@ double ch_bezier_length(const double p[3][2]) {
 #define CROSS_AT_END 1e-9
 #define CROSS_SAME_POINT 1e-9
 
-static double box_min3(double a, double b, double c) {
-  double m = a < b ? a : b;
-  return m < c ? m : c;
-}
-
-static double box_max3(double a, double b, double c) {
-  double m = a > b ? a : b;
-  return m > c ? m : c;
-}
-
-static void box_of(const double p[3][2], double b[4]) {
-  b[0] = box_min3(p[0][0], p[1][0], p[2][0]);
-  b[1] = box_min3(p[0][1], p[1][1], p[2][1]);
-  b[2] = box_max3(p[0][0], p[1][0], p[2][0]);
-  b[3] = box_max3(p[0][1], p[1][1], p[2][1]);
-}
-
 static void split_half(const double p[3][2], double a[3][2], double b[3][2]) {
   for (int k = 0; k < 2; k++) {
     double m01 = 0.5 * (p[0][k] + p[1][k]), m12 = 0.5 * (p[1][k] + p[2][k]), m = 0.5 * (m01 + m12);
@@ -480,8 +463,8 @@ static void refine_hit(const double A[3][2], const double B[3][2], double s, dou
 static void crossings_rec(const double A[3][2], const double B[3][2], const double a[3][2], double a0, double a1,
                           const double b[3][2], double b0, double b1, int depth, hits *h) {
   double ba[4], bb[4];
-  box_of(a, ba);
-  box_of(b, bb);
+  ch_bezier_box(a, ba);
+  ch_bezier_box(b, bb);
   const double pad = 1e-12;
   if (ba[0] > bb[2] + pad || bb[0] > ba[2] + pad || ba[1] > bb[3] + pad || bb[1] > ba[3] + pad) return;
   double sa = ba[2] - ba[0] > ba[3] - ba[1] ? ba[2] - ba[0] : ba[3] - ba[1];

@@ -98,16 +98,6 @@ static int add_hit(work *w, int slot, double t, int point) {
   return 1;
 }
 
-static void box_of(const double p[3][2], double b[4]) {
-  b[0] = b[2] = p[0][0], b[1] = b[3] = p[0][1];
-  for (int k = 1; k < 3; k++) {
-    if (p[k][0] < b[0]) b[0] = p[k][0];
-    if (p[k][0] > b[2]) b[2] = p[k][0];
-    if (p[k][1] < b[1]) b[1] = p[k][1];
-    if (p[k][1] > b[3]) b[3] = p[k][1];
-  }
-}
-
 /* ---- 1. crossings ---- */
 
 /* Where lines a and b lie on one another (an edge two tiles share, drawn
@@ -192,7 +182,7 @@ static int find_crossings(work *w, ch_error *err) {
   if (!box) return 0;
   const double pad = 1e-12;
   for (int i = 0; i < w->nseg; i++) {
-    box_of(w->set->segments[w->fseg[i]].p, box[i]);
+    ch_bezier_box(w->set->segments[w->fseg[i]].p, box[i]);
     box[i][0] -= pad, box[i][1] -= pad, box[i][2] += pad, box[i][3] += pad;
   }
   ch_grid g = {0};
@@ -588,7 +578,7 @@ ch_status ch_fillunion_apply(ch_curve_set *set, const unsigned char *rule, const
     b[0] = b[1] = INFINITY, b[2] = b[3] = -INFINITY;
     for (int i = sp->first_segment; i < sp->first_segment + sp->num_segments; i++) {
       double sb[4];
-      box_of(set->segments[i].p, sb);
+      ch_bezier_box(set->segments[i].p, sb);
       b[0] = fmin(b[0], sb[0]), b[1] = fmin(b[1], sb[1]), b[2] = fmax(b[2], sb[2]), b[3] = fmax(b[3], sb[3]);
     }
   }

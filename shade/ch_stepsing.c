@@ -91,25 +91,6 @@ static void add_arms(const ch_curve_set *set, int s, double t, const double p[2]
 
 /* ---- crossings of two quadratic segments ---- */
 
-/* (comparisons, not fmin and fmax: those were library calls, a sixth of
- * finding the crossings of 16000 filled stars; the points are finite) */
-static double min3(double a, double b, double c) {
-  double m = a < b ? a : b;
-  return m < c ? m : c;
-}
-
-static double max3(double a, double b, double c) {
-  double m = a > b ? a : b;
-  return m > c ? m : c;
-}
-
-static void box_of(const double p[3][2], double b[4]) {
-  b[0] = min3(p[0][0], p[1][0], p[2][0]);
-  b[1] = min3(p[0][1], p[1][1], p[2][1]);
-  b[2] = max3(p[0][0], p[1][0], p[2][0]);
-  b[3] = max3(p[0][1], p[1][1], p[2][1]);
-}
-
 /* A box's least u and its index, for the sweep over pairs. */
 typedef struct by_u {
   double u0;
@@ -205,7 +186,7 @@ ch_status ch_stepsing_find(const ch_curve_set *set, const double rect[4], ch_ste
   if (!steps || !box) ev.failed = 1;
   for (int i = 0; !ev.failed && i < set->num_segments; i++)
     if (is_sharp_step(set, set->segments[i].curve)) {
-      box_of(set->segments[i].p, box[ns]);
+      ch_bezier_box(set->segments[i].p, box[ns]);
       steps[ns++] = i;
     }
   /* sweep along u: a pair is looked at only while the boxes' u ranges meet */
@@ -361,7 +342,7 @@ static double subpath_area(const ch_curve_set *set, const ch_subpath *sb) {
 }
 
 /* ch_stepsing_flat_side, the other step segments near c's box listed by
- * grid (over boxes, box_of's; NULL: every segment is tested). */
+ * grid (over boxes, ch_bezier_box's; NULL: every segment is tested). */
 static int flat_side_near(const ch_curve_set *set, int c, const ch_grid *grid, const double (*boxes)[4]) {
   const ch_curve *cv = &set->curves[c];
   enum { MAX_SUBPATHS = 64 };
@@ -399,7 +380,7 @@ static int flat_side_near(const ch_curve_set *set, int c, const ch_grid *grid, c
     for (int i = 0; i < set->num_segments; i++) {
       if (set->segments[i].curve == c || set->curves[set->segments[i].curve].kind != CH_CURVE_STEP) continue;
       double b[4];
-      box_of(set->segments[i].p, b);
+      ch_bezier_box(set->segments[i].p, b);
       if (!(b[0] > box[2] || b[2] < box[0] || b[1] > box[3] || b[3] < box[1])) return 0;
     }
   }
@@ -441,7 +422,7 @@ ch_status ch_stepsing_flat_sides(const ch_curve_set *set, int *side, ch_error *e
   if (!boxes) return ch_error_set(err, CH_ERR_NOMEM, "out of memory for the step curves' boxes");
   for (int i = 0; i < n; i++) {
     if (set->curves[set->segments[i].curve].kind == CH_CURVE_STEP) {
-      box_of(set->segments[i].p, boxes[i]);
+      ch_bezier_box(set->segments[i].p, boxes[i]);
     } else {
       boxes[i][0] = 1.0;
       boxes[i][2] = 0.0; /* empty: not in the grid */

@@ -194,14 +194,11 @@ static void test_normals(void) {
   ch_mesh_free(&m);
 }
 
-/* Two primitives meeting along the diagonal with different UVs there (a
- * UV seam, as exporters split it): one position per point (4), the
- * diagonal an inner edge, 6 UVs in two charts. Without scenes or nodes the
- * meshes are read as they are. */
-static void test_welding(void) {
+/* Two triangles of the unit square in two primitives, (0,0) (1,0) (1,1)
+ * and (0,0) (1,1) (0,1), with UVs t (float VEC2), read into m. */
+static ch_status read_two_triangles(const float t[6][2], ch_mesh *m, ch_error *err) {
   bytes b = {.n = 0};
   static const float p[6][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-  static const float t[6][2] = {{0, 1}, {.5f, 1}, {.5f, 0}, {.6f, 1}, {1, 0}, {.6f, 0}};
   for (int i = 0; i < 6; i++) put_f32(&b, p[i][0]), put_f32(&b, p[i][1]), put_f32(&b, p[i][2]);
   for (int i = 0; i < 6; i++) put_f32(&b, t[i][0]), put_f32(&b, t[i][1]);
   const char *json =
@@ -213,9 +210,18 @@ static void test_welding(void) {
       "{\"bufferView\":1,\"byteOffset\":24,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"}],"
       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2}},"
       "{\"attributes\":{\"POSITION\":1,\"TEXCOORD_0\":3}}]}],\"buffers\":[{\"byteLength\":120}]}";
+  return read_glb(json, &b, m, err);
+}
+
+/* Two primitives meeting along the diagonal with different UVs there (a
+ * UV seam, as exporters split it): one position per point (4), the
+ * diagonal an inner edge, 6 UVs in two charts. Without scenes or nodes the
+ * meshes are read as they are. */
+static void test_welding(void) {
+  static const float t[6][2] = {{0, 1}, {.5f, 1}, {.5f, 0}, {.6f, 1}, {1, 0}, {.6f, 0}};
   ch_mesh m;
   ch_error err = quiet();
-  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
+  REQUIRE(read_two_triangles(t, &m, &err) == CH_OK);
   CHECK(m.num_faces == 2 && m.num_positions == 4 && m.num_uvs == 6 && !m.corner_normal);
   ch_mesh_report r;
   CHECK(ch_mesh_validate(&m, "t.glb", &r, &err) == CH_OK);
@@ -228,25 +234,12 @@ static void test_welding(void) {
  * exporter splits a vertex for its normals and rounds the copies' UVs
  * apart (0.599999964 and 0.600000024), which read as a UV seam. */
 static void test_near_uvs(void) {
-  bytes b = {.n = 0};
-  static const float p[6][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}};
   float t[6][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 0}, {1, 1}, {0, 1}};
   t[4][1] = nextafterf(1.0f, 0.0f); /* the copy of (1, 1) one rounding below */
   t[3][0] = nextafterf(0.0f, 1.0f); /* and of (0, 0) one above */
-  for (int i = 0; i < 6; i++) put_f32(&b, p[i][0]), put_f32(&b, p[i][1]), put_f32(&b, p[i][2]);
-  for (int i = 0; i < 6; i++) put_f32(&b, t[i][0]), put_f32(&b, t[i][1]);
-  const char *json =
-      "{\"asset\":{\"version\":\"2.0\"},\"bufferViews\":[{\"buffer\":0,\"byteLength\":72},"
-      "{\"buffer\":0,\"byteOffset\":72,\"byteLength\":48}],"
-      "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
-      "{\"bufferView\":0,\"byteOffset\":36,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
-      "{\"bufferView\":1,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"},"
-      "{\"bufferView\":1,\"byteOffset\":24,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"}],"
-      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2}},"
-      "{\"attributes\":{\"POSITION\":1,\"TEXCOORD_0\":3}}]}],\"buffers\":[{\"byteLength\":120}]}";
   ch_mesh m;
   ch_error err = quiet();
-  REQUIRE(read_glb(json, &b, &m, &err) == CH_OK);
+  REQUIRE(read_two_triangles((const float(*)[2])t, &m, &err) == CH_OK);
   CHECK_MSG(m.num_positions == 4 && m.num_uvs == 4, "%d positions, %d UVs", m.num_positions, m.num_uvs);
   ch_mesh_report r;
   CHECK(ch_mesh_validate(&m, "t.glb", &r, &err) == CH_OK);
