@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ch_alloc.h"
 #include "ch_bezier.h"
 #include "ch_grid.h"
 #include "ch_math.h"
@@ -75,25 +76,14 @@ typedef struct work {
   long reads;
 } work;
 
-static int grow(void **array, int *cap, int need, size_t elem) {
-  if (need <= *cap) return 1;
-  int cap2 = *cap ? *cap : 64;
-  while (cap2 < need) cap2 = cap2 > (1 << 29) ? need : cap2 * 2;
-  void *p = realloc(*array, (size_t)cap2 * elem);
-  if (!p) return 0;
-  *array = p;
-  *cap = cap2;
-  return 1;
-}
-
 static int add_point(work *w, const double p[2]) {
-  if (!grow((void **)&w->pt, &w->cap_pt, w->npt + 1, sizeof *w->pt)) return -1;
+  if (ch_alloc_grow((void **)&w->pt, &w->cap_pt, w->npt + 1, sizeof *w->pt, 64)) return -1;
   w->pt[w->npt][0] = p[0], w->pt[w->npt][1] = p[1];
   return w->npt++;
 }
 
 static int add_hit(work *w, int slot, double t, int point) {
-  if (!grow((void **)&w->hits, &w->cap_hit, w->nhit + 1, sizeof *w->hits)) return 0;
+  if (ch_alloc_grow((void **)&w->hits, &w->cap_hit, w->nhit + 1, sizeof *w->hits, 64)) return 0;
   w->hits[w->nhit++] = (hit){slot, t, point};
   return 1;
 }
@@ -271,7 +261,7 @@ static void blossom(const double p[3][2], double u, double v, double out[2]) {
 }
 
 static int add_piece(work *w, int slot, double t0, double t1, int from, int to, int split) {
-  if (!grow((void **)&w->pc, &w->cap_pc, w->npc + 1, sizeof *w->pc)) return 0;
+  if (ch_alloc_grow((void **)&w->pc, &w->cap_pc, w->npc + 1, sizeof *w->pc, 64)) return 0;
   const ch_segment *s = &w->set->segments[w->fseg[slot]];
   piece *q = &w->pc[w->npc++];
   memset(q, 0, sizeof *q);

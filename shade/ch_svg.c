@@ -727,27 +727,17 @@ static void own_styling(const svg_parser *ps, const xmlNode *node, own_props *o)
   ch_css_cascade(&ps->css, element, id, classes, 1, set_prop, o);
 }
 
-static int is_hidden(const svg_parser *ps, const xmlNode *node) {
-  own_props o;
-  own_styling(ps, node, &o);
-  return keyword_is(o.value[PROP_DISPLAY], "none");
-}
-
-/* The paint properties an element sets override what it inherits. */
-static void inherit_paint(const svg_parser *ps, const xmlNode *node, svg_style *st) {
-  char *slots[] = {st->fill, st->stroke, st->stroke_width, st->fill_rule};
-  own_props o;
-  own_styling(ps, node, &o);
-  for (int i = 0; i < 4; i++)
-    if (o.value[i][0]) memcpy(slots[i], o.value[i], PAINT_MAX);
-}
+static int own_hidden(const own_props *own) { return keyword_is(own->value[PROP_DISPLAY], "none"); }
 
 /* Whether a paint value paints: given, and not "none". */
 static int paints(const char *paint) { return paint[0] && !keyword_is(paint, "none"); }
 
-/* Updates style with the node's own data- attributes, paint and transform. */
-static ch_status inherit(svg_parser *ps, const xmlNode *node, svg_style *st) {
-  inherit_paint(ps, node, st);
+/* Updates style with the node's own data- attributes, paint (own: its
+ * own_styling) and transform. */
+static ch_status inherit(svg_parser *ps, const xmlNode *node, const own_props *own, svg_style *st) {
+  char *paint[] = {st->fill, st->stroke, st->stroke_width, st->fill_rule};
+  for (int i = 0; i < 4; i++)
+    if (own->value[i][0]) memcpy(paint[i], own->value[i], PAINT_MAX);
   static const char *known[] = {"data-kind", "data-profile", "data-width", "data-depth",
                                 "data-left", "data-right", "data-left-color", "data-right-color",
                                 "data-blur", "data-priority"};
@@ -1205,7 +1195,7 @@ static ch_status use_length(svg_parser *ps, const xmlNode *node, const char *nam
  * moved by (x, y) (SVG 1.1 §5.6); a <symbol> with a viewBox is fitted
  * into the use's width and height (xMidYMid meet), one without is a
  * group. A reference to nothing is skipped with a warning. */
-static ch_status walk_use(svg_parser *ps, const xmlNode *n, const svg_style *parent, int depth) {
+static ch_status walk_use(svg_parser *ps, const xmlNode *n, const own_props *own, const svg_style *parent, int depth) {
   const char *href = use_href(n);
   const xmlNode *target = href && href[0] == '#' ? find_id(ps, href + 1) : NULL;
   if (!target) {
@@ -1227,7 +1217,7 @@ static ch_status walk_use(svg_parser *ps, const xmlNode *n, const svg_style *par
     return fail_node(ps, n, msg);
   }
   svg_style st = *parent;
-  ch_status s = inherit(ps, n, &st);
+  ch_status s = inherit(ps, n, own, &st);
   double x, y;
   if (!s) s = use_length(ps, n, "x", 0.0, &x);
   if (!s) s = use_length(ps, n, "y", 0.0, &y);
@@ -1251,12 +1241,12 @@ static ch_status walk_use(svg_parser *ps, const xmlNode *n, const svg_style *par
   }
   ps->use_stack[ps->use_depth++] = n;
   if (strcmp((const char *)target->name, "symbol") == 0) {
-    if (is_hidden(ps, target)) {
-      ps->use_depth--;
-      return CH_OK;
+    own_props target_own;
+    own_styling(ps, target, &target_own);
+    if (!own_hidden(&target_own)) {
+      s = inherit(ps, target, &target_own, &st);
+      if (!s) s = walk(ps, target->children, &st, depth + 1);
     }
-    s = inherit(ps, target, &st);
-    if (!s) s = walk(ps, target->children, &st, depth + 1);
   } else {
     s = walk_node(ps, target, &st, depth + 1);
   }
@@ -1278,28 +1268,30 @@ static ch_status walk_node(svg_parser *ps, const xmlNode *n, const svg_style *pa
       !strcmp(name, "linearGradient") || !strcmp(name, "radialGradient") || !strcmp(name, "pattern") ||
       !strcmp(name, "marker"))
     return CH_OK;
-  if (is_hidden(ps, n)) return CH_OK;
+  own_props own; /* what the element sets itself, read once */
+  own_styling(ps, n, &own);
+  if (own_hidden(&own)) return CH_OK;
   svg_style st = *parent;
   ch_status s;
   int is_shape = !strcmp(name, "path") || !strcmp(name, "rect") || !strcmp(name, "circle") ||
                  !strcmp(name, "ellipse") || !strcmp(name, "line") || !strcmp(name, "polyline") ||
                  !strcmp(name, "polygon");
   if (!strcmp(name, "g") || !strcmp(name, "a")) {
-    if ((s = inherit(ps, n, &st))) return s;
+    if ((s = inherit(ps, n, &own, &st))) return s;
     if ((s = walk(ps, n->children, &st, depth + 1))) return s;
   } else if (is_shape) {
-    if ((s = inherit(ps, n, &st))) return s;
+    if ((s = inherit(ps, n, &own, &st))) return s;
     if ((s = begin_curve(ps, n, &st))) return s;
     if ((s = shape_geometry(ps, n, &st))) return s;
     if ((s = end_curve(ps))) return s;
   } else if (!strcmp(name, "use")) {
-    if ((s = walk_use(ps, n, parent, depth))) return s;
+    if ((s = walk_use(ps, n, &own, parent, depth))) return s;
   } else if (!strcmp(name, "switch")) {
     /* The first direct child whose conditions hold (SVG 1.1 §5.8.2):
      * chisel supports no extension, so a child that requires one (as
      * Illustrator's <foreignObject> of private data does) is passed over;
      * languages and features are taken to hold. */
-    if ((s = inherit(ps, n, &st))) return s;
+    if ((s = inherit(ps, n, &own, &st))) return s;
     for (const xmlNode *c = n->children; c; c = c->next) {
       if (!is_svg_element(c)) continue;
       const char *ext = attr(c, "requiredExtensions");
@@ -1507,7 +1499,9 @@ ch_status ch_curves_parse_svg_ex(const char *data, size_t size, const char *name
               "lists of them",
               name, ps.css.unsupported, ps.css.unsupported > 1 ? "s" : "", ps.css.first_unsupported);
     if (!st) st = root_mapping(&ps, root, &style);
-    if (!st) st = inherit(&ps, root, &style);
+    own_props root_own;
+    if (!st) own_styling(&ps, root, &root_own);
+    if (!st) st = inherit(&ps, root, &root_own, &style);
     if (!st) st = walk(&ps, root->children, &style, 1);
   }
   if (!st && out->num_curves == 0)
