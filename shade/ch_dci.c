@@ -56,6 +56,50 @@ int ch_dci_sing_at(const ch_dci *d, const double p[2]) {
   return -1;
 }
 
+/* The distance from point p to the box lo..hi (0 inside). */
+static double box_point_distance(const double lo[2], const double hi[2], const double p[2]) {
+  double dx = p[0] < lo[0] ? lo[0] - p[0] : p[0] > hi[0] ? p[0] - hi[0] : 0.0;
+  double dy = p[1] < lo[1] ? lo[1] - p[1] : p[1] > hi[1] ? p[1] - hi[1] : 0.0;
+  return hypot(dx, dy);
+}
+
+/* Whether any item listed in the cells of grid g over the box lo..hi
+ * passes reaches(d, item, lo, hi); 1 also where the box spans too many
+ * cells to walk (the caller then takes the general path). */
+static int grid_box_any(const ch_grid *g, const ch_dci *d, const double lo[2], const double hi[2],
+                        int (*reaches)(const ch_dci *, int, const double *, const double *)) {
+  if (!g->cell_start) return 0;
+  double b[4] = {lo[0], lo[1], hi[0], hi[1]};
+  if (b[2] < g->origin[0] || b[3] < g->origin[1] || (b[0] - g->origin[0]) * g->inv_cell >= g->nx ||
+      (b[1] - g->origin[1]) * g->inv_cell >= g->ny)
+    return 0;
+  int r[4];
+  ch_grid_cell_range(g, b, r);
+  if ((long)(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > 64) return 1;
+  for (int y = r[1]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[2]; x++) {
+      int c = y * g->nx + x;
+      for (int j = g->cell_start[c]; j < g->cell_start[c + 1]; j++)
+        if (reaches(d, g->items[j], lo, hi)) return 1;
+    }
+  return 0;
+}
+
+static int sing_reaches(const ch_dci *d, int k, const double *lo, const double *hi) {
+  return box_point_distance(lo, hi, d->sing[k].p) < d->sing[k].radius;
+}
+
+static int layer_reaches(const ch_dci *d, int k, const double *lo, const double *hi) {
+  const double *b = d->layers[k].box;
+  double dx = fmax(0.0, fmax(b[0] - hi[0], lo[0] - b[2])), dy = fmax(0.0, fmax(b[1] - hi[1], lo[1] - b[3]));
+  return !(hypot(dx, dy) >= d->layer_far[k]);
+}
+
+int ch_dci_box_has_no_terms(const ch_dci *d, const double lo[2], const double hi[2]) {
+  return !(d->num_sing && grid_box_any(&d->sing_grid, d, lo, hi, sing_reaches)) &&
+         !(d->num_layers && grid_box_any(&d->layer_grid, d, lo, hi, layer_reaches));
+}
+
 /* T of pt at p with the hint (see ch_dci_sing_value), and its gradient in
  * grad if not NULL. */
 static double sing_value_grad(const ch_stepsing_point *pt, const double p[2], int curve, int side,

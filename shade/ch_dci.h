@@ -144,6 +144,11 @@ double ch_dci_sing_value(const ch_dci *d, int k, const double p[2], int curve, i
 /* The window phi of point k at p (texel frame). */
 double ch_dci_sing_window(const ch_dci *d, int k, const double p[2]);
 
+/* Whether no singular point's window and no layer's window reaches the
+ * box lo..hi of the texel frame: there h is the texels' own blend, with no
+ * term added back. Conservative (a box a window only grazes reads 0). */
+int ch_dci_box_has_no_terms(const ch_dci *d, const double lo[2], const double hi[2]);
+
 /* The layers whose windows may hold p (texel frame): their count, and
  * *items pointed at their indices. */
 int ch_dci_layers_at(const ch_dci *d, const double p[2], const int **items);

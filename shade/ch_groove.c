@@ -307,6 +307,29 @@ void ch_groove_field_closest(const ch_groove_field *f, int curve, const double q
   out->signed_distance = out->distance * ch_curve_side(f->set, seg, t, q);
 }
 
+int ch_groove_field_box_is_empty(const ch_groove_field *f, double u0, double v0, double u1, double v1) {
+  const ch_grid *g = &f->grid;
+  if (!g->cell_start) return 1;
+  const double q[4] = {u0, v0, u1, v1};
+  /* the cells ch_grid_query reads for the box's points (none outside) */
+  if (!(u1 >= g->origin[0] && v1 >= g->origin[1] && (u0 - g->origin[0]) * g->inv_cell < g->nx &&
+        (v0 - g->origin[1]) * g->inv_cell < g->ny))
+    return 1;
+  int r[4];
+  ch_grid_cell_range(g, q, r);
+  if ((long)(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > 16) return 0;
+  for (int y = r[1]; y <= r[3]; y++)
+    for (int x = r[0]; x <= r[2]; x++) {
+      int c = y * g->nx + x;
+      for (int k = g->cell_start[c]; k < g->cell_start[c + 1]; k++) {
+        /* ch_groove_field_eval's own box test, for the whole box */
+        const double *b = f->boxes[g->items[k]];
+        if (!(u1 < b[0] || u0 > b[2] || v1 < b[1] || v0 > b[3])) return 0;
+      }
+    }
+  return 1;
+}
+
 int ch_groove_field_count(const ch_groove_field *f, double u, double v) {
   const int *items;
   return ch_grid_query(&f->grid, u, v, &items);

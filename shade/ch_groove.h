@@ -71,6 +71,11 @@ void ch_groove_field_free(ch_groove_field *field);
  * ch_curve_side). Reads only: safe from many threads. */
 void ch_groove_field_closest(const ch_groove_field *field, int curve, const double q[2], ch_curve_point *out);
 
+/* Whether no groove reaches the UV box u0..u1 x v0..v1: ch_groove_field_eval
+ * is then 0 at every point of it. Conservative (0 for a box over many of
+ * the grid's cells). */
+int ch_groove_field_box_is_empty(const ch_groove_field *f, double u0, double v0, double u1, double v1);
+
 /* How many segments the field's grid lists at (u, v): how crowded the
  * grooves are there (0 outside the grid). */
 int ch_groove_field_count(const ch_groove_field *field, double u, double v);

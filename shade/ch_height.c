@@ -95,9 +95,19 @@ void ch_height_render(const ch_height *h, int R, int S, float *plane) {
 
 void ch_height_render_warped(const ch_height *h, const ch_warp *warp, int R, int S, float *plane) {
   double inv = 1.0 / R, sub = 1.0 / S, norm = 1.0 / ((double)S * S);
+  /* Most pixels of a drawing lie away from its curves: there no groove
+   * reaches and h_step is the DCI's texels blended, with nothing to decide
+   * by side. Such pixels skip those searches per sample (the same bits:
+   * ch_groove_field_box_is_empty, ch_recon_box_is_plain). Through a warp
+   * the samples are not in the pixel's UV box: every one searches. */
+  int boxes = !warp && !h->warp;
 #pragma omp parallel for schedule(dynamic, 4)
   for (int y = 0; y < R; y++) {
     for (int x = 0; x < R; x++) {
+      double u0 = (x + 0.5 * sub) * inv, u1 = (x + (S - 0.5) * sub) * inv;
+      double v1 = 1.0 - (y + 0.5 * sub) * inv, v0 = 1.0 - (y + (S - 0.5) * sub) * inv;
+      int no_groove = boxes && ch_groove_field_box_is_empty(&h->grooves, u0, v0, u1, v1);
+      int plain_step = boxes && h->has_steps && ch_recon_box_is_plain(&h->recon, h->step_method, u0, v0, u1, v1);
       double sum = 0.0;
       for (int j = 0; j < S; j++) {
         /* Row 0 is the top: v runs down from 1. */
@@ -105,7 +115,20 @@ void ch_height_render_warped(const ch_height *h, const ch_warp *warp, int R, int
         for (int i = 0; i < S; i++) {
           double q[2] = {(x + (i + 0.5) * sub) * inv, v}, uv[2] = {q[0], q[1]};
           if (warp) ch_warp_unmap(warp, q, uv);
-          sum += ch_height_eval(h, uv[0], uv[1]);
+          if (!no_groove && !plain_step) {
+            sum += ch_height_eval(h, uv[0], uv[1]);
+            continue;
+          }
+          /* ch_height_eval's sum, in its order */
+          double value = no_groove ? 0.0 : ch_groove_field_eval(&h->grooves, uv[0], uv[1], NULL);
+          if (plain_step) {
+            value += ch_recon_eval_plain(&h->recon, uv[0], uv[1]);
+          } else if (h->has_steps) {
+            ch_recon_sample rs;
+            ch_height_step(h, uv[0], uv[1], &rs);
+            value += rs.value;
+          }
+          sum += value;
         }
       }
       plane[(size_t)y * R + x] = (float)(sum * norm);

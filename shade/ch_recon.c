@@ -406,19 +406,76 @@ void ch_recon_eval_side(const ch_recon *r, ch_recon_method method, double u, dou
   recon_eval(r, method, u, v, 0.0, curve, side, out);
 }
 
+/* The texel grid's coordinates of (u, v), clamped to the texels' centres
+ * (gx right, gy down). */
+static inline void grid_point(const ch_samples *s, double u, double v, double *gx, double *gy) {
+  int W = s->width, H = s->height;
+  double x = (u - s->rect[0]) / s->texel[0] - 0.5, y = (s->rect[3] - v) / s->texel[1] - 0.5;
+  *gx = x < 0.0 ? 0.0 : x > W - 1 ? W - 1 : x;
+  *gy = y < 0.0 ? 0.0 : y > H - 1 ? H - 1 : y;
+}
+
+/* The bilinear cell of grid point (gx, gy): its corner texels' columns xs
+ * and rows ys, and the fractions along them. */
+static inline void grid_cell(const ch_samples *s, double gx, double gy, int xs[2], int ys[2], double *fx, double *fy) {
+  int W = s->width, H = s->height;
+  int x0 = (int)floor(gx), y0 = (int)floor(gy);
+  if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
+  if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
+  xs[0] = x0, xs[1] = x0 + 1 < W ? x0 + 1 : x0;
+  ys[0] = y0, ys[1] = y0 + 1 < H ? y0 + 1 : y0;
+  *fx = gx - x0, *fy = gy - y0;
+}
+
+/* Whether texel i lets its curve decide points of the cells it is a corner
+ * of (recon_eval's test). */
+static inline int texel_near_curve(const ch_samples *s, size_t i) {
+  return s->curve[i] >= 0 && s->exact[i] && !(s->side[i] & CH_SIDE_SOFT) && !(s->distance[i] > NEAR_CELL);
+}
+
+int ch_recon_box_is_plain(const ch_recon *r, ch_recon_method method, double u0, double v0, double u1, double v1) {
+  const ch_dci *d = r->dci;
+  const ch_samples *s = &d->samples;
+  if (d->rgb || !(u0 <= u1 && v0 <= v1)) return 0;
+  double gx0, gy0, gx1, gy1;
+  grid_point(s, u0, v1, &gx0, &gy0);
+  grid_point(s, u1, v0, &gx1, &gy1);
+  /* every corner texel of every cell the box's points fall in (one more
+   * each way than needed, for the clamping at the last texel) */
+  int x0 = (int)floor(gx0) - 1, y0 = (int)floor(gy0) - 1, x1 = (int)floor(gx1) + 2, y1 = (int)floor(gy1) + 2;
+  x0 = x0 < 0 ? 0 : x0, y0 = y0 < 0 ? 0 : y0;
+  x1 = x1 > s->width - 1 ? s->width - 1 : x1, y1 = y1 > s->height - 1 ? s->height - 1 : y1;
+  if ((long)(x1 - x0 + 1) * (y1 - y0 + 1) > 64) return 0;
+  if (method != CH_RECON_BILINEAR)
+    for (int y = y0; y <= y1; y++)
+      for (int x = x0; x <= x1; x++)
+        if (texel_near_curve(s, (size_t)y * s->width + x)) return 0;
+  double lo[2] = {gx0, -gy1}, hi[2] = {gx1, -gy0};
+  return ch_dci_box_has_no_terms(d, lo, hi);
+}
+
+float ch_recon_eval_plain(const ch_recon *r, double u, double v) {
+  const ch_samples *s = &r->dci->samples;
+  const float *h = r->dci->h;
+  double gx, gy, fx, fy;
+  int xs[2], ys[2];
+  grid_point(s, u, v, &gx, &gy);
+  grid_cell(s, gx, gy, xs, ys, &fx, &fy);
+  /* blend()'s sum without curves or terms, in its order: the same bits */
+  double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy}, acc = 0.0;
+  for (int k = 0; k < 4; k++) acc += w[k] * h[(size_t)ys[k / 2] * s->width + xs[k % 2]];
+  return (float)acc;
+}
+
 static void recon_eval(const ch_recon *r, ch_recon_method method, double u, double v, double footprint,
                        int force_curve, int force_side, ch_recon_sample *out) {
   const ch_dci *d = r->dci;
   const ch_samples *s = &d->samples;
   int W = s->width, H = s->height;
-  double gx = (u - s->rect[0]) / s->texel[0] - 0.5, gy = (s->rect[3] - v) / s->texel[1] - 0.5;
-  gx = gx < 0.0 ? 0.0 : gx > W - 1 ? W - 1 : gx;
-  gy = gy < 0.0 ? 0.0 : gy > H - 1 ? H - 1 : gy;
-  int x0 = (int)floor(gx), y0 = (int)floor(gy);
-  if (x0 > W - 2) x0 = W > 1 ? W - 2 : 0;
-  if (y0 > H - 2) y0 = H > 1 ? H - 2 : 0;
-  int xs[2] = {x0, x0 + 1 < W ? x0 + 1 : x0}, ys[2] = {y0, y0 + 1 < H ? y0 + 1 : y0};
-  double fx = gx - x0, fy = gy - y0;
+  double gx, gy, fx, fy;
+  int xs[2], ys[2];
+  grid_point(s, u, v, &gx, &gy);
+  grid_cell(s, gx, gy, xs, ys, &fx, &fy);
   double t[2] = {gx, -gy};
   memset(out, 0, sizeof *out);
   out->curve = -1;
@@ -429,7 +486,7 @@ static void recon_eval(const ch_recon *r, ch_recon_method method, double u, doub
     for (int k = 0; k < 4; k++) {
       size_t i = (size_t)ys[k / 2] * W + xs[k % 2];
       int c = s->curve[i];
-      if (c < 0 || !s->exact[i] || (s->side[i] & CH_SIDE_SOFT) || s->distance[i] > NEAR_CELL) continue;
+      if (!texel_near_curve(s, i)) continue;
       int seen = 0;
       for (int j = 0; j < cs.n; j++) seen |= cs.curve[j] == c;
       if (!seen) cs.curve[cs.n++] = c;

@@ -57,6 +57,15 @@ void ch_recon_eval(const ch_recon *r, ch_recon_method method, double u, double v
 void ch_recon_eval_side(const ch_recon *r, ch_recon_method method, double u, double v, int curve, int side,
                         ch_recon_sample *out);
 
+/* Whether every point of the UV box u0..u1 x v0..v1 reads as the plain
+ * bilinear blend of the texels under method: no curve near enough to
+ * decide a point (a sample's side) and no singular or layer term. There
+ * ch_recon_eval_plain gives the same bits as ch_recon_eval's crisp value,
+ * at a fraction of its cost. Conservative: 0 may be answered for a plain
+ * box (one spanning many texels, or a DCI with colours). */
+int ch_recon_box_is_plain(const ch_recon *r, ch_recon_method method, double u0, double v0, double u1, double v1);
+float ch_recon_eval_plain(const ch_recon *r, double u, double v);
+
 /* Parses "bilinear", "recon5", "recon3" or "exact"; -1 if unknown. */
 int ch_recon_method_parse(const char *name);
 

@@ -4,6 +4,7 @@
  * exact, on curves whose true value everywhere is known. */
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ch_bezier.h"
@@ -256,6 +257,76 @@ static void test_height_sum(void) {
   CHECK_NEAR(ch_height_eval(&h, 0.5 + sqrt(0.09 - 0.01) + 1e-4, 0.6), 0.0, 1e-8);
   ch_height_free(&h);
   ch_curves_free(&set);
+}
+
+/* ch_height_render takes pixels that no curve reaches by a shorter path
+ * (no groove, no side to decide, no singular or layer term): the image
+ * must be the same bits as every sample read by ch_height_eval. Scene 0:
+ * a blurred closed step (a smooth field), two closed steps that cross
+ * (singular points) and a groove, with pixels of both kinds; scene 1 adds
+ * two open steps, whose layers' windows reach every pixel at this size. */
+static void test_render_plain_pixels(void) {
+  static const char closed[] =
+      "<circle cx='35' cy='40' r='20' data-kind='step' data-left='0' data-right='0.02' data-blur='6'/>"
+      "<rect x='60' y='60' width='25' height='20' data-kind='step' data-left='0.01' data-right='0.004'/>"
+      "<rect x='70' y='50' width='10' height='40' data-kind='step' data-left='0' data-right='0.015'/>"
+      "<path d='M 5 95 Q 50 70 95 90' data-width='4' data-depth='0.01'/>";
+  static const char open[] = "<path d='M 10 10 C 20 20 30 5 40 15' data-kind='step' data-left='0.01' data-right='0'/>";
+  for (int scene = 0; scene < 2; scene++) {
+    char svg[2048];
+    snprintf(svg, sizeof svg, "<svg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 100 100'>%s%s</svg>", closed,
+             scene ? open : "");
+    ch_curve_set set;
+    ch_error err = {0};
+    REQUIRE(ch_curves_parse_svg(svg, strlen(svg), "inline.svg", &set, &err) == CH_OK);
+    for (int m = 0; m < 2; m++) {
+      ch_recon_method method = m ? CH_RECON_EXACT : CH_RECON_5X5;
+      const int R = 192, S = 2;
+      ch_height h;
+      ch_height_desc hd = {.dci_resolution = R, .step_method = method};
+      REQUIRE(ch_height_init(&h, &set, &hd, &err) == CH_OK);
+      REQUIRE(h.dci.num_sing > 0 && (h.dci.num_layers > 0) == scene);
+      float *img = malloc(sizeof *img * R * R);
+      REQUIRE(img);
+      ch_height_render(&h, R, S, img);
+      int differ = 0, plain = 0, empty = 0;
+      for (int y = 0; y < R; y++)
+        for (int x = 0; x < R; x++) {
+          /* the samples where ch_height_render takes them, to the bit */
+          double inv = 1.0 / R, sub = 1.0 / S, sum = 0.0;
+          for (int j = 0; j < S; j++)
+            for (int i = 0; i < S; i++)
+              sum += ch_height_eval(&h, (x + (i + 0.5) * sub) * inv, 1.0 - (y + (j + 0.5) * sub) * inv);
+          float want = (float)(sum * (1.0 / ((double)S * S)));
+          differ += memcmp(&want, &img[(size_t)y * R + x], sizeof want) != 0;
+          double u0 = (x + 0.5 * sub) * inv, u1 = (x + (S - 0.5) * sub) * inv;
+          double v0 = 1.0 - (y + (S - 0.5) * sub) * inv, v1 = 1.0 - (y + 0.5 * sub) * inv;
+          plain += ch_recon_box_is_plain(&h.recon, method, u0, v0, u1, v1);
+          empty += ch_groove_field_box_is_empty(&h.grooves, u0, v0, u1, v1);
+        }
+      fprintf(stderr, "  render, scene %d, %s: %d of %d pixels plain, %d without grooves, %d differ\n", scene,
+              m ? "exact" : "recon5", plain, R * R, empty, differ);
+      CHECK_MSG(differ == 0, "%d pixels differ from the samples read one by one", differ);
+      CHECK(empty > R * R / 2 && empty < R * R);
+      CHECK(scene ? plain == 0 : plain > R * R / 4 && plain < R * R);
+      /* and point by point inside plain boxes (random, up to 3 texels) */
+      int checked = 0;
+      for (int k = 0; k < 4000; k++) {
+        double u = rnd(), v = rnd(), size = rnd() * 3.0 / R;
+        if (!ch_recon_box_is_plain(&h.recon, method, u, v, u + size, v + size)) continue;
+        double pu = u + rnd() * size, pv = v + rnd() * size;
+        ch_recon_sample rs;
+        ch_recon_eval(&h.recon, method, pu, pv, 0.0, &rs);
+        float fast = ch_recon_eval_plain(&h.recon, pu, pv);
+        checked++;
+        CHECK(rs.curve == -1 && memcmp(&fast, &rs.value, sizeof fast) == 0);
+      }
+      CHECK(scene || checked > 500);
+      free(img);
+      ch_height_free(&h);
+    }
+    ch_curves_free(&set);
+  }
 }
 
 /* Degenerate step curves: handled, never a crash or a hang. */
@@ -601,6 +672,7 @@ int main(void) {
   RUN(test_piecewise_constant);
   RUN(test_reconstruction_rates);
   RUN(test_height_sum);
+  RUN(test_render_plain_pixels);
   RUN(test_reblur_profile);
   RUN(test_degenerate_steps);
   RUN(test_double_layer);
